@@ -1,0 +1,262 @@
+"""Stereo calibration: the value object and its file formats.
+
+Formats read (see ``docs/conventions.md``):
+
+* OpenCV FileStorage YAML/XML with ``K1, D1, K2, D2, R, T, image_width, image_height``
+  (``X_right = R X_left + T``, T in metres) -- what ``cv2.stereoCalibrate`` users keep.
+* Middlebury 2014 ``calib.txt`` (already rectified; baseline in mm), tolerant of the
+  irregular spacing of the originals.
+* stereodemo's ``stereodemo_calibration.json`` (already rectified; the OAK-D scenes).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .errors import CalibrationError, InputError
+
+
+@dataclass(frozen=True)
+class StereoCalibration:
+    """Intrinsics and extrinsics of a stereo pair.
+
+    Attributes
+    ----------
+    K1, K2 : (3, 3) float64
+        Camera matrices of the left and right cameras, pixels.
+    D1, D2 : (N,) float64
+        OpenCV distortion coefficients (N in 4, 5, 8, 12, 14).
+    R : (3, 3) float64
+        Rotation of the right camera from the left: ``X_right = R X_left + T``.
+    T : (3,) float64, metres
+    image_size : (width, height) in pixels
+    rectified : bool
+        True when the images are already rectified (Middlebury, OAK-D): no remapping.
+    ndisp : int or None
+        Disparity range suggested by the file (Middlebury ``ndisp``).
+    """
+
+    K1: np.ndarray = field(repr=False)
+    D1: np.ndarray = field(repr=False)
+    K2: np.ndarray = field(repr=False)
+    D2: np.ndarray = field(repr=False)
+    R: np.ndarray = field(repr=False)
+    T: np.ndarray = field(repr=False)
+    image_size: tuple[int, int]
+    rectified: bool = False
+    ndisp: int | None = None
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        arrays = {
+            "K1": (self.K1, (3, 3)),
+            "K2": (self.K2, (3, 3)),
+            "R": (self.R, (3, 3)),
+            "T": (self.T, (3,)),
+            "D1": (self.D1, None),
+            "D2": (self.D2, None),
+        }
+        where = f" in {self.source}" if self.source else ""
+        for name, (value, shape) in arrays.items():
+            try:
+                a = np.array(value, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise CalibrationError(f"calibration{where}: {name} is not numeric") from None
+            if shape is None:
+                a = a.reshape(-1)
+                if a.size not in (4, 5, 8, 12, 14):
+                    raise CalibrationError(
+                        f"calibration{where}: {name} must have 4, 5, 8, 12 or 14 distortion "
+                        f"coefficients, got {a.size}"
+                    )
+            else:
+                if a.size != int(np.prod(shape)):
+                    raise CalibrationError(
+                        f"calibration{where}: {name} must have shape {shape}, got {a.shape}"
+                    )
+                a = a.reshape(shape)
+            if not np.all(np.isfinite(a)):
+                raise CalibrationError(
+                    f"calibration{where}: {name} has non-finite values (NaN or inf); recalibrate "
+                    "or fix the file"
+                )
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        for name in ("K1", "K2"):
+            k = getattr(self, name)
+            if k[0, 0] <= 0 or k[1, 1] <= 0 or not np.allclose(k[2], [0, 0, 1]):
+                raise CalibrationError(
+                    f"calibration{where}: {name} is not a camera matrix (need fx, fy > 0 and "
+                    f"last row [0, 0, 1]), got {k.tolist()}"
+                )
+        r = self.R
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or np.linalg.det(r) < 0.5:
+            raise CalibrationError(f"calibration{where}: R is not a rotation matrix")
+        if np.linalg.norm(self.T) < 1e-4:
+            raise CalibrationError(f"calibration{where}: baseline |T| is zero; T must be in metres")
+        try:
+            w, h = (int(v) for v in self.image_size)
+        except (TypeError, ValueError):
+            raise CalibrationError(f"calibration{where}: image_size must be (width, height)") from None
+        if w <= 0 or h <= 0:
+            raise CalibrationError(f"calibration{where}: image size must be positive, got {w}x{h}")
+        object.__setattr__(self, "image_size", (w, h))
+
+    @property
+    def baseline_m(self) -> float:
+        return float(np.linalg.norm(self.T))
+
+    @property
+    def width(self) -> int:
+        return self.image_size[0]
+
+    @property
+    def height(self) -> int:
+        return self.image_size[1]
+
+
+def read_calibration(path: str | Path) -> StereoCalibration:
+    """Read a calibration file of any supported format (chosen from name and content)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"calibration file not found: {path}")
+    try:
+        head = path.read_bytes()[:4096].decode("utf-8", errors="replace")
+    except OSError as exc:
+        raise InputError(f"calibration file {path} is not readable: {exc.strerror}") from None
+    if "cam0" in head and "baseline" in head:
+        return read_middlebury_calib(path)
+    if path.suffix.lower() == ".json" or head.lstrip().startswith("{"):
+        return read_stereodemo_json(path)
+    return read_opencv_yaml(path)
+
+
+def read_opencv_yaml(path: str | Path) -> StereoCalibration:
+    """Read an OpenCV FileStorage (YAML or XML) stereo calibration."""
+    path = Path(path)
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except cv2.error:
+        raise CalibrationError(
+            f"calibration file {path} is not OpenCV FileStorage YAML/XML (nor Middlebury calib.txt "
+            "or stereodemo JSON)"
+        ) from None
+    if not fs.isOpened():
+        raise CalibrationError(f"calibration file {path} could not be opened as OpenCV YAML/XML")
+    try:
+        values: dict[str, np.ndarray] = {}
+        for key in ("K1", "D1", "K2", "D2", "R", "T"):
+            node = fs.getNode(key)
+            if node.empty():
+                raise CalibrationError(
+                    f"calibration file {path} lacks '{key}'; expected K1, D1, K2, D2, R, T, "
+                    "image_width, image_height (see docs/conventions.md)"
+                )
+            mat = node.mat()
+            if mat is None:  # a plain sequence rather than !!opencv-matrix
+                mat = np.array([node.at(i).real() for i in range(node.size())])
+            values[key] = np.asarray(mat, dtype=np.float64)
+        size = []
+        for key in ("image_width", "image_height"):
+            node = fs.getNode(key)
+            if node.empty():
+                raise CalibrationError(f"calibration file {path} lacks '{key}'")
+            size.append(int(node.real()))
+    finally:
+        fs.release()
+    return StereoCalibration(
+        values["K1"], values["D1"], values["K2"], values["D2"], values["R"],
+        values["T"].reshape(-1), (size[0], size[1]), source=str(path),
+    )
+
+
+def write_opencv_yaml(calib: StereoCalibration, path: str | Path) -> None:
+    """Write ``calib`` as OpenCV FileStorage YAML (readable by :func:`read_opencv_yaml`)."""
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    if not fs.isOpened():
+        raise InputError(f"cannot write calibration to {path}")
+    try:
+        fs.write("image_width", int(calib.width))
+        fs.write("image_height", int(calib.height))
+        fs.write("K1", np.ascontiguousarray(calib.K1))
+        fs.write("D1", np.ascontiguousarray(calib.D1.reshape(1, -1)))
+        fs.write("K2", np.ascontiguousarray(calib.K2))
+        fs.write("D2", np.ascontiguousarray(calib.D2.reshape(1, -1)))
+        fs.write("R", np.ascontiguousarray(calib.R))
+        fs.write("T", np.ascontiguousarray(calib.T.reshape(3, 1)))
+    finally:
+        fs.release()
+
+
+_MB_MATRIX = re.compile(r"(cam[01])\s*=\s*\[([^\]]*)\]")
+_MB_SCALAR = re.compile(r"(\w+)\s*=\s*([-+0-9.eE]+)")
+
+
+def read_middlebury_calib(path: str | Path) -> StereoCalibration:
+    """Read a Middlebury 2014 ``calib.txt`` (rectified pair; baseline in millimetres).
+
+    Whitespace is free: ``cam0=[ 713.1 0 356.0 ; 0 713.1 238.2 ; 0 0 1 ]`` and keys spread
+    over lines with leading blanks are accepted. ``doffs`` is the x-offset of the right
+    principal point, carried by ``K2[0, 2] - K1[0, 2]``.
+    """
+    path = Path(path)
+    text = path.read_text(errors="replace")
+    mats: dict[str, np.ndarray] = {}
+    for name, body in _MB_MATRIX.findall(text):
+        try:
+            nums = [float(v) for v in body.replace(";", " ").split()]
+        except ValueError:
+            raise CalibrationError(f"{path}: {name} is not a 3x3 matrix of numbers") from None
+        if len(nums) != 9:
+            raise CalibrationError(f"{path}: {name} must have 9 numbers, got {len(nums)}")
+        mats[name] = np.array(nums).reshape(3, 3)
+    text_wo = _MB_MATRIX.sub("", text)
+    scalars = {k: float(v) for k, v in _MB_SCALAR.findall(text_wo)}
+    for key in ("baseline", "width", "height"):
+        if key not in scalars:
+            raise CalibrationError(f"{path}: Middlebury calib.txt lacks '{key}'")
+    for key in ("cam0", "cam1"):
+        if key not in mats:
+            raise CalibrationError(f"{path}: Middlebury calib.txt lacks '{key}'")
+    K1, K2 = mats["cam0"], mats["cam1"]
+    if "doffs" in scalars and abs((K2[0, 2] - K1[0, 2]) - scalars["doffs"]) > 0.05:
+        raise CalibrationError(
+            f"{path}: doffs={scalars['doffs']} disagrees with cam1.cx - cam0.cx = "
+            f"{K2[0, 2] - K1[0, 2]:.3f}"
+        )
+    baseline_m = scalars["baseline"] / 1000.0
+    ndisp = int(scalars["ndisp"]) if "ndisp" in scalars else None
+    return StereoCalibration(
+        K1, np.zeros(5), K2, np.zeros(5), np.eye(3), np.array([-baseline_m, 0.0, 0.0]),
+        (int(scalars["width"]), int(scalars["height"])), rectified=True, ndisp=ndisp,
+        source=str(path),
+    )
+
+
+def read_stereodemo_json(path: str | Path) -> StereoCalibration:
+    """Read stereodemo's ``stereodemo_calibration.json`` (rectified pair, metres)."""
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text())
+        fx, fy = float(d["fx"]), float(d["fy"])
+        cx0, cx1, cy = float(d["cx0"]), float(d["cx1"]), float(d["cy"])
+        baseline = float(d["baseline_meters"])
+        size = (int(d["width"]), int(d["height"]))
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        raise CalibrationError(f"{path}: not valid JSON") from None
+    except KeyError as exc:
+        raise CalibrationError(f"{path}: stereodemo calibration lacks {exc}") from None
+    except (TypeError, ValueError):
+        raise CalibrationError(f"{path}: stereodemo calibration has non-numeric values") from None
+    K1 = np.array([[fx, 0, cx0], [0, fy, cy], [0, 0, 1]])
+    K2 = np.array([[fx, 0, cx1], [0, fy, cy], [0, 0, 1]])
+    return StereoCalibration(
+        K1, np.zeros(5), K2, np.zeros(5), np.eye(3), np.array([-baseline, 0.0, 0.0]), size,
+        rectified=True, source=str(path),
+    )
