@@ -1,0 +1,289 @@
+"""The orchestrator: config + stages -> :class:`TerrainResult` (the JSON contract).
+
+::
+
+    raw pair --rectify--> RectifiedPair --stereo--> DisparityMap --cloud--> PointCloud
+      --(T_yaw_camera)--> PointCloud(yaw) --planes--> PlaneSet --terrain--> StairModel
+      --swing--> SwingPlan
+
+The gravity-aligned frame comes from the rig (``T_body_camera`` and body roll/pitch, the
+paper's eq. 1). Without a rig the floor is found in the cloud and taken as level
+(``gravity_source == "floor"``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .calibration import StereoCalibration
+from .cloud import CloudConfig, PointCloud, disparity_to_cloud, transform_cloud
+from .errors import ConfigError, InputError
+from .frames import Rig, Transform
+from .planes.msac import Plane, plane_msac
+from .planes.normals import sample_grid
+from .planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation
+from .rectify import Rectification, RectifiedPair, compute_rectification, rectify
+from .stereo import DisparityBackend, DisparityMap, check_max_disparity, choose_max_disparity, make_backend
+from .stereo.opencv import OpenCVSGBMConfig
+from .swing import SwingConfig, SwingPlan, plan_swing
+from .terrain import StairModel, TerrainConfig, build_terrain
+
+RESULT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    """Configuration of the whole pipeline; every stage's config with SI defaults.
+
+    Attributes
+    ----------
+    backend : str
+        Disparity backend (``opencv``).
+    max_disparity_px : int or None
+        Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
+    min_depth_m : float
+        Closest depth the disparity range must reach when chosen automatically.
+    """
+
+    backend: str = "opencv"
+    max_disparity_px: int | None = None
+    min_depth_m: float = 0.7
+    sgbm: OpenCVSGBMConfig = field(default_factory=OpenCVSGBMConfig)
+    cloud: CloudConfig = field(default_factory=CloudConfig)
+    orientation: OrientationConfig = field(default_factory=OrientationConfig)
+    terrain: TerrainConfig = field(default_factory=TerrainConfig)
+    swing: SwingConfig = field(default_factory=SwingConfig)
+
+    def __post_init__(self) -> None:
+        if self.backend not in ("opencv",):
+            raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv")
+        if not self.min_depth_m > 0:
+            raise ConfigError(f"min_depth_m must be > 0, got {self.min_depth_m}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PipelineConfig:
+        """Build from a nested mapping (as loaded from YAML); unknown keys are errors."""
+        if not isinstance(data, dict):
+            raise ConfigError("pipeline config must be a mapping")
+        kwargs: dict[str, Any] = {}
+        nested = {f.name: f.type for f in dataclasses.fields(cls)}
+        sub_types = {"sgbm": OpenCVSGBMConfig, "cloud": CloudConfig, "orientation": OrientationConfig,
+                     "terrain": TerrainConfig, "swing": SwingConfig}
+        for key, value in data.items():
+            if key not in nested:
+                raise ConfigError(f"unknown pipeline config key '{key}'; known: {sorted(nested)}")
+            if key in sub_types:
+                sub = sub_types[key]
+                known = {f.name for f in dataclasses.fields(sub)}
+                if not isinstance(value, dict) or not set(value) <= known:
+                    bad = set(value) - known if isinstance(value, dict) else value
+                    raise ConfigError(f"config '{key}': unknown keys {bad}; known: {sorted(known)}")
+                try:
+                    kwargs[key] = sub(**value)
+                except TypeError as exc:
+                    raise ConfigError(f"config '{key}': {exc}") from None
+            else:
+                kwargs[key] = value
+        return cls(**kwargs)
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> PipelineConfig:
+        try:
+            data = yaml.safe_load(Path(path).read_text()) or {}
+        except FileNotFoundError:
+            raise InputError(f"config file not found: {path}") from None
+        except yaml.YAMLError as exc:
+            raise InputError(f"config file {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
+        return cls.from_dict(data)
+
+
+@dataclass(frozen=True)
+class TerrainResult:
+    """Everything one frame produced; :meth:`to_json_dict` gives the JSON contract.
+
+    Attributes
+    ----------
+    terrain : StairModel
+    swing : SwingPlan
+    planes : PlaneSet (yaw frame)
+    disparity : DisparityMap
+    cloud : PointCloud (yaw frame)
+    rectified : RectifiedPair
+    T_yaw_camera_rect : Transform
+    gravity_source : str
+        ``rig`` or ``floor`` (no rig: the floor plane was taken as level).
+    timing_ms : dict of stage -> milliseconds
+    """
+
+    terrain: StairModel
+    swing: SwingPlan
+    planes: PlaneSet = field(repr=False)
+    disparity: DisparityMap = field(repr=False)
+    cloud: PointCloud = field(repr=False)
+    rectified: RectifiedPair = field(repr=False)
+    T_yaw_camera_rect: Transform = field(repr=False)
+    gravity_source: str
+    timing_ms: dict[str, float]
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """The terrain result of CONVENTIONS.md (version 1)."""
+        t = self.terrain
+
+        def r(x: float | None, nd: int = 4) -> float | None:
+            return None if x is None else round(float(x), nd)
+
+        return {
+            "version": RESULT_VERSION,
+            "frame": "yaw",
+            "obstacle": t.obstacle,
+            "steps": [
+                {"rise": r(s.rise_m), "run": r(s.run_m), "distance": r(s.distance_m), "width": r(s.width_m)}
+                for s in t.steps
+            ],
+            "yaw": r(t.yaw_rad),
+            "planes": [
+                {"normal": [round(float(v), 5) for v in seg.plane.normal], "offset": r(seg.plane.offset),
+                 "kind": seg.kind, "inliers": int(seg.count), "rms": r(seg.rms_m, 5)}
+                for seg in self.planes.segments
+            ],
+            "polytope": {
+                "vertices": [[round(float(c), 4) for c in p] for p in t.polytope.vertices],
+                "faces": [list(f) for f in t.polytope.faces],
+            },
+            "swing": {
+                "height": r(self.swing.height_m),
+                "trigger_distance": r(self.swing.trigger_distance_m),
+                "traversable": self.swing.traversable,
+            },
+            "timing_ms": {k: round(v, 2) for k, v in self.timing_ms.items()},
+            "gravity_source": self.gravity_source,
+            "note": t.note,
+        }
+
+
+def level_from_floor(cloud: PointCloud, *, max_tilt_deg: float = 45.0,
+                     rng: np.random.Generator | int = 0) -> Transform | None:
+    """``T_yaw_<cloud frame>`` from the floor seen in a camera-frame cloud, or None.
+
+    The floor is the largest plane below the camera whose normal is within
+    ``max_tilt_deg`` of the camera's up (-y); the yaw frame's origin is put on it below
+    the camera, x along the optical axis projected on the floor.
+    """
+    samples = sample_grid(cloud, target_points=6000)
+    if len(samples) < 50:
+        return None
+    rng = np.random.default_rng(rng)
+    up_cam = np.array([0.0, -1.0, 0.0])
+    cos_t = math.cos(math.radians(max_tilt_deg))
+    pts = samples.points.astype(np.float64)
+    trip = rng.integers(0, len(pts), size=(600, 3))
+    thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
+
+    def below_and_level(normals: np.ndarray) -> np.ndarray:
+        return np.abs(normals @ up_cam) >= cos_t
+
+    res = plane_msac(pts, thr, trip, point_normals=samples.normals.astype(np.float64),
+                     normal_agreement_cos=0.8, hypothesis_ok=below_and_level,
+                     score_subset=rng.choice(len(pts), size=min(2000, len(pts)), replace=False))
+    if res.model is None or res.inliers.sum() < 50:
+        return None
+    plane = Plane.estimate(pts[res.inliers]) or res.model
+    if plane.normal @ up_cam < 0:
+        plane = Plane(-plane.normal, -plane.offset)
+    height = float(plane.signed_distance(cloud.camera_position))
+    if height <= 0.05:
+        return None
+    z = plane.normal
+    x = np.array([0.0, 0.0, 1.0]) - z * z[2]
+    if np.linalg.norm(x) < 1e-6:
+        return None
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.vstack([x, y, z])
+    t = np.array([0.0, 0.0, height]) - R @ cloud.camera_position
+    return Transform.from_rt(R, t, "yaw", cloud.frame)
+
+
+class Pipeline:
+    """Runs every stage on stereo pairs from one calibrated rig.
+
+    Parameters
+    ----------
+    calibration : StereoCalibration
+    rig : Rig, optional
+        Mounting and body attitude; without it the floor is taken as level.
+    config : PipelineConfig, optional
+
+    Examples
+    --------
+    >>> from stereo_terrain.synthetic import default_scene_spec, render_scene
+    >>> scene = render_scene(default_scene_spec())
+    >>> result = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right)
+    >>> result.terrain.obstacle
+    'stairs'
+    """
+
+    def __init__(self, calibration: StereoCalibration, rig: Rig | None = None,
+                 config: PipelineConfig | None = None, *, backend: DisparityBackend | None = None) -> None:
+        self.config = config or PipelineConfig()
+        self.calibration = calibration
+        self.rig = rig
+        self.rectification: Rectification = compute_rectification(calibration)
+        if self.config.max_disparity_px is not None:
+            self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
+        else:
+            n = choose_max_disparity(self.rectification, self.config.min_depth_m)
+            self.max_disparity_px = min(n, (calibration.width // 2) // 16 * 16)
+        if backend is None:
+            backend = make_backend(self.config.backend, **dataclasses.asdict(self.config.sgbm))
+        self.backend = backend
+
+    def T_yaw_camera_rect(self) -> Transform | None:
+        if self.rig is None:
+            return None
+        return self.rig.T_yaw_camera @ self.rectification.T_camera_rect
+
+    def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
+        """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""
+        timing: dict[str, float] = {}
+        t0 = t = time.perf_counter()
+
+        def lap(name: str) -> None:
+            nonlocal t
+            now = time.perf_counter()
+            timing[name] = (now - t) * 1000.0
+            t = now
+
+        pair = rectify(left, right, self.rectification)
+        lap("rectify")
+        disp = self.backend.compute(pair, self.max_disparity_px)
+        lap("disparity")
+        cloud_cam = disparity_to_cloud(disp, self.config.cloud)
+        T = self.T_yaw_camera_rect()
+        source = "rig"
+        if T is None:
+            T = level_from_floor(cloud_cam)
+            source = "floor"
+            if T is None:
+                # No floor in view: assume a level camera at the origin.
+                from .frames import R_BODY_OPTICAL
+
+                T = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect")
+                source = "assumed-level"
+        cloud = transform_cloud(cloud_cam, T)
+        lap("cloud")
+        planes = extract_planes_orientation(cloud, self.config.orientation)
+        lap("planes")
+        terrain = build_terrain(planes, self.config.terrain)
+        swing = plan_swing(terrain, self.config.swing)
+        lap("polytope")
+        timing["total"] = (time.perf_counter() - t0) * 1000.0
+        return TerrainResult(terrain, swing, planes, disp, cloud, pair, T, source, timing)

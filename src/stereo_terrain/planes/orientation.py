@@ -1,0 +1,280 @@
+"""The orientation method (paper section 3.2.2): MSAC with orientation-constrained samples.
+
+Planes are taken out of the cloud one at a time. For each, many minimal samples are drawn
+(three points close together in the image, so that most samples lie on one surface), a
+hypothesis is kept only if its normal is within ``angle_tol_deg`` of horizontal or
+vertical, and the hypotheses are ranked by the MSAC truncated quadratic cost. A point only
+counts as an inlier when its local normal agrees with the plane: this is what keeps a
+plane from slanting through all the step edges. The loop stops when the rest of the cloud
+is too small or the best plane explains too little of it -- not after a fixed count.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..cloud import PointCloud
+from ..errors import ConfigError
+from .msac import Plane, plane_msac
+from .normals import GridSample, sample_grid
+
+HORIZONTAL, VERTICAL, OTHER = "horizontal", "vertical", "other"
+
+
+@dataclass(frozen=True)
+class OrientationConfig:
+    """Parameters of the orientation method (SI units, angles in degrees where named).
+
+    Attributes
+    ----------
+    angle_tol_deg : float
+        A hypothesis normal must be within this angle of vertical (horizontal plane) or of
+        horizontal (vertical plane).
+    normal_agreement_deg : float
+        A point is an inlier only if its local normal is within this angle of the plane's.
+    threshold_sigmas : float
+        Inlier threshold in units of each point's depth sigma, clipped to
+        ``[min_threshold_m, max_threshold_m]``.
+    hypotheses_per_plane : int
+        Minimal samples drawn for each extracted plane.
+    score_points : int
+        Points each hypothesis is scored on (a random subset of the rest).
+    min_plane_points : int
+        Stop when the best plane has fewer grid-sample inliers than this ...
+    min_inlier_ratio : float
+        ... or explains less than this fraction of the scored rest (its cost is too high).
+    max_planes : int
+        Safety bound on the loop.
+    sample_radius_cells : int
+        Second and third sample points are drawn within this many grid cells of the first.
+    target_points : int
+        Grid subsample size.
+    seed : int
+        Seeds the sampling: a given seed gives the same planes.
+    """
+
+    angle_tol_deg: float = 15.0
+    normal_agreement_deg: float = 35.0
+    threshold_sigmas: float = 3.0
+    min_threshold_m: float = 0.012
+    max_threshold_m: float = 0.05
+    hypotheses_per_plane: int = 150
+    score_points: int = 1500
+    min_plane_points: int = 40
+    min_inlier_ratio: float = 0.01
+    max_planes: int = 16
+    sample_radius_cells: int = 5
+    target_points: int = 12000
+    refine_iterations: int = 2
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.angle_tol_deg < 45:
+            raise ConfigError(f"angle_tol_deg must be in (0, 45), got {self.angle_tol_deg}")
+        if not 0 < self.normal_agreement_deg < 90:
+            raise ConfigError(f"normal_agreement_deg must be in (0, 90), got {self.normal_agreement_deg}")
+        if not 0 < self.min_threshold_m <= self.max_threshold_m:
+            raise ConfigError("need 0 < min_threshold_m <= max_threshold_m")
+        for name in ("hypotheses_per_plane", "score_points", "min_plane_points", "max_planes",
+                     "sample_radius_cells", "target_points"):
+            if getattr(self, name) < 1:
+                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True)
+class PlaneSegment:
+    """One extracted plane and the grid samples that support it.
+
+    Attributes
+    ----------
+    plane : Plane
+        Normal up (horizontal) or toward the camera (vertical, other).
+    kind : str
+        ``horizontal``, ``vertical`` or ``other``.
+    indices : (M,) int
+        Inliers as indices into the :class:`GridSample`.
+    rms_m : float
+        RMS point-to-plane distance of the inliers.
+    """
+
+    plane: Plane
+    kind: str
+    indices: np.ndarray = field(repr=False)
+    rms_m: float
+
+    @property
+    def count(self) -> int:
+        return len(self.indices)
+
+
+@dataclass(frozen=True)
+class PlaneSet:
+    """The planes found in a cloud, in extraction order (largest cost reduction first).
+
+    Attributes
+    ----------
+    segments : tuple of PlaneSegment
+    samples : GridSample
+        The subsampled cloud the segments index into.
+    up : (3,) float64
+        Gravity-up direction in the cloud's frame.
+    stop_reason : str
+    method : str
+    """
+
+    segments: tuple[PlaneSegment, ...]
+    samples: GridSample = field(repr=False)
+    up: np.ndarray = field(repr=False)
+    stop_reason: str
+    camera_position: np.ndarray = field(repr=False)
+    method: str = "orientation"
+
+    @property
+    def frame(self) -> str:
+        return self.samples.frame
+
+
+def classify_normal(normal: np.ndarray, up: np.ndarray, angle_tol_deg: float) -> str:
+    """``horizontal`` / ``vertical`` / ``other`` for a plane normal."""
+    c = abs(float(np.dot(normal, up)))
+    if c >= np.cos(np.radians(angle_tol_deg)):
+        return HORIZONTAL
+    if c <= np.sin(np.radians(angle_tol_deg)):
+        return VERTICAL
+    return OTHER
+
+
+def orient_plane(plane: Plane, up: np.ndarray, camera_position: np.ndarray, kind: str) -> Plane:
+    """Sign convention: normal up for horizontal planes, toward the camera otherwise."""
+    if kind == HORIZONTAL:
+        return plane if float(plane.normal @ up) >= 0 else Plane(-plane.normal, -plane.offset)
+    return plane.oriented_toward(camera_position)
+
+
+def _local_samples(
+    grid_lut: np.ndarray, gr: np.ndarray, gc: np.ndarray, first: np.ndarray, remaining: np.ndarray,
+    radius: int, count: int, rng: np.random.Generator,
+) -> np.ndarray:
+    """Draw ``count`` triplets: a first point from ``first``, two more nearby in the grid."""
+    gh, gw = grid_lut.shape
+    i0 = rng.choice(first, size=count * 2)
+    off = rng.integers(-radius, radius + 1, size=(count * 2, 2, 2))
+    r = np.clip(gr[i0, None] + off[:, :, 0], 0, gh - 1)
+    c = np.clip(gc[i0, None] + off[:, :, 1], 0, gw - 1)
+    j = grid_lut[r, c]
+    ok = (j >= 0).all(axis=1)
+    j = np.where(j >= 0, j, 0)
+    ok &= remaining[j].all(axis=1) & (j[:, 0] != i0) & (j[:, 1] != i0) & (j[:, 0] != j[:, 1])
+    trip = np.column_stack([i0, j])[ok]
+    return trip[:count]
+
+
+def extract_planes_orientation(
+    cloud: PointCloud | GridSample,
+    config: OrientationConfig | None = None,
+    *,
+    up: np.ndarray | None = None,
+    camera_position: np.ndarray | None = None,
+    rng: np.random.Generator | int | None = None,
+) -> PlaneSet:
+    """Decompose a cloud into horizontal and vertical planes (the orientation method).
+
+    Parameters
+    ----------
+    cloud : PointCloud (organized) or an already computed GridSample
+        Best in a gravity-aligned frame (``yaw``), where ``up`` is +z.
+    config : OrientationConfig
+    up : (3,) float, optional
+        Gravity-up direction in the cloud's frame (default +z).
+    camera_position : (3,) float, optional
+        Used to orient normals toward the camera; defaults to the cloud's camera.
+    rng : Generator or seed; defaults to ``config.seed`` (deterministic).
+
+    Returns
+    -------
+    PlaneSet; an empty one (``stop_reason`` says why) when no plane is found.
+    """
+    config = config or OrientationConfig()
+    rng = np.random.default_rng(config.seed if rng is None else rng)
+    up = np.array([0.0, 0.0, 1.0]) if up is None else np.asarray(up, dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    if isinstance(cloud, PointCloud):
+        samples = sample_grid(cloud, target_points=config.target_points)
+        cam = cloud.camera_position if camera_position is None else camera_position
+    else:
+        samples = cloud
+        cam = np.zeros(3) if camera_position is None else camera_position
+    cam = np.asarray(cam, dtype=np.float64)
+    n_pts = len(samples)
+    P = samples.points
+    N = samples.normals
+    thr = np.clip(config.threshold_sigmas * samples.sigma_m, config.min_threshold_m,
+                  config.max_threshold_m).astype(np.float32)
+    gh, gw = samples.grid_shape
+    lut = np.full(gh * gw, -1, dtype=np.int64)
+    lut[samples.grid_index] = np.arange(n_pts)
+    lut = lut.reshape(gh, gw)
+    gr, gc = samples.grid_index // gw, samples.grid_index % gw
+    cos_tol, sin_tol = np.cos(np.radians(config.angle_tol_deg)), np.sin(np.radians(config.angle_tol_deg))
+    agree_cos = float(np.cos(np.radians(config.normal_agreement_deg)))
+    upf = up.astype(np.float32)
+    nz = np.abs(N @ upf)
+    # First sample points: local normal near horizontal or vertical (with some slack).
+    slack = np.radians(10.0)
+    seedable = (nz >= np.cos(np.radians(config.angle_tol_deg) + slack)) | (
+        nz <= np.sin(np.radians(config.angle_tol_deg) + slack)
+    )
+
+    def orientation_ok(normals: np.ndarray) -> np.ndarray:
+        c = np.abs(normals @ up)
+        return (c >= cos_tol) | (c <= sin_tol)
+
+    remaining = np.ones(n_pts, dtype=bool)
+    segments: list[PlaneSegment] = []
+    stop = f"reached max_planes={config.max_planes}"
+    for _ in range(config.max_planes):
+        rest = np.flatnonzero(remaining)
+        if len(rest) < config.min_plane_points:
+            stop = f"rest of the cloud too small ({len(rest)} < {config.min_plane_points} points)"
+            break
+        first = np.flatnonzero(remaining & seedable)
+        if len(first) == 0:
+            stop = "no remaining point has a horizontal or vertical normal"
+            break
+        trip = _local_samples(lut, gr, gc, first, remaining, config.sample_radius_cells,
+                              config.hypotheses_per_plane, rng)
+        score = rng.choice(rest, size=min(config.score_points, len(rest)), replace=False)
+        res = plane_msac(P, thr, trip, point_normals=N, normal_agreement_cos=agree_cos,
+                         hypothesis_ok=orientation_ok, score_subset=score)
+        if res.model is None:
+            stop = "no hypothesis satisfied the orientation constraint"
+            break
+        plane: Plane = res.model
+        inl = res.inliers & remaining
+        # Refine: least squares on the inliers, keeping the orientation constraint.
+        for _ in range(config.refine_iterations):
+            if inl.sum() < 3:
+                break
+            refit = Plane.estimate(P[inl])
+            if refit is None or not orientation_ok(refit.normal[None, :])[0]:
+                break
+            plane = refit
+            r = plane.residuals(P)
+            inl = remaining & (r < thr) & (np.abs(N @ plane.normal.astype(np.float32)) >= agree_cos)
+        count = int(inl.sum())
+        ratio = float(np.mean(inl[score])) if len(score) else 0.0
+        if count < config.min_plane_points:
+            stop = f"best plane too small ({count} < {config.min_plane_points} points)"
+            break
+        if ratio < config.min_inlier_ratio:
+            stop = f"best plane too costly (explains {ratio:.1%} of the rest)"
+            break
+        kind = classify_normal(plane.normal, up, config.angle_tol_deg)
+        plane = orient_plane(plane, up, cam, kind)
+        idx = np.flatnonzero(inl)
+        rms = float(np.sqrt(np.mean(plane.residuals(P[idx]) ** 2)))
+        segments.append(PlaneSegment(plane, kind, idx, rms))
+        remaining &= ~inl
+    return PlaneSet(tuple(segments), samples, up, stop, cam, "orientation")

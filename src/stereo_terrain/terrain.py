@@ -1,0 +1,370 @@
+"""Stage 5: a polytope (stairs, box, or nothing) from unordered planes (paper section 3.3).
+
+Input is a :class:`PlaneSet` in a gravity-aligned frame (``yaw``: z up). The vertical
+planes that can be risers (short, facing the robot, all facing the same way) are ordered
+by their position along the stair axis; between each consecutive pair the *active*
+horizontal plane is the one with most inliers in between; neighbouring planes are
+intersected to get the edges and vertices of every step.
+
+Step height comes from the tread plane when it is visible; treads above the cameras are
+not, and then the height comes from the riser's top edge.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ConfigError
+from .planes.msac import Plane
+from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+
+STAIRS, BOX, NONE = "stairs", "box", "none"
+
+
+@dataclass(frozen=True)
+class TerrainConfig:
+    """What counts as a step.
+
+    Attributes
+    ----------
+    min_rise_m, max_rise_m : float
+        A riser shorter than ``min_rise_m`` is noise; a vertical plane taller than
+        ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step.
+    min_riser_width_m : float
+    min_riser_points : int
+        Grid samples a riser needs.
+    merge_distance_m : float
+        Risers closer than this along the stair axis are one.
+    max_facing_angle_deg : float
+        A riser must face the robot: its normal within this of the direction to the camera.
+    axis_spread_deg : float
+        Risers of one staircase face the same way within this angle.
+    tread_height_tolerance_m : float
+        A horizontal plane is the tread above a riser if its height is within this of the
+        riser's top edge.
+    """
+
+    min_rise_m: float = 0.04
+    max_rise_m: float = 0.30
+    edge_margin_m: float = 0.06
+    min_riser_width_m: float = 0.15
+    min_riser_points: int = 25
+    merge_distance_m: float = 0.06
+    max_facing_angle_deg: float = 70.0
+    axis_spread_deg: float = 20.0
+    tread_height_tolerance_m: float = 0.07
+    min_tread_points: int = 15
+
+    def __post_init__(self) -> None:
+        if not 0 < self.min_rise_m < self.max_rise_m:
+            raise ConfigError(
+                f"need 0 < min_rise_m < max_rise_m, got {self.min_rise_m}, {self.max_rise_m}"
+            )
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of a staircase (or the box) in the gravity-aligned frame.
+
+    Attributes
+    ----------
+    rise_m : float
+        Height of this tread above the surface before it.
+    run_m : float or None
+        Tread depth along the stair axis; None when not seen whole.
+    distance_m : float
+        Where the frame's x axis (y = 0) meets the riser plane.
+    width_m : float or None
+        Lateral extent of the riser; None when it leaves the image.
+    top_z_m : float
+        Height of the tread above the frame origin.
+    axis_position_m : float
+        Riser position along the stair axis.
+    riser : Plane
+    tread : Plane or None
+        None when the tread was not seen (height from the riser's top edge).
+    """
+
+    rise_m: float
+    run_m: float | None
+    distance_m: float
+    width_m: float | None
+    top_z_m: float
+    axis_position_m: float
+    riser: Plane = field(repr=False)
+    tread: Plane | None = field(repr=False, default=None)
+
+
+@dataclass(frozen=True)
+class Polytope:
+    """Vertices and quadrilateral faces (riser, then tread, per step)."""
+
+    vertices: np.ndarray = field(repr=False)  # (V, 3) float64, metres
+    faces: tuple[tuple[int, int, int, int], ...] = ()
+
+
+@dataclass(frozen=True)
+class StairModel:
+    """What the terrain stage found.
+
+    Attributes
+    ----------
+    obstacle : str
+        ``stairs``, ``box`` or ``none``.
+    steps : tuple of Step, nearest first
+    yaw_rad : float
+        Stair axis w.r.t. the frame's x axis.
+    ground_z_m : float
+    polytope : Polytope
+    frame : str
+    note : str
+        Why the result is what it is (e.g. why nothing was found).
+    """
+
+    obstacle: str
+    steps: tuple[Step, ...]
+    yaw_rad: float
+    ground_z_m: float
+    polytope: Polytope
+    frame: str
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class _Riser:
+    plane: Plane
+    idx: np.ndarray
+    s: float
+    z_lo: float
+    z_hi: float
+    v_lo: float
+    v_hi: float
+    touches_border: bool
+
+
+def _axis_from_normal(n: np.ndarray) -> np.ndarray:
+    """Stair axis (horizontal unit vector pointing up the stairs) from a riser normal."""
+    a = -np.array([n[0], n[1], 0.0])
+    return a / max(np.linalg.norm(a), 1e-12)
+
+
+def _no_obstacle(planes: PlaneSet, note: str, ground_z: float = 0.0) -> StairModel:
+    return StairModel(NONE, (), 0.0, ground_z, Polytope(np.zeros((0, 3))), planes.frame, note)
+
+
+def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> StairModel:
+    """Assemble a staircase, a box, or nothing from unordered planes.
+
+    Parameters
+    ----------
+    planes : PlaneSet
+        In a gravity-aligned frame with ``planes.up == +z``.
+    config : TerrainConfig
+
+    Returns
+    -------
+    StairModel; ``obstacle == "none"`` (with a note) is a normal result.
+    """
+    config = config or TerrainConfig()
+    if not np.allclose(planes.up, [0.0, 0.0, 1.0], atol=1e-6):
+        raise ConfigError("build_terrain needs planes in a gravity-aligned frame (up = +z)")
+    samples = planes.samples
+    P = samples.points.astype(np.float64)
+    cam = planes.camera_position
+    verticals = [s for s in planes.segments if s.kind == VERTICAL]
+    horizontals = [s for s in planes.segments if s.kind == HORIZONTAL]
+
+    # Ground: the largest horizontal plane among the lowest ones.
+    ground_z = 0.0
+    ground_seg = None
+    if horizontals:
+        zs = np.array([-h.plane.offset for h in horizontals])
+        counts = np.array([h.count for h in horizontals])
+        low = zs <= zs.min() + config.min_rise_m
+        cand = np.flatnonzero(low)
+        ground_seg = horizontals[int(cand[np.argmax(counts[cand])])]
+        ground_z = float(-ground_seg.plane.offset)
+    if not verticals:
+        return _no_obstacle(planes, "no vertical plane found", ground_z)
+
+    # Candidate risers: short vertical planes facing the camera, standing on something.
+    col_lo, col_hi = samples.cols.min(), samples.cols.max()
+    border = 2 * samples.stride_px
+    cos_face = math.cos(math.radians(config.max_facing_angle_deg))
+    cands: list[_Riser] = []
+    for seg in verticals:
+        if seg.count < config.min_riser_points:
+            continue
+        pts = P[seg.indices]
+        n = seg.plane.normal
+        to_cam = cam - np.median(pts, axis=0)
+        to_cam[2] = 0.0
+        if n @ to_cam < cos_face * np.linalg.norm(to_cam):
+            continue
+        z_lo, z_hi = np.percentile(pts[:, 2], [3, 97])
+        if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
+            continue
+        if z_lo < ground_z - config.edge_margin_m:
+            continue
+        u = _axis_from_normal(n)
+        v = np.array([-u[1], u[0], 0.0])
+        lat = pts @ v
+        v_lo, v_hi = np.percentile(lat, [2, 98])
+        if v_hi - v_lo < config.min_riser_width_m:
+            continue
+        cols = samples.cols[seg.indices]
+        touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
+        cands.append(_Riser(seg.plane, seg.indices, float(np.median(pts @ u)), float(z_lo), float(z_hi),
+                            float(v_lo), float(v_hi), touches))
+    if not cands:
+        return _no_obstacle(planes, "no vertical plane looks like a riser (all too tall, small or "
+                            "facing away)", ground_z)
+
+    # Dominant stair axis: the riser direction supported by most points.
+    yaws = np.array([math.atan2(*_axis_from_normal(c.plane.normal)[[1, 0]]) for c in cands])
+    weights = np.array([len(c.idx) for c in cands], dtype=float)
+    spread = math.radians(config.axis_spread_deg)
+    diff = np.abs((yaws[:, None] - yaws[None, :] + np.pi) % (2 * np.pi) - np.pi)
+    support = (diff <= spread) @ weights
+    ref = int(np.argmax(support))
+    keep = diff[ref] <= spread
+    yaw = float(np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])),
+                           np.sum(weights[keep] * np.cos(yaws[keep]))))
+    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    risers = [c for c, k in zip(cands, keep, strict=True) if k]
+    risers = [_Riser(r.plane, r.idx, float(np.median(P[r.idx] @ u)), r.z_lo, r.z_hi, r.v_lo, r.v_hi,
+                     r.touches_border) for r in risers]
+    risers.sort(key=lambda r: r.s)
+
+    # Merge duplicates (one riser split in two planes) and enforce rising tops.
+    merged: list[_Riser] = []
+    for r in risers:
+        if merged and abs(r.s - merged[-1].s) < config.merge_distance_m:
+            a = merged[-1]
+            idx = np.concatenate([a.idx, r.idx])
+            plane = Plane.estimate(P[idx]) or a.plane
+            plane = plane.oriented_toward(cam)
+            pts = P[idx]
+            z_lo, z_hi = np.percentile(pts[:, 2], [3, 97])
+            lat = pts @ v
+            v_lo, v_hi = np.percentile(lat, [2, 98])
+            merged[-1] = _Riser(plane, idx, float(np.median(pts @ u)), float(z_lo), float(z_hi),
+                                float(v_lo), float(v_hi), a.touches_border or r.touches_border)
+        else:
+            merged.append(r)
+    ordered: list[_Riser] = []
+    for r in merged:
+        if ordered and r.z_hi < ordered[-1].z_hi + config.min_rise_m / 2:
+            continue  # lower than the step before it: not the next step of this staircase
+        ordered.append(r)
+
+    # Active horizontal plane above each riser: most inliers between it and the next riser.
+    h_info = []
+    for h in horizontals:
+        pts = P[h.indices]
+        h_info.append((h, float(-h.plane.offset), pts @ u, pts @ v))
+    steps: list[Step] = []
+    prev_top = ground_z
+    for i, r in enumerate(ordered):
+        s_next = ordered[i + 1].s if i + 1 < len(ordered) else np.inf
+        best, best_count = None, 0
+        for h, z, s_h, v_h in h_info:
+            if abs(z - r.z_hi) > config.tread_height_tolerance_m or z < prev_top + config.min_rise_m / 2:
+                continue
+            between = (s_h > r.s - 0.02) & (s_h < s_next + 0.02) & (v_h > r.v_lo - 0.1) & (v_h < r.v_hi + 0.1)
+            count = int(between.sum())
+            if count >= config.min_tread_points and count > best_count:
+                best, best_count = (h, z, s_h[between]), count
+        if best is not None:
+            tread_plane, top = best[0].plane, best[1]
+        else:
+            tread_plane, top = None, r.z_hi
+        rise = top - prev_top
+        if rise < config.min_rise_m:
+            continue
+        run = None
+        if i + 1 < len(ordered):
+            run = ordered[i + 1].s - r.s
+        n = r.plane.normal
+        distance = -r.plane.offset / n[0] if abs(n[0]) > 0.2 else r.s / max(abs(u[0]), 1e-6)
+        width = None if r.touches_border else r.v_hi - r.v_lo
+        steps.append(Step(float(rise), None if run is None else float(run), float(distance),
+                          None if width is None else float(width), float(top), r.s, r.plane,
+                          tread_plane))
+        prev_top = top
+
+    if not steps:
+        return _no_obstacle(planes, "risers found but no step rises above the ground", ground_z)
+
+    obstacle = STAIRS
+    note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
+    if len(steps) == 1:
+        obstacle, note, steps = _classify_single_step(steps[0], h_info, u, ground_z, config, note)
+    poly = _polytope(steps, ordered, u, v, ground_z)
+    return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
+
+
+def _classify_single_step(step: Step, h_info, u, ground_z, config: TerrainConfig, note: str):
+    """One step is a box when its top is bounded: ground seen again beyond it."""
+    if step.tread is None:
+        return STAIRS, note + "; top not seen, reported as a one-step staircase", [step]
+    top_z = step.top_z_m
+    top_far = None
+    for _h, z, s_h, _v in h_info:
+        if abs(z - top_z) < 1e-9:
+            top_far = float(np.percentile(s_h[s_h > step.axis_position_m - 0.02], 98)) if np.any(
+                s_h > step.axis_position_m - 0.02) else None
+    if top_far is None:
+        return STAIRS, note, [step]
+    for _h, z, s_h, _v in h_info:
+        if abs(z - ground_z) < config.min_rise_m and np.sum(s_h > top_far + 0.02) >= config.min_tread_points:
+            depth = top_far - step.axis_position_m
+            boxed = Step(step.rise_m, float(depth), step.distance_m, step.width_m, step.top_z_m,
+                         step.axis_position_m, step.riser, step.tread)
+            return BOX, note + "; ground seen beyond the top: a box", [boxed]
+    return STAIRS, note, [step]
+
+
+def _intersect3(planes: list[tuple[np.ndarray, float]]) -> np.ndarray | None:
+    A = np.array([p[0] for p in planes])
+    b = -np.array([p[1] for p in planes])
+    if abs(np.linalg.det(A)) < 1e-9:
+        return None
+    return np.linalg.solve(A, b)
+
+
+def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) -> Polytope:
+    """Vertices from plane intersections: riser x horizontal x lateral bounds."""
+    by_s = {round(r.s, 6): r for r in risers}
+    verts: list[np.ndarray] = []
+    faces: list[tuple[int, int, int, int]] = []
+    prev_plane = (np.array([0.0, 0.0, 1.0]), -ground_z)
+    for i, st in enumerate(steps):
+        r = by_s.get(round(st.axis_position_m, 6))
+        v_lo, v_hi = (r.v_lo, r.v_hi) if r is not None else (-0.5, 0.5)
+        riser = (st.riser.normal, st.riser.offset)
+        top = (st.tread.normal, st.tread.offset) if st.tread is not None else (
+            np.array([0.0, 0.0, 1.0]), -st.top_z_m)
+        lat_lo, lat_hi = (v, -v_lo), (v, -v_hi)
+        quad = [_intersect3([riser, prev_plane, lat_lo]), _intersect3([riser, prev_plane, lat_hi]),
+                _intersect3([riser, top, lat_hi]), _intersect3([riser, top, lat_lo])]
+        if i + 1 < len(steps):
+            nxt = (steps[i + 1].riser.normal, steps[i + 1].riser.offset)
+        else:
+            depth = st.run_m if st.run_m is not None else 0.3
+            back_s = st.axis_position_m + depth
+            nxt = (-u, back_s)  # the plane u . x = back_s, normal toward the camera
+        tread = [quad[3], quad[2], _intersect3([nxt, top, lat_hi]), _intersect3([nxt, top, lat_lo])]
+        for q in (quad, tread):
+            if any(p is None for p in q):
+                continue
+            base = len(verts)
+            verts.extend(q)  # type: ignore[arg-type]
+            faces.append((base, base + 1, base + 2, base + 3))
+        prev_plane = top
+    arr = np.array(verts, dtype=np.float64) if verts else np.zeros((0, 3))
+    return Polytope(arr, tuple(faces))

@@ -1,0 +1,1 @@
+"""Figures; nothing below imports this package."""
