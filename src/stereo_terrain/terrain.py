@@ -12,6 +12,7 @@ not, and then the height comes from the riser's top edge.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -45,6 +46,8 @@ class TerrainConfig:
     tread_height_tolerance_m : float
         A horizontal plane is the tread above a riser if its height is within this of the
         riser's top edge.
+    edge_band_m : float
+        Samples this close to a riser plane count when finding its top and bottom edges.
     """
 
     min_rise_m: float = 0.04
@@ -55,7 +58,8 @@ class TerrainConfig:
     merge_distance_m: float = 0.06
     max_facing_angle_deg: float = 70.0
     axis_spread_deg: float = 20.0
-    tread_height_tolerance_m: float = 0.07
+    tread_height_tolerance_m: float = 0.06
+    edge_band_m: float = 0.02
     min_tread_points: int = 15
 
     def __post_init__(self) -> None:
@@ -145,6 +149,21 @@ class _Riser:
     touches_border: bool
 
 
+def _riser_edges(P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *,
+                 thr: float) -> tuple[float, float]:
+    """Bottom and top edge heights of a riser from every sample on its plane.
+
+    Inliers alone stop short of the edges (normals there mix two faces); any sample within
+    ``thr`` of the plane and inside its lateral extent is on the riser or on the surface
+    meeting it at the edge, whose height is the edge's.
+    """
+    near = plane.residuals(P) < thr
+    lat = P[near] @ v
+    z = P[near, 2][(lat > v_lo) & (lat < v_hi)]
+    lo, hi = np.percentile(z, [2, 98])
+    return float(lo), float(hi)
+
+
 def _axis_from_normal(n: np.ndarray) -> np.ndarray:
     """Stair axis (horizontal unit vector pointing up the stairs) from a riser normal."""
     a = -np.array([n[0], n[1], 0.0])
@@ -176,21 +195,14 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     cam = planes.camera_position
     verticals = [s for s in planes.segments if s.kind == VERTICAL]
     horizontals = [s for s in planes.segments if s.kind == HORIZONTAL]
-
-    # Ground: the largest horizontal plane among the lowest ones.
-    ground_z = 0.0
-    ground_seg = None
-    if horizontals:
-        zs = np.array([-h.plane.offset for h in horizontals])
-        counts = np.array([h.count for h in horizontals])
-        low = zs <= zs.min() + config.min_rise_m
-        cand = np.flatnonzero(low)
-        ground_seg = horizontals[int(cand[np.argmax(counts[cand])])]
-        ground_z = float(-ground_seg.plane.offset)
+    # Height of a horizontal plane where its points are (not its offset at the origin: a
+    # plane tilted by a degree or two would be off by centimetres there).
+    h_z = [float(np.median(P[h.indices, 2])) for h in horizontals]
+    lowest_z = min(h_z) if h_z else 0.0
     if not verticals:
-        return _no_obstacle(planes, "no vertical plane found", ground_z)
+        return _no_obstacle(planes, "no vertical plane found", lowest_z)
 
-    # Candidate risers: short vertical planes facing the camera, standing on something.
+    # Candidate risers: short vertical planes facing the camera.
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
     border = 2 * samples.stride_px
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
@@ -204,24 +216,22 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
         to_cam[2] = 0.0
         if n @ to_cam < cos_face * np.linalg.norm(to_cam):
             continue
-        z_lo, z_hi = np.percentile(pts[:, 2], [3, 97])
-        if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
-            continue
-        if z_lo < ground_z - config.edge_margin_m:
-            continue
         u = _axis_from_normal(n)
         v = np.array([-u[1], u[0], 0.0])
         lat = pts @ v
         v_lo, v_hi = np.percentile(lat, [2, 98])
         if v_hi - v_lo < config.min_riser_width_m:
             continue
+        z_lo, z_hi = _riser_edges(P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m)
+        if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
+            continue
         cols = samples.cols[seg.indices]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
-        cands.append(_Riser(seg.plane, seg.indices, float(np.median(pts @ u)), float(z_lo), float(z_hi),
+        cands.append(_Riser(seg.plane, seg.indices, float(np.median(pts @ u)), z_lo, z_hi,
                             float(v_lo), float(v_hi), touches))
     if not cands:
         return _no_obstacle(planes, "no vertical plane looks like a riser (all too tall, small or "
-                            "facing away)", ground_z)
+                            "facing away)", lowest_z)
 
     # Dominant stair axis: the riser direction supported by most points.
     yaws = np.array([math.atan2(*_axis_from_normal(c.plane.normal)[[1, 0]]) for c in cands])
@@ -236,59 +246,65 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     risers = [c for c, k in zip(cands, keep, strict=True) if k]
-    risers = [_Riser(r.plane, r.idx, float(np.median(P[r.idx] @ u)), r.z_lo, r.z_hi, r.v_lo, r.v_hi,
-                     r.touches_border) for r in risers]
+    risers = [dataclasses.replace(r, s=float(np.median(P[r.idx] @ u))) for r in risers]
     risers.sort(key=lambda r: r.s)
 
-    # Merge duplicates (one riser split in two planes) and enforce rising tops.
+    # Merge duplicates (one riser split in two planes).
     merged: list[_Riser] = []
     for r in risers:
         if merged and abs(r.s - merged[-1].s) < config.merge_distance_m:
             a = merged[-1]
             idx = np.concatenate([a.idx, r.idx])
-            plane = Plane.estimate(P[idx]) or a.plane
-            plane = plane.oriented_toward(cam)
-            pts = P[idx]
-            z_lo, z_hi = np.percentile(pts[:, 2], [3, 97])
-            lat = pts @ v
+            plane = (Plane.estimate(P[idx]) or a.plane).oriented_toward(cam)
+            lat = P[idx] @ v
             v_lo, v_hi = np.percentile(lat, [2, 98])
-            merged[-1] = _Riser(plane, idx, float(np.median(pts @ u)), float(z_lo), float(z_hi),
+            z_lo, z_hi = _riser_edges(P, plane, v, v_lo, v_hi, thr=config.edge_band_m)
+            merged[-1] = _Riser(plane, idx, float(np.median(P[idx] @ u)), z_lo, z_hi,
                                 float(v_lo), float(v_hi), a.touches_border or r.touches_border)
         else:
             merged.append(r)
+
+    # Ground: the horizontal plane with most points in front of the first riser.
+    s_h = [P[h.indices] @ u for h in horizontals]
+    v_h = [P[h.indices] @ v for h in horizontals]
+    ground_z, best = None, 0
+    for h, z, s_arr in zip(horizontals, h_z, s_h, strict=True):
+        count = int(np.sum(s_arr < merged[0].s - 0.03))
+        if count >= config.min_tread_points and count > best and z < merged[0].z_hi - config.min_rise_m:
+            ground_z, best = z, count
+    if ground_z is None:
+        ground_z = merged[0].z_lo
+
+    # Keep risers that rise: each top above the one before.
     ordered: list[_Riser] = []
     for r in merged:
-        if ordered and r.z_hi < ordered[-1].z_hi + config.min_rise_m / 2:
-            continue  # lower than the step before it: not the next step of this staircase
+        if r.z_hi < (ordered[-1].z_hi if ordered else ground_z) + config.min_rise_m / 2:
+            continue
         ordered.append(r)
 
     # Active horizontal plane above each riser: most inliers between it and the next riser.
-    h_info = []
-    for h in horizontals:
-        pts = P[h.indices]
-        h_info.append((h, float(-h.plane.offset), pts @ u, pts @ v))
     steps: list[Step] = []
     prev_top = ground_z
     for i, r in enumerate(ordered):
         s_next = ordered[i + 1].s if i + 1 < len(ordered) else np.inf
-        best, best_count = None, 0
-        for h, z, s_h, v_h in h_info:
+        best_h, best_count = None, 0
+        for k, h in enumerate(horizontals):
+            z = h_z[k]
             if abs(z - r.z_hi) > config.tread_height_tolerance_m or z < prev_top + config.min_rise_m / 2:
                 continue
-            between = (s_h > r.s - 0.02) & (s_h < s_next + 0.02) & (v_h > r.v_lo - 0.1) & (v_h < r.v_hi + 0.1)
+            between = ((s_h[k] > r.s) & (s_h[k] < s_next) & (v_h[k] > r.v_lo - 0.1)
+                       & (v_h[k] < r.v_hi + 0.1))
             count = int(between.sum())
             if count >= config.min_tread_points and count > best_count:
-                best, best_count = (h, z, s_h[between]), count
-        if best is not None:
-            tread_plane, top = best[0].plane, best[1]
+                best_h, best_count = k, count
+        if best_h is not None:
+            tread_plane, top = horizontals[best_h].plane, h_z[best_h]
         else:
             tread_plane, top = None, r.z_hi
         rise = top - prev_top
         if rise < config.min_rise_m:
             continue
-        run = None
-        if i + 1 < len(ordered):
-            run = ordered[i + 1].s - r.s
+        run = ordered[i + 1].s - r.s if i + 1 < len(ordered) else None
         n = r.plane.normal
         distance = -r.plane.offset / n[0] if abs(n[0]) > 0.2 else r.s / max(abs(u[0]), 1e-6)
         width = None if r.touches_border else r.v_hi - r.v_lo
@@ -299,6 +315,7 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
 
     if not steps:
         return _no_obstacle(planes, "risers found but no step rises above the ground", ground_z)
+    h_info = list(zip(horizontals, h_z, s_h, v_h, strict=True))
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"

@@ -55,8 +55,8 @@ class OrientationConfig:
         Seeds the sampling: a given seed gives the same planes.
     """
 
-    angle_tol_deg: float = 15.0
-    normal_agreement_deg: float = 35.0
+    angle_tol_deg: float = 10.0
+    normal_agreement_deg: float = 25.0
     threshold_sigmas: float = 3.0
     min_threshold_m: float = 0.012
     max_threshold_m: float = 0.05

@@ -1,0 +1,95 @@
+"""Scoring terrain results against ground truth (used by tests and benchmarks).
+
+Both sides are the JSON contract of CONVENTIONS.md (the renderer's truth has the same
+keys). Recovered steps are matched to true steps by riser distance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SceneScore:
+    """How one result compares with its truth.
+
+    Attributes
+    ----------
+    has_obstacle : bool
+        The truth has an obstacle.
+    detected : bool
+        The result has one.
+    count_right : bool
+        Same number of steps (and both ``none`` counts as right).
+    rise_errors_m, run_errors_m : list of float
+        Absolute errors of matched steps (run only where both are known).
+    first_distance_error_m : float or None
+        Absolute error of the first riser's distance, when both have one.
+    """
+
+    has_obstacle: bool
+    detected: bool
+    count_right: bool
+    rise_errors_m: list[float] = field(default_factory=list)
+    run_errors_m: list[float] = field(default_factory=list)
+    first_distance_error_m: float | None = None
+    yaw_error_rad: float | None = None
+
+
+def score_result(result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: float = 0.12) -> SceneScore:
+    """Compare one result with its truth; steps matched by nearest riser distance."""
+    t_steps = truth.get("steps", []) if truth.get("obstacle", "none") != "none" else []
+    r_steps = result.get("steps", []) if result.get("obstacle", "none") != "none" else []
+    has, det = bool(t_steps), bool(r_steps)
+    count_right = len(t_steps) == len(r_steps)
+    rises: list[float] = []
+    runs: list[float] = []
+    used: set[int] = set()
+    for ts in t_steps:
+        best, best_d = None, match_tol_m
+        for j, rs in enumerate(r_steps):
+            dd = abs(rs["distance"] - ts["distance"])
+            if j not in used and dd <= best_d:
+                best, best_d = j, dd
+        if best is None:
+            continue
+        used.add(best)
+        rs = r_steps[best]
+        rises.append(abs(rs["rise"] - ts["rise"]))
+        if rs.get("run") is not None and ts.get("run") is not None:
+            runs.append(abs(rs["run"] - ts["run"]))
+    first = None
+    yaw_err = None
+    if has and det:
+        first = abs(r_steps[0]["distance"] - t_steps[0]["distance"])
+        yaw_err = abs(float(result.get("yaw", 0.0)) - float(truth.get("yaw", 0.0)))
+    return SceneScore(has, det, count_right, rises, runs, first, yaw_err)
+
+
+def summarize(scores: Iterable[SceneScore]) -> dict[str, float]:
+    """Rates and error statistics over many scenes (metres; NaN where nothing to measure)."""
+    scores = list(scores)
+    pos = [s for s in scores if s.has_obstacle]
+    neg = [s for s in scores if not s.has_obstacle]
+    rises = np.array([e for s in pos for e in s.rise_errors_m])
+    runs = np.array([e for s in pos for e in s.run_errors_m])
+    firsts = np.array([s.first_distance_error_m for s in pos if s.first_distance_error_m is not None])
+
+    def stat(a: np.ndarray, q: float) -> float:
+        return float(np.percentile(a, q)) if len(a) else float("nan")
+
+    return {
+        "scenes": float(len(scores)),
+        "detection_rate": float(np.mean([s.detected for s in pos])) if pos else float("nan"),
+        "false_positive_rate": float(np.mean([s.detected for s in neg])) if neg else float("nan"),
+        "count_rate": float(np.mean([s.count_right for s in pos])) if pos else float("nan"),
+        "rise_median_m": stat(rises, 50),
+        "rise_p90_m": stat(rises, 90),
+        "run_median_m": stat(runs, 50),
+        "first_distance_median_m": stat(firsts, 50),
+        "matched_steps": float(len(rises)),
+    }
