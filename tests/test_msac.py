@@ -8,6 +8,8 @@ from stereo_terrain.frames import rotation_from_rpy
 from stereo_terrain.planes.msac import Plane, msac, plane_msac, required_trials
 
 NORMAL_TOL_DEG = 1.0
+# arccos near 1 loses precision: ~1e-6 deg is round-off, 1e-4 deg is still exact for a fit.
+EXACT_DEG = 1e-4
 
 
 def _noisy_plane(rng, n_in=300, n_out=150, normal=(0.2, -0.1, 1.0), offset=-0.4, noise=0.003):
@@ -89,9 +91,9 @@ def test_plane_fit_invariant_to_order_and_rigid_motion(seed, r, p, y, t):
     fit = Plane.estimate(pts)
     perm = rng.permutation(len(pts))
     fit_perm = Plane.estimate(pts[perm])
-    assert _angle_deg(fit.normal, fit_perm.normal) < 1e-6
+    assert _angle_deg(fit.normal, fit_perm.normal) < EXACT_DEG
     R = rotation_from_rpy(r, p, y)
     moved = pts @ R.T + np.asarray(t)
     fit_moved = Plane.estimate(moved)
-    assert _angle_deg(fit_moved.normal, R @ fit.normal) < 1e-6
-    assert np.allclose(fit_moved.residuals(moved), fit.residuals(pts), atol=1e-9)
+    assert _angle_deg(fit_moved.normal, R @ fit.normal) < EXACT_DEG
+    assert np.allclose(fit_moved.residuals(moved), fit.residuals(pts), atol=1e-7)

@@ -1,13 +1,23 @@
-"""Stage 3: disparity -> organized point cloud, and moving it between frames.
+"""Stage 3: disparity -> point cloud (organized, and a grid subsample with normals).
 
 The cloud keeps the image's (H, W) organisation so that later stages can use image
 neighbourhoods (normals, contours, region growing) without a k-d tree.
+
+The plane stage works on a :class:`GridSample`: a regular subsample of the pixels with a
+local normal each. Normals come from the cross product of the surface's tangents along
+image rows and columns, taken on a box-filtered (NaN-aware) neighbourhood: no k-d tree, a
+few box filters per frame. Points near depth edges or creases get mixed normals, which is
+what lets the plane stage refuse them. :func:`sample_disparity` builds it straight from
+the disparity (a plane is affine in disparity, so filtering there is exact on planes) and
+never forms the full-resolution cloud.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from .errors import ConfigError, FrameError
@@ -113,4 +123,218 @@ def transform_cloud(cloud: PointCloud, T: Transform) -> PointCloud:
     return PointCloud(
         pts.astype(np.float32), cloud.valid, T.to_frame, cloud.sigma_m,
         T.apply(cloud.camera_position[None, :].astype(np.float64))[0], cloud.confidence,
+    )
+
+
+@dataclass(frozen=True)
+class GridSample:
+    """A regular subsample of an organized cloud with local normals.
+
+    Attributes
+    ----------
+    points : (N, 3) float32, metres, the cloud's frame
+    normals : (N, 3) float32, unit, sign arbitrary
+    sigma_m : (N,) float32, depth 1-sigma of each point
+    rows, cols : (N,) int32
+        Pixel of each sample in the full image.
+    grid_index : (N,) int32
+        Flat index into the ``grid_shape`` grid.
+    grid_shape : (gh, gw)
+    stride_px : int
+    frame : str
+    confidence : (N,) float32 or None
+    camera_position : (3,) float64
+        Centre of the rectified left camera in ``frame``.
+    """
+
+    points: np.ndarray = field(repr=False)
+    normals: np.ndarray = field(repr=False)
+    sigma_m: np.ndarray = field(repr=False)
+    rows: np.ndarray = field(repr=False)
+    cols: np.ndarray = field(repr=False)
+    grid_index: np.ndarray = field(repr=False)
+    grid_shape: tuple[int, int]
+    stride_px: int
+    frame: str
+    confidence: np.ndarray | None = field(default=None, repr=False)
+    camera_position: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def grid_stride(shape: tuple[int, int], target_points: int) -> int:
+    """Pixel stride giving about ``target_points`` samples for an image of ``shape``."""
+    h, w = shape
+    return max(1, int(round(np.sqrt(h * w / max(target_points, 1)))))
+
+
+def sample_grid(cloud: PointCloud, *, target_points: int = 12000, smooth_px: int | None = None) -> GridSample:
+    """Subsample ``cloud`` on a regular grid and estimate a normal at each sample.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+    target_points : int
+        About this many grid cells (valid or not).
+    smooth_px : int, optional
+        Half-size of the neighbourhood used for normals; default scales with image width
+        (4 px at 640 wide).
+
+    Returns
+    -------
+    GridSample of the valid samples whose neighbourhood is mostly valid.
+    """
+    h, w = cloud.shape
+    stride = grid_stride((h, w), target_points)
+    k = smooth_px if smooth_px is not None else max(2, int(round(4 * w / 640)))
+    valid = cloud.valid
+    pts = np.where(valid[:, :, None], cloud.points, 0.0).astype(np.float32)
+    ksize = (2 * k + 1, 2 * k + 1)
+    cnt = cv2.boxFilter(valid.astype(np.float32), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)
+    acc = cv2.boxFilter(pts, -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = acc / cnt[:, :, None]
+    r0 = stride // 2
+    rows = np.arange(r0, h, stride)
+    cols = np.arange(r0, w, stride)
+    gh, gw = len(rows), len(cols)
+    rr, cc = np.meshgrid(rows, cols, indexing="ij")
+    ru, rd = np.clip(rr - k, 0, h - 1), np.clip(rr + k, 0, h - 1)
+    cl, cr = np.clip(cc - k, 0, w - 1), np.clip(cc + k, 0, w - 1)
+    du = mean[rr, cr] - mean[rr, cl]
+    dv = mean[rd, cc] - mean[ru, cc]
+    n = np.cross(du, dv)
+    norm = np.linalg.norm(n, axis=-1)
+    dense = cnt > 0.6
+    ok = (
+        valid[rr, cc]
+        & dense[rr, cl] & dense[rr, cr] & dense[ru, cc] & dense[rd, cc]
+        & (norm > 0) & np.isfinite(norm)
+    )
+    n = n / np.where(ok, norm, 1.0)[..., None]
+    flat = np.flatnonzero(ok.reshape(-1))
+    sel_r, sel_c = rr.reshape(-1)[flat], cc.reshape(-1)[flat]
+    conf = None if cloud.confidence is None else cloud.confidence[sel_r, sel_c].astype(np.float32)
+    return GridSample(
+        points=cloud.points[sel_r, sel_c].astype(np.float32),
+        normals=n.reshape(-1, 3)[flat].astype(np.float32),
+        sigma_m=cloud.sigma_m[sel_r, sel_c].astype(np.float32),
+        rows=sel_r.astype(np.int32),
+        cols=sel_c.astype(np.int32),
+        grid_index=flat.astype(np.int32),
+        grid_shape=(gh, gw),
+        stride_px=stride,
+        frame=cloud.frame,
+        confidence=conf,
+        camera_position=np.asarray(cloud.camera_position, dtype=np.float64),
+    )
+
+
+def sample_disparity(
+    disparity: DisparityMap,
+    T: Transform,
+    config: CloudConfig | None = None,
+    *,
+    target_points: int = 12000,
+    smooth_px: int | None = None,
+    disparity_sigma_px: float = 0.25,
+) -> GridSample:
+    """Grid subsample with normals straight from a disparity map, in ``T.to_frame``.
+
+    Equivalent to ``sample_grid(transform_cloud(disparity_to_cloud(...), T))`` but
+    smooths in disparity space (exact for planes, which are affine there) and reprojects
+    only the samples and their four neighbours: a few milliseconds at 640x480.
+
+    Parameters
+    ----------
+    disparity : DisparityMap
+    T : Transform
+        ``T_<frame>_camera_rect``.
+    config : CloudConfig
+        Depth range of the points kept.
+    target_points : int
+        About this many grid cells.
+    smooth_px : int, optional
+        Half-size of the neighbourhood used for normals (default 4 px at 640 wide).
+
+    Returns
+    -------
+    GridSample in ``T.to_frame``.
+    """
+    if T.from_frame != "camera_rect":
+        raise FrameError(f"sample_disparity needs T_<frame>_camera_rect, got {T.name}")
+    config = config or CloudConfig()
+    rect = disparity.rectification
+    d = disparity.disparity
+    h, w = d.shape
+    fb = rect.focal_px * rect.baseline_m
+    dd = d + np.float32(rect.doffs_px)
+    with np.errstate(invalid="ignore"):
+        valid = (dd >= fb / config.max_depth_m) & (dd <= fb / config.min_depth_m)
+    stride = grid_stride((h, w), target_points)
+    k = smooth_px if smooth_px is not None else max(2, int(round(4 * w / 640)))
+    ksize = (2 * k + 1, 2 * k + 1)
+    vf = valid.astype(np.float32)
+    cnt = cv2.boxFilter(vf, -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)
+    acc = cv2.boxFilter(np.where(valid, dd, 0.0).astype(np.float32), -1, ksize, normalize=True,
+                        borderType=cv2.BORDER_CONSTANT)
+    r0 = stride // 2
+    rows = np.arange(r0, h, stride)
+    cols = np.arange(r0, w, stride)
+    gh, gw = len(rows), len(cols)
+    rr, cc = np.meshgrid(rows, cols, indexing="ij")
+    rr, cc = rr.reshape(-1), cc.reshape(-1)
+    ru, rd = np.clip(rr - k, 0, h - 1), np.clip(rr + k, 0, h - 1)
+    cl, cr = np.clip(cc - k, 0, w - 1), np.clip(cc + k, 0, w - 1)
+    dense = cnt > 0.6
+    ok = valid[rr, cc] & dense[rr, cl] & dense[rr, cr] & dense[ru, cc] & dense[rd, cc]
+    idx = np.flatnonzero(ok)
+    rr, cc, ru, rd, cl, cr = rr[idx], cc[idx], ru[idx], rd[idx], cl[idx], cr[idx]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = acc / cnt
+    cx, cy, f = rect.cx, rect.cy, rect.focal_px
+
+    def reproject(r: np.ndarray, c: np.ndarray, disp: np.ndarray) -> np.ndarray:
+        z = fb / disp
+        return np.column_stack([(c - cx) * z / f, (r - cy) * z / f, z])
+
+    p_l = reproject(rr, cl, mean[rr, cl])
+    p_r = reproject(rr, cr, mean[rr, cr])
+    p_u = reproject(ru, cc, mean[ru, cc])
+    p_d = reproject(rd, cc, mean[rd, cc])
+    n = np.cross(p_r - p_l, p_d - p_u)
+    norm = np.linalg.norm(n, axis=1)
+    good = (norm > 0) & np.isfinite(norm)
+    n = n[good] / norm[good, None]
+    rr, cc, idx = rr[good], cc[good], idx[good]
+    centre = dd[rr, cc].astype(np.float64)
+    pts = reproject(rr, cc, centre)
+    sigma = (pts[:, 2] ** 2) * (disparity_sigma_px / fb)
+    conf = None if disparity.confidence is None else disparity.confidence[rr, cc].astype(np.float32)
+    return GridSample(
+        points=T.apply(pts).astype(np.float32),
+        normals=T.apply_vectors(n).astype(np.float32),
+        sigma_m=sigma.astype(np.float32),
+        rows=rr.astype(np.int32),
+        cols=cc.astype(np.int32),
+        grid_index=idx.astype(np.int32),
+        grid_shape=(gh, gw),
+        stride_px=stride,
+        frame=T.to_frame,
+        confidence=conf,
+        camera_position=T.translation.copy(),
+    )
+
+
+def transform_sample(sample: GridSample, T: Transform) -> GridSample:
+    """Express a grid sample in ``T.to_frame``; ``T.from_frame`` must be ``sample.frame``."""
+    if T.from_frame != sample.frame:
+        raise FrameError(f"cannot apply {T.name} to a grid sample in frame '{sample.frame}'")
+    return dataclasses.replace(
+        sample,
+        points=T.apply(sample.points).astype(np.float32),
+        normals=T.apply_vectors(sample.normals).astype(np.float32),
+        frame=T.to_frame,
+        camera_position=T.apply(sample.camera_position[None, :])[0],
     )

@@ -14,6 +14,7 @@ paper's eq. 1). Without a rig the floor is found in the cloud and taken as level
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -24,14 +25,22 @@ import numpy as np
 import yaml
 
 from .calibration import StereoCalibration
-from .cloud import CloudConfig, PointCloud, disparity_to_cloud, transform_cloud
+from .cloud import (
+    CloudConfig,
+    GridSample,
+    PointCloud,
+    disparity_to_cloud,
+    sample_disparity,
+    transform_cloud,
+    transform_sample,
+)
 from .errors import ConfigError, InputError
-from .frames import Rig, Transform
+from .frames import R_BODY_OPTICAL, Rig, Transform
 from .planes.msac import Plane, plane_msac
-from .planes.normals import sample_grid
 from .planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation
 from .rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, choose_max_disparity, make_backend
+from .stereo.fill import PlanarFillConfig, fill_planar_regions
 from .stereo.opencv import OpenCVSGBMConfig
 from .swing import SwingConfig, SwingPlan, plan_swing
 from .terrain import StairModel, TerrainConfig, build_terrain
@@ -49,6 +58,8 @@ class PipelineConfig:
         Disparity backend (``opencv``).
     max_disparity_px : int or None
         Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
+    fill : PlanarFillConfig
+        Planar fill of texture-poor faces after matching (``fill.enabled``).
     min_depth_m : float
         Closest depth the disparity range must reach when chosen automatically.
     """
@@ -57,6 +68,7 @@ class PipelineConfig:
     max_disparity_px: int | None = None
     min_depth_m: float = 0.7
     sgbm: OpenCVSGBMConfig = field(default_factory=OpenCVSGBMConfig)
+    fill: PlanarFillConfig = field(default_factory=PlanarFillConfig)
     cloud: CloudConfig = field(default_factory=CloudConfig)
     orientation: OrientationConfig = field(default_factory=OrientationConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
@@ -75,8 +87,8 @@ class PipelineConfig:
             raise ConfigError("pipeline config must be a mapping")
         kwargs: dict[str, Any] = {}
         nested = {f.name: f.type for f in dataclasses.fields(cls)}
-        sub_types = {"sgbm": OpenCVSGBMConfig, "cloud": CloudConfig, "orientation": OrientationConfig,
-                     "terrain": TerrainConfig, "swing": SwingConfig}
+        sub_types = {"sgbm": OpenCVSGBMConfig, "fill": PlanarFillConfig, "cloud": CloudConfig,
+                     "orientation": OrientationConfig, "terrain": TerrainConfig, "swing": SwingConfig}
         for key, value in data.items():
             if key not in nested:
                 raise ConfigError(f"unknown pipeline config key '{key}'; known: {sorted(nested)}")
@@ -115,7 +127,7 @@ class TerrainResult:
     swing : SwingPlan
     planes : PlaneSet (yaw frame)
     disparity : DisparityMap
-    cloud : PointCloud (yaw frame)
+    cloud : PointCloud (yaw frame), computed on first access
     rectified : RectifiedPair
     T_yaw_camera_rect : Transform
     gravity_source : str
@@ -127,11 +139,16 @@ class TerrainResult:
     swing: SwingPlan
     planes: PlaneSet = field(repr=False)
     disparity: DisparityMap = field(repr=False)
-    cloud: PointCloud = field(repr=False)
     rectified: RectifiedPair = field(repr=False)
     T_yaw_camera_rect: Transform = field(repr=False)
     gravity_source: str
     timing_ms: dict[str, float]
+    cloud_config: CloudConfig = field(default_factory=CloudConfig, repr=False)
+
+    @functools.cached_property
+    def cloud(self) -> PointCloud:
+        """The full-resolution organized cloud in the yaw frame (computed on first use)."""
+        return transform_cloud(disparity_to_cloud(self.disparity, self.cloud_config), self.T_yaw_camera_rect)
 
     def to_json_dict(self) -> dict[str, Any]:
         """The terrain result of CONVENTIONS.md (version 1)."""
@@ -169,15 +186,14 @@ class TerrainResult:
         }
 
 
-def level_from_floor(cloud: PointCloud, *, max_tilt_deg: float = 45.0,
+def level_from_floor(samples: GridSample, *, max_tilt_deg: float = 45.0,
                      rng: np.random.Generator | int = 0) -> Transform | None:
-    """``T_yaw_<cloud frame>`` from the floor seen in a camera-frame cloud, or None.
+    """``T_yaw_<sample frame>`` from the floor seen in a camera-frame grid sample, or None.
 
     The floor is the largest plane below the camera whose normal is within
     ``max_tilt_deg`` of the camera's up (-y); the yaw frame's origin is put on it below
     the camera, x along the optical axis projected on the floor.
     """
-    samples = sample_grid(cloud, target_points=6000)
     if len(samples) < 50:
         return None
     rng = np.random.default_rng(rng)
@@ -198,7 +214,8 @@ def level_from_floor(cloud: PointCloud, *, max_tilt_deg: float = 45.0,
     plane = Plane.estimate(pts[res.inliers]) or res.model
     if plane.normal @ up_cam < 0:
         plane = Plane(-plane.normal, -plane.offset)
-    height = float(plane.signed_distance(cloud.camera_position))
+    cam = samples.camera_position
+    height = float(plane.signed_distance(cam))
     if height <= 0.05:
         return None
     z = plane.normal
@@ -208,8 +225,8 @@ def level_from_floor(cloud: PointCloud, *, max_tilt_deg: float = 45.0,
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     R = np.vstack([x, y, z])
-    t = np.array([0.0, 0.0, height]) - R @ cloud.camera_position
-    return Transform.from_rt(R, t, "yaw", cloud.frame)
+    t = np.array([0.0, 0.0, height]) - R @ cam
+    return Transform.from_rt(R, t, "yaw", samples.frame)
 
 
 class Pipeline:
@@ -265,25 +282,32 @@ class Pipeline:
         pair = rectify(left, right, self.rectification)
         lap("rectify")
         disp = self.backend.compute(pair, self.max_disparity_px)
+        if self.config.fill.enabled:
+            # Texture-poor faces: disparity from their outline (see stereo/fill.py).
+            values, filled = fill_planar_regions(disp.disparity, pair.left, self.config.fill,
+                                                 max_disparity_px=disp.max_disparity_px)
+            disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
-        cloud_cam = disparity_to_cloud(disp, self.config.cloud)
         T = self.T_yaw_camera_rect()
         source = "rig"
         if T is None:
-            T = level_from_floor(cloud_cam)
+            cam_sample = sample_disparity(disp, Transform.identity("camera_rect"), self.config.cloud,
+                                          target_points=self.config.orientation.target_points)
+            T = level_from_floor(cam_sample)
             source = "floor"
             if T is None:
                 # No floor in view: assume a level camera at the origin.
-                from .frames import R_BODY_OPTICAL
-
                 T = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect")
                 source = "assumed-level"
-        cloud = transform_cloud(cloud_cam, T)
+            samples = transform_sample(cam_sample, T)
+        else:
+            samples = sample_disparity(disp, T, self.config.cloud,
+                                       target_points=self.config.orientation.target_points)
         lap("cloud")
-        planes = extract_planes_orientation(cloud, self.config.orientation)
+        planes = extract_planes_orientation(samples, self.config.orientation)
         lap("planes")
         terrain = build_terrain(planes, self.config.terrain)
         swing = plan_swing(terrain, self.config.swing)
         lap("polytope")
         timing["total"] = (time.perf_counter() - t0) * 1000.0
-        return TerrainResult(terrain, swing, planes, disp, cloud, pair, T, source, timing)
+        return TerrainResult(terrain, swing, planes, disp, pair, T, source, timing, self.config.cloud)

@@ -268,7 +268,7 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     s_h = [P[h.indices] @ u for h in horizontals]
     v_h = [P[h.indices] @ v for h in horizontals]
     ground_z, best = None, 0
-    for h, z, s_arr in zip(horizontals, h_z, s_h, strict=True):
+    for _h, z, s_arr in zip(horizontals, h_z, s_h, strict=True):
         count = int(np.sum(s_arr < merged[0].s - 0.03))
         if count >= config.min_tread_points and count > best and z < merged[0].z_hi - config.min_rise_m:
             ground_z, best = z, count
@@ -288,7 +288,7 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     for i, r in enumerate(ordered):
         s_next = ordered[i + 1].s if i + 1 < len(ordered) else np.inf
         best_h, best_count = None, 0
-        for k, h in enumerate(horizontals):
+        for k, _h in enumerate(horizontals):
             z = h_z[k]
             if abs(z - r.z_hi) > config.tread_height_tolerance_m or z < prev_top + config.min_rise_m / 2:
                 continue

@@ -15,10 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cloud import PointCloud
+from ..cloud import GridSample, PointCloud, sample_grid
 from ..errors import ConfigError
 from .msac import Plane, plane_msac
-from .normals import GridSample, sample_grid
 
 HORIZONTAL, VERTICAL, OTHER = "horizontal", "vertical", "other"
 
@@ -205,7 +204,7 @@ def extract_planes_orientation(
         cam = cloud.camera_position if camera_position is None else camera_position
     else:
         samples = cloud
-        cam = np.zeros(3) if camera_position is None else camera_position
+        cam = samples.camera_position if camera_position is None else camera_position
     cam = np.asarray(cam, dtype=np.float64)
     n_pts = len(samples)
     P = samples.points

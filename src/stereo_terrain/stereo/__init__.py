@@ -31,6 +31,8 @@ class DisparityMap:
     confidence : (H, W) float32 in [0, 1] or None
         Per-pixel confidence where the backend gives one.
     backend : str
+    filled : (H, W) bool or None
+        Pixels whose disparity came from a plane fit (texture-poor fill), not matching.
     """
 
     disparity: np.ndarray = field(repr=False)
@@ -38,6 +40,7 @@ class DisparityMap:
     rectification: Rectification = field(repr=False)
     confidence: np.ndarray | None = field(default=None, repr=False)
     backend: str = ""
+    filled: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         d = self.disparity
