@@ -36,8 +36,14 @@ from .cloud import (
 )
 from .errors import ConfigError, InputError
 from .frames import R_BODY_OPTICAL, Rig, Transform
-from .planes.msac import Plane, plane_msac
-from .planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation
+from .planes.msac import Plane, planes_from_triplets
+from .planes.orientation import (
+    OrientationConfig,
+    PlaneSet,
+    extract_planes_orientation,
+    grid_lookup,
+    local_triplets,
+)
 from .rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, choose_max_disparity, make_backend
 from .stereo.fill import PlanarFillConfig, fill_planar_regions
@@ -186,37 +192,49 @@ class TerrainResult:
         }
 
 
-def level_from_floor(samples: GridSample, *, max_tilt_deg: float = 45.0,
-                     rng: np.random.Generator | int = 0) -> Transform | None:
+def level_from_floor(samples: GridSample, *, max_tilt_deg: float = 45.0, min_height_m: float = 0.1,
+                     hypotheses: int = 400, rng: np.random.Generator | int = 0) -> Transform | None:
     """``T_yaw_<sample frame>`` from the floor seen in a camera-frame grid sample, or None.
 
-    The floor is the largest plane below the camera whose normal is within
-    ``max_tilt_deg`` of the camera's up (-y); the yaw frame's origin is put on it below
-    the camera, x along the optical axis projected on the floor.
+    The floor is the plane with most inliers among those below the camera (by at least
+    ``min_height_m``) whose normal is within ``max_tilt_deg`` of the camera's up (-y). The
+    yaw frame's origin is put on it below the camera, x along the optical axis projected on
+    the floor.
     """
     if len(samples) < 50:
         return None
     rng = np.random.default_rng(rng)
-    up_cam = np.array([0.0, -1.0, 0.0])
-    cos_t = math.cos(math.radians(max_tilt_deg))
+    lut, gr, gc = grid_lookup(samples)
+    everyone = np.ones(len(samples), dtype=bool)
+    trip = local_triplets(lut, gr, gc, np.arange(len(samples)), everyone, 5, hypotheses, rng)
     pts = samples.points.astype(np.float64)
-    trip = rng.integers(0, len(pts), size=(600, 3))
-    thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
-
-    def below_and_level(normals: np.ndarray) -> np.ndarray:
-        return np.abs(normals @ up_cam) >= cos_t
-
-    res = plane_msac(pts, thr, trip, point_normals=samples.normals.astype(np.float64),
-                     normal_agreement_cos=0.8, hypothesis_ok=below_and_level,
-                     score_subset=rng.choice(len(pts), size=min(2000, len(pts)), replace=False))
-    if res.model is None or res.inliers.sum() < 50:
+    normals, offsets, ok = planes_from_triplets(pts[trip[:, 0]], pts[trip[:, 1]], pts[trip[:, 2]])
+    up_cam = np.array([0.0, -1.0, 0.0])
+    flip = normals @ up_cam < 0
+    normals[flip] *= -1.0
+    offsets[flip] *= -1.0
+    cam = samples.camera_position
+    height = normals @ cam + offsets
+    ok &= (normals @ up_cam >= math.cos(math.radians(max_tilt_deg))) & (height > min_height_m)
+    if not ok.any():
         return None
-    plane = Plane.estimate(pts[res.inliers]) or res.model
+    normals, offsets = normals[ok], offsets[ok]
+    sub = rng.choice(len(pts), size=min(2000, len(pts)), replace=False)
+    thr = np.clip(3.0 * samples.sigma_m[sub], 0.015, 0.06)
+    resid = np.abs(normals @ pts[sub].T + offsets[:, None])
+    agree = np.abs(normals @ samples.normals[sub].T.astype(np.float64)) >= 0.9
+    score = ((resid < thr) & agree).sum(axis=1)
+    best = int(np.argmax(score))
+    plane = Plane(normals[best], offsets[best])
+    all_thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
+    inl = (plane.residuals(pts) < all_thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
+    if inl.sum() < 50:
+        return None
+    plane = Plane.estimate(pts[inl]) or plane
     if plane.normal @ up_cam < 0:
         plane = Plane(-plane.normal, -plane.offset)
-    cam = samples.camera_position
-    height = float(plane.signed_distance(cam))
-    if height <= 0.05:
+    height_m = float(plane.signed_distance(cam))
+    if height_m <= min_height_m:
         return None
     z = plane.normal
     x = np.array([0.0, 0.0, 1.0]) - z * z[2]
@@ -225,7 +243,7 @@ def level_from_floor(samples: GridSample, *, max_tilt_deg: float = 45.0,
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     R = np.vstack([x, y, z])
-    t = np.array([0.0, 0.0, height]) - R @ cam
+    t = np.array([0.0, 0.0, height_m]) - R @ cam
     return Transform.from_rt(R, t, "yaw", samples.frame)
 
 
@@ -256,6 +274,9 @@ class Pipeline:
         self.rectification: Rectification = compute_rectification(calibration)
         if self.config.max_disparity_px is not None:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
+        elif calibration.ndisp:
+            # The file says how far its disparities go (Middlebury's ndisp).
+            self.max_disparity_px = min(-(-calibration.ndisp // 16) * 16, (calibration.width // 2) // 16 * 16)
         else:
             n = choose_max_disparity(self.rectification, self.config.min_depth_m)
             self.max_disparity_px = min(n, (calibration.width // 2) // 16 * 16)

@@ -48,6 +48,9 @@ class TerrainConfig:
         riser's top edge.
     edge_band_m : float
         Samples this close to a riser plane count when finding its top and bottom edges.
+    chain_tolerance_m : float
+        A riser's bottom edge must be within this of the level the step before it ended
+        (unless that level is above the cameras and the edge is hidden).
     """
 
     min_rise_m: float = 0.04
@@ -60,6 +63,7 @@ class TerrainConfig:
     axis_spread_deg: float = 20.0
     tread_height_tolerance_m: float = 0.06
     edge_band_m: float = 0.02
+    chain_tolerance_m: float = 0.08
     min_tread_points: int = 15
 
     def __post_init__(self) -> None:
@@ -164,6 +168,19 @@ def _riser_edges(P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: 
     return float(lo), float(hi)
 
 
+def _tread_front(P: np.ndarray, plane: Plane, u: np.ndarray, v: np.ndarray, v_lo: float, v_hi: float,
+                 *, thr: float) -> float | None:
+    """Position along the stair axis of a tread's front edge (its nosing), from every sample
+    on its plane inside the stair's lateral extent; None if too few."""
+    near = plane.residuals(P) < thr
+    q = P[near]
+    lat = q @ v
+    s = (q @ u)[(lat > v_lo) & (lat < v_hi)]
+    if len(s) < 10:
+        return None
+    return float(np.percentile(s, 2))
+
+
 def _axis_from_normal(n: np.ndarray) -> np.ndarray:
     """Stair axis (horizontal unit vector pointing up the stairs) from a riser normal."""
     a = -np.array([n[0], n[1], 0.0])
@@ -264,54 +281,89 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
         else:
             merged.append(r)
 
-    # Ground: the horizontal plane with most points in front of the first riser.
+    # Ground: the lowest of the large horizontal planes (small spurious planes ignored).
     s_h = [P[h.indices] @ u for h in horizontals]
     v_h = [P[h.indices] @ v for h in horizontals]
-    ground_z, best = None, 0
-    for _h, z, s_arr in zip(horizontals, h_z, s_h, strict=True):
-        count = int(np.sum(s_arr < merged[0].s - 0.03))
-        if count >= config.min_tread_points and count > best and z < merged[0].z_hi - config.min_rise_m:
-            ground_z, best = z, count
-    if ground_z is None:
+    if horizontals:
+        counts = np.array([h.count for h in horizontals])
+        ground_z = min(z for z, c in zip(h_z, counts, strict=True) if c >= 0.25 * counts.max())
+    else:
         ground_z = merged[0].z_lo
 
-    # Keep risers that rise: each top above the one before.
-    ordered: list[_Riser] = []
-    for r in merged:
-        if r.z_hi < (ordered[-1].z_hi if ordered else ground_z) + config.min_rise_m / 2:
-            continue
-        ordered.append(r)
-
-    # Active horizontal plane above each riser: most inliers between it and the next riser.
-    steps: list[Step] = []
-    prev_top = ground_z
-    for i, r in enumerate(ordered):
-        s_next = ordered[i + 1].s if i + 1 < len(ordered) else np.inf
+    def tread_above(r: _Riser, s_next: float, level: float) -> int | None:
+        """Index of the active horizontal plane above riser ``r``: most inliers between it
+        and the next riser, at the height of the riser's top edge."""
         best_h, best_count = None, 0
-        for k, _h in enumerate(horizontals):
+        for k in range(len(horizontals)):
             z = h_z[k]
-            if abs(z - r.z_hi) > config.tread_height_tolerance_m or z < prev_top + config.min_rise_m / 2:
+            if abs(z - r.z_hi) > config.tread_height_tolerance_m or z < level + config.min_rise_m / 2:
                 continue
             between = ((s_h[k] > r.s) & (s_h[k] < s_next) & (v_h[k] > r.v_lo - 0.1)
                        & (v_h[k] < r.v_hi + 0.1))
             count = int(between.sum())
             if count >= config.min_tread_points and count > best_count:
                 best_h, best_count = k, count
-        if best_h is not None:
-            tread_plane, top = horizontals[best_h].plane, h_z[best_h]
-        else:
-            tread_plane, top = None, r.z_hi
-        rise = top - prev_top
-        if rise < config.min_rise_m:
+        return best_h
+
+    # Step candidates: every riser (top from the tread above it, else its top edge), and
+    # every tread no riser claimed (its riser too small or too poorly matched to be a plane;
+    # the riser is then put at the tread's front edge).
+    cands_all: list[tuple[float, float, _Riser | None, Plane, Plane | None]] = []
+    claimed: set[int] = set()
+    for i, r in enumerate(merged):
+        later = [q.s for q in merged[i + 1:] if q.z_hi > r.z_hi + config.min_rise_m / 2]
+        k = tread_above(r, later[0] if later else np.inf, ground_z)
+        if k is not None:
+            claimed.add(k)
+        tread_plane, top = (horizontals[k].plane, h_z[k]) if k is not None else (None, r.z_hi)
+        cands_all.append((r.s, top, r, r.plane, tread_plane))
+    v_lo_all = min(r.v_lo for r in merged) - 0.1
+    v_hi_all = max(r.v_hi for r in merged) + 0.1
+    for k, h in enumerate(horizontals):
+        if k in claimed or h.count < config.min_tread_points or h_z[k] < ground_z + config.min_rise_m:
             continue
-        run = ordered[i + 1].s - r.s if i + 1 < len(ordered) else None
-        n = r.plane.normal
-        distance = -r.plane.offset / n[0] if abs(n[0]) > 0.2 else r.s / max(abs(u[0]), 1e-6)
-        width = None if r.touches_border else r.v_hi - r.v_lo
+        front = _tread_front(P, h.plane, u, v, v_lo_all, v_hi_all, thr=config.edge_band_m)
+        if front is None:
+            continue
+        virtual = Plane(-u, front)  # vertical, facing the robot, through the front edge
+        cands_all.append((front, h_z[k], None, virtual, h.plane))
+    cands_all.sort(key=lambda c: c[0])
+
+    # Chain the candidates from the ground up: each starts where the step before it ended.
+    # A riser's bottom edge may be hidden behind the nosing when that level is above the
+    # cameras. The first step must be a real riser plane.
+    chain: list[tuple[_Riser | None, float, Plane, Plane | None, float]] = []
+    level, last_s = ground_z, -np.inf
+    for s_pos, top, r, riser_plane, tread_plane in cands_all:
+        if top < level + config.min_rise_m or top - level > config.max_rise_m + config.edge_margin_m:
+            continue
+        if s_pos < last_s + config.merge_distance_m:
+            continue
+        if r is None:
+            if not chain:
+                continue
+        else:
+            if r.z_lo < level - config.edge_margin_m:
+                continue  # reaches below the current level: a wall or a side face
+            hidden = level > cam[2] - config.edge_margin_m
+            if r.z_lo > level + config.chain_tolerance_m and not hidden:
+                continue  # floats above the current level: not the next step
+        chain.append((r, top, riser_plane, tread_plane, s_pos))
+        level, last_s = top, s_pos
+
+    steps: list[Step] = []
+    prev_top = ground_z
+    for i, (r, top, riser_plane, tread_plane, s_pos) in enumerate(chain):
+        rise = top - prev_top
+        run = chain[i + 1][4] - s_pos if i + 1 < len(chain) else None
+        n = riser_plane.normal
+        distance = -riser_plane.offset / n[0] if abs(n[0]) > 0.2 else s_pos / max(abs(u[0]), 1e-6)
+        width = None if r is None or r.touches_border else r.v_hi - r.v_lo
         steps.append(Step(float(rise), None if run is None else float(run), float(distance),
-                          None if width is None else float(width), float(top), r.s, r.plane,
+                          None if width is None else float(width), float(top), s_pos, riser_plane,
                           tread_plane))
         prev_top = top
+    ordered = [c[0] for c in chain if c[0] is not None]
 
     if not steps:
         return _no_obstacle(planes, "risers found but no step rises above the ground", ground_z)
@@ -357,12 +409,14 @@ def _intersect3(planes: list[tuple[np.ndarray, float]]) -> np.ndarray | None:
 def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) -> Polytope:
     """Vertices from plane intersections: riser x horizontal x lateral bounds."""
     by_s = {round(r.s, 6): r for r in risers}
+    # Steps without a riser plane of their own span the staircase's lateral extent.
+    default_lat = (min(r.v_lo for r in risers), max(r.v_hi for r in risers)) if risers else (-0.5, 0.5)
     verts: list[np.ndarray] = []
     faces: list[tuple[int, int, int, int]] = []
     prev_plane = (np.array([0.0, 0.0, 1.0]), -ground_z)
     for i, st in enumerate(steps):
         r = by_s.get(round(st.axis_position_m, 6))
-        v_lo, v_hi = (r.v_lo, r.v_hi) if r is not None else (-0.5, 0.5)
+        v_lo, v_hi = (r.v_lo, r.v_hi) if r is not None else default_lat
         riser = (st.riser.normal, st.riser.offset)
         top = (st.tread.normal, st.tread.offset) if st.tread is not None else (
             np.array([0.0, 0.0, 1.0]), -st.top_z_m)

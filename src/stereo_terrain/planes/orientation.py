@@ -54,8 +54,8 @@ class OrientationConfig:
         Seeds the sampling: a given seed gives the same planes.
     """
 
-    angle_tol_deg: float = 10.0
-    normal_agreement_deg: float = 25.0
+    angle_tol_deg: float = 6.0
+    normal_agreement_deg: float = 20.0
     threshold_sigmas: float = 3.0
     min_threshold_m: float = 0.012
     max_threshold_m: float = 0.05
@@ -152,11 +152,20 @@ def orient_plane(plane: Plane, up: np.ndarray, camera_position: np.ndarray, kind
     return plane.oriented_toward(camera_position)
 
 
-def _local_samples(
+def grid_lookup(samples: GridSample) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(lut, row, col)``: grid cell -> sample index (-1 if none), and each sample's cell."""
+    gh, gw = samples.grid_shape
+    lut = np.full(gh * gw, -1, dtype=np.int64)
+    lut[samples.grid_index] = np.arange(len(samples))
+    return lut.reshape(gh, gw), samples.grid_index // gw, samples.grid_index % gw
+
+
+def local_triplets(
     grid_lut: np.ndarray, gr: np.ndarray, gc: np.ndarray, first: np.ndarray, remaining: np.ndarray,
     radius: int, count: int, rng: np.random.Generator,
 ) -> np.ndarray:
-    """Draw ``count`` triplets: a first point from ``first``, two more nearby in the grid."""
+    """Draw up to ``count`` index triplets: a first point from ``first``, two more within
+    ``radius`` grid cells of it (so that most triplets lie on one surface)."""
     gh, gw = grid_lut.shape
     i0 = rng.choice(first, size=count * 2)
     off = rng.integers(-radius, radius + 1, size=(count * 2, 2, 2))
@@ -211,11 +220,7 @@ def extract_planes_orientation(
     N = samples.normals
     thr = np.clip(config.threshold_sigmas * samples.sigma_m, config.min_threshold_m,
                   config.max_threshold_m).astype(np.float32)
-    gh, gw = samples.grid_shape
-    lut = np.full(gh * gw, -1, dtype=np.int64)
-    lut[samples.grid_index] = np.arange(n_pts)
-    lut = lut.reshape(gh, gw)
-    gr, gc = samples.grid_index // gw, samples.grid_index % gw
+    lut, gr, gc = grid_lookup(samples)
     cos_tol, sin_tol = np.cos(np.radians(config.angle_tol_deg)), np.sin(np.radians(config.angle_tol_deg))
     agree_cos = float(np.cos(np.radians(config.normal_agreement_deg)))
     upf = up.astype(np.float32)
@@ -242,7 +247,7 @@ def extract_planes_orientation(
         if len(first) == 0:
             stop = "no remaining point has a horizontal or vertical normal"
             break
-        trip = _local_samples(lut, gr, gc, first, remaining, config.sample_radius_cells,
+        trip = local_triplets(lut, gr, gc, first, remaining, config.sample_radius_cells,
                               config.hypotheses_per_plane, rng)
         score = rng.choice(rest, size=min(config.score_points, len(rest)), replace=False)
         res = plane_msac(P, thr, trip, point_normals=N, normal_agreement_cos=agree_cos,
