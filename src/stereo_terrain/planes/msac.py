@@ -49,16 +49,25 @@ class Plane:
         object.__setattr__(self, "offset", float(self.offset) / norm)
 
     @classmethod
-    def estimate(cls, points: np.ndarray) -> Plane | None:
-        """Least-squares plane through ``points`` ((N, 3), N >= 3); None if degenerate."""
+    def estimate(cls, points: np.ndarray, weights: np.ndarray | None = None) -> Plane | None:
+        """(Weighted) least-squares plane through ``points`` ((N, 3), N >= 3); None if
+        degenerate."""
         p = np.asarray(points, dtype=np.float64)
         if p.ndim != 2 or p.shape[1] != 3:
             raise InputError(f"points must be (N, 3), got {p.shape}")
         if len(p) < 3:
             return None
-        c = p.mean(axis=0)
-        q = p - c
-        cov = q.T @ q
+        if weights is None:
+            c = p.mean(axis=0)
+            q = p - c
+            cov = q.T @ q
+        else:
+            w = np.asarray(weights, dtype=np.float64).reshape(-1)
+            if w.shape != (len(p),) or not np.all(w >= 0) or w.sum() <= 0:
+                raise InputError("weights must be (N,) non-negative with a positive sum")
+            c = (w[:, None] * p).sum(axis=0) / w.sum()
+            q = p - c
+            cov = (w[:, None] * q).T @ q
         w, v = np.linalg.eigh(cov)
         # Degenerate when the points are (nearly) collinear: second eigenvalue ~ 0.
         if w[1] <= 1e-12 * max(w[2], 1e-300) or not np.all(np.isfinite(v)):

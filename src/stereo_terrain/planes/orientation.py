@@ -66,7 +66,7 @@ class OrientationConfig:
     max_planes: int = 16
     sample_radius_cells: int = 5
     target_points: int = 12000
-    refine_iterations: int = 2
+    refine_iterations: int = 3
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -257,11 +257,15 @@ def extract_planes_orientation(
             break
         plane: Plane = res.model
         inl = res.inliers & remaining
-        # Refine: least squares on the inliers, keeping the orientation constraint.
+        # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that
+        # a hypothesis tilted across two levels settles on the better supported one; the
+        # orientation constraint is kept.
         for _ in range(config.refine_iterations):
             if inl.sum() < 3:
                 break
-            refit = Plane.estimate(P[inl])
+            ratio_r = plane.residuals(P[inl]) / thr[inl]
+            weights = np.clip(1.0 - ratio_r**2, 0.0, 1.0) ** 2 + 1e-6
+            refit = Plane.estimate(P[inl], weights)
             if refit is None or not orientation_ok(refit.normal[None, :])[0]:
                 break
             plane = refit
