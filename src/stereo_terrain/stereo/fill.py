@@ -67,7 +67,7 @@ class PlanarFillConfig:
     ring_px: int = 4
     inlier_threshold_px: float = 0.75
     min_inlier_ratio: float = 0.5
-    min_span_ratio: float = 0.5
+    min_span_ratio: float = 0.7
     hypotheses: int = 64
     max_support_points: int = 1000
     seed: int = 0
