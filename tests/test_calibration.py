@@ -79,8 +79,10 @@ def test_bad_calibration_files(tmp_path):
     with pytest.raises(InputError, match="not found"):
         read_calibration(tmp_path / "missing.yaml")
     p = tmp_path / "c.yaml"
-    p.write_text("%YAML:1.0\n---\nK1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
-                 "  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n")
+    p.write_text(
+        "%YAML:1.0\n---\nK1: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+        "  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
+    )
     with pytest.raises(CalibrationError, match="lacks 'D1'"):
         read_calibration(p)
     p.write_text("this is : not [ a calibration")

@@ -83,8 +83,13 @@ def test_required_trials():
     assert required_trials(0.5, 3, 0.99) == 35
 
 
-@given(st.integers(0, 2**31 - 1), st.floats(-np.pi, np.pi), st.floats(-1.5, 1.5), st.floats(-np.pi, np.pi),
-       st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-3, 3)))
+@given(
+    st.integers(0, 2**31 - 1),
+    st.floats(-np.pi, np.pi),
+    st.floats(-1.5, 1.5),
+    st.floats(-np.pi, np.pi),
+    st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-3, 3)),
+)
 def test_plane_fit_invariant_to_order_and_rigid_motion(seed, r, p, y, t):
     rng = np.random.default_rng(seed)
     pts, *_ = _noisy_plane(rng, n_in=60, n_out=0)

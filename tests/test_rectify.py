@@ -8,9 +8,13 @@ from stereo_terrain.rectify import compute_rectification, read_image, rectify, t
 
 def _calib(size=(640, 480)):
     return StereoCalibration(
-        np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]), np.array([-0.1, 0.01, 0, 0, 0]),
-        np.array([[500.0, 0, 322], [0, 500, 238], [0, 0, 1]]), np.array([-0.1, 0.01, 0, 0, 0]),
-        np.eye(3), np.array([-0.08, 0.0, 0.0]), size,
+        np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]]),
+        np.array([-0.1, 0.01, 0, 0, 0]),
+        np.array([[500.0, 0, 322], [0, 500, 238], [0, 0, 1]]),
+        np.array([-0.1, 0.01, 0, 0, 0]),
+        np.eye(3),
+        np.array([-0.08, 0.0, 0.0]),
+        size,
     )
 
 

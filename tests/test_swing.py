@@ -8,8 +8,18 @@ from stereo_terrain.terrain import NONE, STAIRS, Polytope, StairModel, Step
 
 
 def _model(rises, distance=1.42):
-    steps = tuple(Step(r, 0.3, distance + 0.3 * i, 1.0, sum(rises[: i + 1]), distance + 0.3 * i,
-                       Plane([-1.0, 0, 0], distance)) for i, r in enumerate(rises))
+    steps = tuple(
+        Step(
+            r,
+            0.3,
+            distance + 0.3 * i,
+            1.0,
+            sum(rises[: i + 1]),
+            distance + 0.3 * i,
+            Plane([-1.0, 0, 0], distance),
+        )
+        for i, r in enumerate(rises)
+    )
     return StairModel(STAIRS, steps, 0.0, 0.0, Polytope(np.zeros((0, 3))), "yaw")
 
 

@@ -171,8 +171,14 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
     finally:
         fs.release()
     return StereoCalibration(
-        values["K1"], values["D1"], values["K2"], values["D2"], values["R"],
-        values["T"].reshape(-1), (size[0], size[1]), source=str(path),
+        values["K1"],
+        values["D1"],
+        values["K2"],
+        values["D2"],
+        values["R"],
+        values["T"].reshape(-1),
+        (size[0], size[1]),
+        source=str(path),
     )
 
 
@@ -227,14 +233,20 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
     K1, K2 = mats["cam0"], mats["cam1"]
     if "doffs" in scalars and abs((K2[0, 2] - K1[0, 2]) - scalars["doffs"]) > 0.05:
         raise CalibrationError(
-            f"{path}: doffs={scalars['doffs']} disagrees with cam1.cx - cam0.cx = "
-            f"{K2[0, 2] - K1[0, 2]:.3f}"
+            f"{path}: doffs={scalars['doffs']} disagrees with cam1.cx - cam0.cx = {K2[0, 2] - K1[0, 2]:.3f}"
         )
     baseline_m = scalars["baseline"] / 1000.0
     ndisp = int(scalars["ndisp"]) if "ndisp" in scalars else None
     return StereoCalibration(
-        K1, np.zeros(5), K2, np.zeros(5), np.eye(3), np.array([-baseline_m, 0.0, 0.0]),
-        (int(scalars["width"]), int(scalars["height"])), rectified=True, ndisp=ndisp,
+        K1,
+        np.zeros(5),
+        K2,
+        np.zeros(5),
+        np.eye(3),
+        np.array([-baseline_m, 0.0, 0.0]),
+        (int(scalars["width"]), int(scalars["height"])),
+        rectified=True,
+        ndisp=ndisp,
         source=str(path),
     )
 
@@ -257,6 +269,13 @@ def read_stereodemo_json(path: str | Path) -> StereoCalibration:
     K1 = np.array([[fx, 0, cx0], [0, fy, cy], [0, 0, 1]])
     K2 = np.array([[fx, 0, cx1], [0, fy, cy], [0, 0, 1]])
     return StereoCalibration(
-        K1, np.zeros(5), K2, np.zeros(5), np.eye(3), np.array([-baseline, 0.0, 0.0]), size,
-        rectified=True, source=str(path),
+        K1,
+        np.zeros(5),
+        K2,
+        np.zeros(5),
+        np.eye(3),
+        np.array([-baseline, 0.0, 0.0]),
+        size,
+        rectified=True,
+        source=str(path),
     )

@@ -48,8 +48,10 @@ def _positive_int(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="stereo-terrain", description="Stairs and boxes ahead of a legged robot "
-                "from a calibrated stereo pair.")
+    p = _Parser(
+        prog="stereo-terrain",
+        description="Stairs and boxes ahead of a legged robot from a calibrated stereo pair.",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log what each stage does")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
@@ -60,10 +62,12 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("reconstruct", help="stereo pair -> terrain JSON")
     r.add_argument("left", type=Path)
     r.add_argument("right", type=Path)
-    r.add_argument("--calib", type=Path, required=True,
-                   help="OpenCV YAML, Middlebury calib.txt or stereodemo JSON")
-    r.add_argument("--rig", type=Path, help="rig YAML (T_body_camera, body_rpy); without it the "
-                   "floor is taken as level")
+    r.add_argument(
+        "--calib", type=Path, required=True, help="OpenCV YAML, Middlebury calib.txt or stereodemo JSON"
+    )
+    r.add_argument(
+        "--rig", type=Path, help="rig YAML (T_body_camera, body_rpy); without it the floor is taken as level"
+    )
     r.add_argument("--config", type=Path, help="pipeline config YAML")
     r.add_argument("--max-disparity", type=_positive_int, help="disparity range (multiple of 16)")
     r.add_argument("--json", type=Path, help="write the terrain result here ('-' for stdout)")
@@ -85,8 +89,10 @@ def _fmt(v: float | None, unit: str = "m") -> str:
 def _print_steps(title: str, steps: list[dict[str, Any]]) -> None:
     print(title)
     for i, s in enumerate(steps, 1):
-        print(f"  step {i}: rise {_fmt(s['rise'])}  run {_fmt(s['run'])}  distance {_fmt(s['distance'])}"
-              f"  width {_fmt(s['width'])}")
+        print(
+            f"  step {i}: rise {_fmt(s['rise'])}  run {_fmt(s['run'])}  distance {_fmt(s['distance'])}"
+            f"  width {_fmt(s['width'])}"
+        )
 
 
 def _write_json(data: dict[str, Any], target: Path) -> None:
@@ -104,8 +110,9 @@ def _plot(result, target: Path, truth: dict | None = None) -> None:
     try:
         from .viz.figure import save_result_figure
     except ImportError as exc:
-        raise InputError(f"--plot needs matplotlib ({exc}); install with pip install "
-                         "'stereo-terrain[viz]'") from None
+        raise InputError(
+            f"--plot needs matplotlib ({exc}); install with pip install 'stereo-terrain[viz]'"
+        ) from None
     try:
         save_result_figure(result, target, truth=truth)
     except OSError as exc:
@@ -129,16 +136,22 @@ def cmd_demo(args: argparse.Namespace) -> int:
     result = pipeline.run(scene.left, scene.right)
     data = result.to_json_dict()
     truth = scene.truth
-    print(f"stereo-terrain demo: {spec.image_size[0]}x{spec.image_size[1]} rendered staircase, "
-          f"disparity range {pipeline.max_disparity_px} px ({pipeline.backend.name})")
-    print(f"obstacle: found {data['obstacle']!r}, truth {truth['obstacle']!r}; "
-          f"stair yaw {data['yaw']:+.3f} rad (truth {truth['yaw']:+.3f})")
+    print(
+        f"stereo-terrain demo: {spec.image_size[0]}x{spec.image_size[1]} rendered staircase, "
+        f"disparity range {pipeline.max_disparity_px} px ({pipeline.backend.name})"
+    )
+    print(
+        f"obstacle: found {data['obstacle']!r}, truth {truth['obstacle']!r}; "
+        f"stair yaw {data['yaw']:+.3f} rad (truth {truth['yaw']:+.3f})"
+    )
     _print_steps("recovered steps:", data["steps"])
     _print_steps("true steps:", truth["steps"])
     sw = data["swing"]
     trig = "-" if sw["trigger_distance"] is None else f"{sw['trigger_distance']:.3f} m"
-    print(f"swing plan: height {sw['height']:.3f} m, raise after travelling {trig}, "
-          f"traversable: {sw['traversable']}")
+    print(
+        f"swing plan: height {sw['height']:.3f} m, raise after travelling {trig}, "
+        f"traversable: {sw['traversable']}"
+    )
     print("timing (ms): " + ", ".join(f"{k} {v:.1f}" for k, v in data["timing_ms"].items()))
     _write_json(data, out / "result.json")
     print(f"wrote {out / 'result.json'} and the scene in {out / 'scene'}")
@@ -172,8 +185,10 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         print(f"obstacle: {data['obstacle']} ({data['note']}); gravity from {data['gravity_source']}")
         _print_steps("steps:", data["steps"])
         sw = data["swing"]
-        print(f"swing: height {sw['height']:.3f} m, trigger {sw['trigger_distance']}, "
-              f"traversable {sw['traversable']}; total {data['timing_ms']['total']:.1f} ms")
+        print(
+            f"swing: height {sw['height']:.3f} m, trigger {sw['trigger_distance']}, "
+            f"traversable {sw['traversable']}; total {data['timing_ms']['total']:.1f} ms"
+        )
     if args.plot is not None:
         _plot(result, args.plot)
     return EXIT_OK
@@ -201,8 +216,9 @@ COMMANDS = {"demo": cmd_demo, "reconstruct": cmd_reconstruct, "render": cmd_rend
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s"
+    )
     try:
         return COMMANDS[args.command](args)
     except StereoTerrainError as exc:
@@ -213,8 +229,10 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:  # an internal error: say so, keep the traceback for the log
         log.debug("internal error", exc_info=True)
-        sys.stderr.write(f"stereo-terrain {args.command}: internal error: {type(exc).__name__}: {exc} "
-                         "(please report it; run with -v for details)\n")
+        sys.stderr.write(
+            f"stereo-terrain {args.command}: internal error: {type(exc).__name__}: {exc} "
+            "(please report it; run with -v for details)\n"
+        )
         if args.verbose:
             import traceback
 

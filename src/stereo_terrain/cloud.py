@@ -121,8 +121,12 @@ def transform_cloud(cloud: PointCloud, T: Transform) -> PointCloud:
         raise FrameError(f"cannot apply {T.name} to a cloud in frame '{cloud.frame}'")
     pts = T.apply(cloud.points)
     return PointCloud(
-        pts.astype(np.float32), cloud.valid, T.to_frame, cloud.sigma_m,
-        T.apply(cloud.camera_position[None, :].astype(np.float64))[0], cloud.confidence,
+        pts.astype(np.float32),
+        cloud.valid,
+        T.to_frame,
+        cloud.sigma_m,
+        T.apply(cloud.camera_position[None, :].astype(np.float64))[0],
+        cloud.confidence,
     )
 
 
@@ -209,8 +213,12 @@ def sample_grid(cloud: PointCloud, *, target_points: int = 12000, smooth_px: int
     dense = cnt > 0.6
     ok = (
         valid[rr, cc]
-        & dense[rr, cl] & dense[rr, cr] & dense[ru, cc] & dense[rd, cc]
-        & (norm > 0) & np.isfinite(norm)
+        & dense[rr, cl]
+        & dense[rr, cr]
+        & dense[ru, cc]
+        & dense[rd, cc]
+        & (norm > 0)
+        & np.isfinite(norm)
     )
     n = n / np.where(ok, norm, 1.0)[..., None]
     flat = np.flatnonzero(ok.reshape(-1))
@@ -277,8 +285,9 @@ def sample_disparity(
     ksize = (2 * k + 1, 2 * k + 1)
     vf = valid.astype(np.float32)
     cnt = cv2.boxFilter(vf, -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)
-    acc = cv2.boxFilter(np.where(valid, dd, 0.0).astype(np.float32), -1, ksize, normalize=True,
-                        borderType=cv2.BORDER_CONSTANT)
+    acc = cv2.boxFilter(
+        np.where(valid, dd, 0.0).astype(np.float32), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
+    )
     r0 = stride // 2
     rows = np.arange(r0, h, stride)
     cols = np.arange(r0, w, stride)

@@ -159,8 +159,9 @@ class Transform:
         return v @ self.rotation.T.astype(v.dtype if np.issubdtype(v.dtype, np.floating) else np.float64)
 
 
-def camera_mount(height_m: float, pitch_down_rad: float, *, forward_m: float = 0.0,
-                 roll_rad: float = 0.0) -> Transform:
+def camera_mount(
+    height_m: float, pitch_down_rad: float, *, forward_m: float = 0.0, roll_rad: float = 0.0
+) -> Transform:
     """``T_body_camera`` of a camera looking forward, pitched down by ``pitch_down_rad``.
 
     The camera centre sits ``height_m`` above the body origin and ``forward_m`` ahead.

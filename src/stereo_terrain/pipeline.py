@@ -93,8 +93,14 @@ class PipelineConfig:
             raise ConfigError("pipeline config must be a mapping")
         kwargs: dict[str, Any] = {}
         nested = {f.name: f.type for f in dataclasses.fields(cls)}
-        sub_types = {"sgbm": OpenCVSGBMConfig, "fill": PlanarFillConfig, "cloud": CloudConfig,
-                     "orientation": OrientationConfig, "terrain": TerrainConfig, "swing": SwingConfig}
+        sub_types = {
+            "sgbm": OpenCVSGBMConfig,
+            "fill": PlanarFillConfig,
+            "cloud": CloudConfig,
+            "orientation": OrientationConfig,
+            "terrain": TerrainConfig,
+            "swing": SwingConfig,
+        }
         for key, value in data.items():
             if key not in nested:
                 raise ConfigError(f"unknown pipeline config key '{key}'; known: {sorted(nested)}")
@@ -173,8 +179,13 @@ class TerrainResult:
             ],
             "yaw": r(t.yaw_rad),
             "planes": [
-                {"normal": [round(float(v), 5) for v in seg.plane.normal], "offset": r(seg.plane.offset),
-                 "kind": seg.kind, "inliers": int(seg.count), "rms": r(seg.rms_m, 5)}
+                {
+                    "normal": [round(float(v), 5) for v in seg.plane.normal],
+                    "offset": r(seg.plane.offset),
+                    "kind": seg.kind,
+                    "inliers": int(seg.count),
+                    "rms": r(seg.rms_m, 5),
+                }
                 for seg in self.planes.segments
             ],
             "polytope": {
@@ -192,8 +203,14 @@ class TerrainResult:
         }
 
 
-def level_from_floor(samples: GridSample, *, max_tilt_deg: float = 45.0, min_height_m: float = 0.1,
-                     hypotheses: int = 400, rng: np.random.Generator | int = 0) -> Transform | None:
+def level_from_floor(
+    samples: GridSample,
+    *,
+    max_tilt_deg: float = 45.0,
+    min_height_m: float = 0.1,
+    hypotheses: int = 400,
+    rng: np.random.Generator | int = 0,
+) -> Transform | None:
     """``T_yaw_<sample frame>`` from the floor seen in a camera-frame grid sample, or None.
 
     The floor is the plane with most inliers among those below the camera (by at least
@@ -266,8 +283,14 @@ class Pipeline:
     'stairs'
     """
 
-    def __init__(self, calibration: StereoCalibration, rig: Rig | None = None,
-                 config: PipelineConfig | None = None, *, backend: DisparityBackend | None = None) -> None:
+    def __init__(
+        self,
+        calibration: StereoCalibration,
+        rig: Rig | None = None,
+        config: PipelineConfig | None = None,
+        *,
+        backend: DisparityBackend | None = None,
+    ) -> None:
         self.config = config or PipelineConfig()
         self.calibration = calibration
         self.rig = rig
@@ -305,15 +328,20 @@ class Pipeline:
         disp = self.backend.compute(pair, self.max_disparity_px)
         if self.config.fill.enabled:
             # Texture-poor faces: disparity from their outline (see stereo/fill.py).
-            values, filled = fill_planar_regions(disp.disparity, pair.left, self.config.fill,
-                                                 max_disparity_px=disp.max_disparity_px)
+            values, filled = fill_planar_regions(
+                disp.disparity, pair.left, self.config.fill, max_disparity_px=disp.max_disparity_px
+            )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
         T = self.T_yaw_camera_rect()
         source = "rig"
         if T is None:
-            cam_sample = sample_disparity(disp, Transform.identity("camera_rect"), self.config.cloud,
-                                          target_points=self.config.orientation.target_points)
+            cam_sample = sample_disparity(
+                disp,
+                Transform.identity("camera_rect"),
+                self.config.cloud,
+                target_points=self.config.orientation.target_points,
+            )
             T = level_from_floor(cam_sample)
             source = "floor"
             if T is None:
@@ -322,8 +350,9 @@ class Pipeline:
                 source = "assumed-level"
             samples = transform_sample(cam_sample, T)
         else:
-            samples = sample_disparity(disp, T, self.config.cloud,
-                                       target_points=self.config.orientation.target_points)
+            samples = sample_disparity(
+                disp, T, self.config.cloud, target_points=self.config.orientation.target_points
+            )
         lap("cloud")
         planes = extract_planes_orientation(samples, self.config.orientation)
         lap("planes")

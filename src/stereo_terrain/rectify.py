@@ -50,9 +50,7 @@ class Rectification:
     Q: np.ndarray = field(repr=False)
     T_camera_rect: Transform = field(repr=False)
     valid_roi: tuple[int, int, int, int]
-    maps: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = field(
-        default=None, repr=False
-    )
+    maps: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def image_size(self) -> tuple[int, int]:
@@ -90,8 +88,15 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
         )
     try:
         R1, R2, P1, P2, Q, roi1, _roi2 = cv2.stereoRectify(
-            calib.K1, calib.D1, calib.K2, calib.D2, (w, h), calib.R, calib.T.reshape(3, 1),
-            flags=cv2.CALIB_ZERO_DISPARITY, alpha=alpha,
+            calib.K1,
+            calib.D1,
+            calib.K2,
+            calib.D2,
+            (w, h),
+            calib.R,
+            calib.T.reshape(3, 1),
+            flags=cv2.CALIB_ZERO_DISPARITY,
+            alpha=alpha,
         )
     except cv2.error as exc:
         raise CalibrationError(f"stereoRectify failed on this calibration: {exc.err}") from None
@@ -114,8 +119,16 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
     if roi[2] <= 0 or roi[3] <= 0:
         roi = (0, 0, w, h)
     return Rectification(
-        calib, f, float(P1[0, 2]), float(P1[1, 2]), baseline, float(P2[0, 2] - P1[0, 2]),
-        Q, T_camera_rect, roi, (m1x, m1y, m2x, m2y),  # type: ignore[arg-type]
+        calib,
+        f,
+        float(P1[0, 2]),
+        float(P1[1, 2]),
+        baseline,
+        float(P2[0, 2] - P1[0, 2]),
+        Q,
+        T_camera_rect,
+        roi,
+        (m1x, m1y, m2x, m2y),  # type: ignore[arg-type]
     )
 
 

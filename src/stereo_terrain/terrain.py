@@ -68,9 +68,7 @@ class TerrainConfig:
 
     def __post_init__(self) -> None:
         if not 0 < self.min_rise_m < self.max_rise_m:
-            raise ConfigError(
-                f"need 0 < min_rise_m < max_rise_m, got {self.min_rise_m}, {self.max_rise_m}"
-            )
+            raise ConfigError(f"need 0 < min_rise_m < max_rise_m, got {self.min_rise_m}, {self.max_rise_m}")
 
 
 @dataclass(frozen=True)
@@ -153,8 +151,9 @@ class _Riser:
     touches_border: bool
 
 
-def _riser_edges(P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *,
-                 thr: float) -> tuple[float, float]:
+def _riser_edges(
+    P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float
+) -> tuple[float, float]:
     """Bottom and top edge heights of a riser from every sample on its plane.
 
     Inliers alone stop short of the edges (normals there mix two faces); any sample within
@@ -168,8 +167,9 @@ def _riser_edges(P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: 
     return float(lo), float(hi)
 
 
-def _tread_front(P: np.ndarray, plane: Plane, u: np.ndarray, v: np.ndarray, v_lo: float, v_hi: float,
-                 *, thr: float) -> float | None:
+def _tread_front(
+    P: np.ndarray, plane: Plane, u: np.ndarray, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float
+) -> float | None:
     """Position along the stair axis of a tread's front edge (its nosing), from every sample
     on its plane inside the stair's lateral extent; None if too few."""
     near = plane.residuals(P) < thr
@@ -244,11 +244,22 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
             continue
         cols = samples.cols[seg.indices]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
-        cands.append(_Riser(seg.plane, seg.indices, float(np.median(pts @ u)), z_lo, z_hi,
-                            float(v_lo), float(v_hi), touches))
+        cands.append(
+            _Riser(
+                seg.plane,
+                seg.indices,
+                float(np.median(pts @ u)),
+                z_lo,
+                z_hi,
+                float(v_lo),
+                float(v_hi),
+                touches,
+            )
+        )
     if not cands:
-        return _no_obstacle(planes, "no vertical plane looks like a riser (all too tall, small or "
-                            "facing away)", lowest_z)
+        return _no_obstacle(
+            planes, "no vertical plane looks like a riser (all too tall, small or facing away)", lowest_z
+        )
 
     # Dominant stair axis: the riser direction supported by most points.
     yaws = np.array([math.atan2(*_axis_from_normal(c.plane.normal)[[1, 0]]) for c in cands])
@@ -258,8 +269,9 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     support = (diff <= spread) @ weights
     ref = int(np.argmax(support))
     keep = diff[ref] <= spread
-    yaw = float(np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])),
-                           np.sum(weights[keep] * np.cos(yaws[keep]))))
+    yaw = float(
+        np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
+    )
     u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     risers = [c for c, k in zip(cands, keep, strict=True) if k]
@@ -276,8 +288,16 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
             lat = P[idx] @ v
             v_lo, v_hi = np.percentile(lat, [2, 98])
             z_lo, z_hi = _riser_edges(P, plane, v, v_lo, v_hi, thr=config.edge_band_m)
-            merged[-1] = _Riser(plane, idx, float(np.median(P[idx] @ u)), z_lo, z_hi,
-                                float(v_lo), float(v_hi), a.touches_border or r.touches_border)
+            merged[-1] = _Riser(
+                plane,
+                idx,
+                float(np.median(P[idx] @ u)),
+                z_lo,
+                z_hi,
+                float(v_lo),
+                float(v_hi),
+                a.touches_border or r.touches_border,
+            )
         else:
             merged.append(r)
 
@@ -298,8 +318,7 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
             z = h_z[k]
             if abs(z - r.z_hi) > config.tread_height_tolerance_m or z < level + config.min_rise_m / 2:
                 continue
-            between = ((s_h[k] > r.s) & (s_h[k] < s_next) & (v_h[k] > r.v_lo - 0.1)
-                       & (v_h[k] < r.v_hi + 0.1))
+            between = (s_h[k] > r.s) & (s_h[k] < s_next) & (v_h[k] > r.v_lo - 0.1) & (v_h[k] < r.v_hi + 0.1)
             count = int(between.sum())
             if count >= config.min_tread_points and count > best_count:
                 best_h, best_count = k, count
@@ -311,7 +330,7 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     cands_all: list[tuple[float, float, _Riser | None, Plane, Plane | None]] = []
     claimed: set[int] = set()
     for i, r in enumerate(merged):
-        later = [q.s for q in merged[i + 1:] if q.z_hi > r.z_hi + config.min_rise_m / 2]
+        later = [q.s for q in merged[i + 1 :] if q.z_hi > r.z_hi + config.min_rise_m / 2]
         k = tread_above(r, later[0] if later else np.inf, ground_z)
         if k is not None:
             claimed.add(k)
@@ -359,9 +378,18 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
         n = riser_plane.normal
         distance = -riser_plane.offset / n[0] if abs(n[0]) > 0.2 else s_pos / max(abs(u[0]), 1e-6)
         width = None if r is None or r.touches_border else r.v_hi - r.v_lo
-        steps.append(Step(float(rise), None if run is None else float(run), float(distance),
-                          None if width is None else float(width), float(top), s_pos, riser_plane,
-                          tread_plane))
+        steps.append(
+            Step(
+                float(rise),
+                None if run is None else float(run),
+                float(distance),
+                None if width is None else float(width),
+                float(top),
+                s_pos,
+                riser_plane,
+                tread_plane,
+            )
+        )
         prev_top = top
     ordered = [c[0] for c in chain if c[0] is not None]
 
@@ -385,15 +413,26 @@ def _classify_single_step(step: Step, h_info, u, ground_z, config: TerrainConfig
     top_far = None
     for _h, z, s_h, _v in h_info:
         if abs(z - top_z) < 1e-9:
-            top_far = float(np.percentile(s_h[s_h > step.axis_position_m - 0.02], 98)) if np.any(
-                s_h > step.axis_position_m - 0.02) else None
+            top_far = (
+                float(np.percentile(s_h[s_h > step.axis_position_m - 0.02], 98))
+                if np.any(s_h > step.axis_position_m - 0.02)
+                else None
+            )
     if top_far is None:
         return STAIRS, note, [step]
     for _h, z, s_h, _v in h_info:
         if abs(z - ground_z) < config.min_rise_m and np.sum(s_h > top_far + 0.02) >= config.min_tread_points:
             depth = top_far - step.axis_position_m
-            boxed = Step(step.rise_m, float(depth), step.distance_m, step.width_m, step.top_z_m,
-                         step.axis_position_m, step.riser, step.tread)
+            boxed = Step(
+                step.rise_m,
+                float(depth),
+                step.distance_m,
+                step.width_m,
+                step.top_z_m,
+                step.axis_position_m,
+                step.riser,
+                step.tread,
+            )
             return BOX, note + "; ground seen beyond the top: a box", [boxed]
     return STAIRS, note, [step]
 
@@ -418,11 +457,18 @@ def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) ->
         r = by_s.get(round(st.axis_position_m, 6))
         v_lo, v_hi = (r.v_lo, r.v_hi) if r is not None else default_lat
         riser = (st.riser.normal, st.riser.offset)
-        top = (st.tread.normal, st.tread.offset) if st.tread is not None else (
-            np.array([0.0, 0.0, 1.0]), -st.top_z_m)
+        top = (
+            (st.tread.normal, st.tread.offset)
+            if st.tread is not None
+            else (np.array([0.0, 0.0, 1.0]), -st.top_z_m)
+        )
         lat_lo, lat_hi = (v, -v_lo), (v, -v_hi)
-        quad = [_intersect3([riser, prev_plane, lat_lo]), _intersect3([riser, prev_plane, lat_hi]),
-                _intersect3([riser, top, lat_hi]), _intersect3([riser, top, lat_lo])]
+        quad = [
+            _intersect3([riser, prev_plane, lat_lo]),
+            _intersect3([riser, prev_plane, lat_hi]),
+            _intersect3([riser, top, lat_hi]),
+            _intersect3([riser, top, lat_lo]),
+        ]
         if i + 1 < len(steps):
             nxt = (steps[i + 1].riser.normal, steps[i + 1].riser.offset)
         else:

@@ -76,8 +76,14 @@ class OrientationConfig:
             raise ConfigError(f"normal_agreement_deg must be in (0, 90), got {self.normal_agreement_deg}")
         if not 0 < self.min_threshold_m <= self.max_threshold_m:
             raise ConfigError("need 0 < min_threshold_m <= max_threshold_m")
-        for name in ("hypotheses_per_plane", "score_points", "min_plane_points", "max_planes",
-                     "sample_radius_cells", "target_points"):
+        for name in (
+            "hypotheses_per_plane",
+            "score_points",
+            "min_plane_points",
+            "max_planes",
+            "sample_radius_cells",
+            "target_points",
+        ):
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
 
@@ -161,8 +167,14 @@ def grid_lookup(samples: GridSample) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 def local_triplets(
-    grid_lut: np.ndarray, gr: np.ndarray, gc: np.ndarray, first: np.ndarray, remaining: np.ndarray,
-    radius: int, count: int, rng: np.random.Generator,
+    grid_lut: np.ndarray,
+    gr: np.ndarray,
+    gc: np.ndarray,
+    first: np.ndarray,
+    remaining: np.ndarray,
+    radius: int,
+    count: int,
+    rng: np.random.Generator,
 ) -> np.ndarray:
     """Draw up to ``count`` index triplets: a first point from ``first``, two more within
     ``radius`` grid cells of it (so that most triplets lie on one surface)."""
@@ -218,8 +230,9 @@ def extract_planes_orientation(
     n_pts = len(samples)
     P = samples.points
     N = samples.normals
-    thr = np.clip(config.threshold_sigmas * samples.sigma_m, config.min_threshold_m,
-                  config.max_threshold_m).astype(np.float32)
+    thr = np.clip(
+        config.threshold_sigmas * samples.sigma_m, config.min_threshold_m, config.max_threshold_m
+    ).astype(np.float32)
     lut, gr, gc = grid_lookup(samples)
     cos_tol, sin_tol = np.cos(np.radians(config.angle_tol_deg)), np.sin(np.radians(config.angle_tol_deg))
     agree_cos = float(np.cos(np.radians(config.normal_agreement_deg)))
@@ -247,11 +260,19 @@ def extract_planes_orientation(
         if len(first) == 0:
             stop = "no remaining point has a horizontal or vertical normal"
             break
-        trip = local_triplets(lut, gr, gc, first, remaining, config.sample_radius_cells,
-                              config.hypotheses_per_plane, rng)
+        trip = local_triplets(
+            lut, gr, gc, first, remaining, config.sample_radius_cells, config.hypotheses_per_plane, rng
+        )
         score = rng.choice(rest, size=min(config.score_points, len(rest)), replace=False)
-        res = plane_msac(P, thr, trip, point_normals=N, normal_agreement_cos=agree_cos,
-                         hypothesis_ok=orientation_ok, score_subset=score)
+        res = plane_msac(
+            P,
+            thr,
+            trip,
+            point_normals=N,
+            normal_agreement_cos=agree_cos,
+            hypothesis_ok=orientation_ok,
+            score_subset=score,
+        )
         if res.model is None:
             stop = "no hypothesis satisfied the orientation constraint"
             break

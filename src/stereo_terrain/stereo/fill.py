@@ -102,8 +102,11 @@ def flat_regions(
 
 
 def fill_planar_regions(
-    disparity: np.ndarray, left: np.ndarray, config: PlanarFillConfig | None = None,
-    *, max_disparity_px: float | None = None,
+    disparity: np.ndarray,
+    left: np.ndarray,
+    config: PlanarFillConfig | None = None,
+    *,
+    max_disparity_px: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Fill texture-poor planar regions of ``disparity`` from their supported plane.
 
@@ -142,8 +145,11 @@ def fill_planar_regions(
         # Only disparities on vertical edges are trusted: inside the face SGM has nothing to
         # match (its values there may be a ramp), and along horizontal edges the match is
         # ambiguous (the aperture problem).
-        support = (cv2.dilate(region.astype(np.uint8), kernel).astype(bool) & valid[y0:y1, x0:x1]
-                   & edges[y0:y1, x0:x1])
+        support = (
+            cv2.dilate(region.astype(np.uint8), kernel).astype(bool)
+            & valid[y0:y1, x0:x1]
+            & edges[y0:y1, x0:x1]
+        )
         vs, us = np.nonzero(support)
         if len(us) < 20:
             continue
@@ -152,8 +158,7 @@ def fill_planar_regions(
         if len(uvd) > config.max_support_points:
             uvd = uvd[rng.choice(len(uvd), config.max_support_points, replace=False)]
         trip = rng.integers(0, len(uvd), size=(config.hypotheses, 3))
-        res = plane_msac(uvd, config.inlier_threshold_px, trip,
-                         hypothesis_ok=lambda n: np.abs(n[:, 2]) > 0.3)
+        res = plane_msac(uvd, config.inlier_threshold_px, trip, hypothesis_ok=lambda n: np.abs(n[:, 2]) > 0.3)
         if res.model is None:
             continue
         inl = res.inliers

@@ -58,9 +58,7 @@ class OpenCVSGBMConfig:
         if self.block_size_px < 1 or self.block_size_px % 2 == 0 or self.block_size_px > 11:
             raise ConfigError(f"block_size_px must be odd in [1, 11], got {self.block_size_px}")
         if not 0 < self.p1_per_px < self.p2_per_px:
-            raise ConfigError(
-                f"need 0 < p1_per_px < p2_per_px, got {self.p1_per_px}, {self.p2_per_px}"
-            )
+            raise ConfigError(f"need 0 < p1_per_px < p2_per_px, got {self.p1_per_px}, {self.p2_per_px}")
         if self.mode not in _MODES:
             raise ConfigError(f"unknown SGBM mode '{self.mode}'; choose one of {sorted(_MODES)}")
 

@@ -52,8 +52,13 @@ def save_result_figure(result: TerrainResult, path: str | Path, *, truth: dict |
     samples = result.planes.samples
     cmap = plt.get_cmap("tab10")
     for k, seg in enumerate(result.planes.segments):
-        ax.scatter(samples.cols[seg.indices], samples.rows[seg.indices], s=1.5, color=cmap(k % 10),
-                   label=f"{seg.kind[0].upper()}{k}")
+        ax.scatter(
+            samples.cols[seg.indices],
+            samples.rows[seg.indices],
+            s=1.5,
+            color=cmap(k % 10),
+            label=f"{seg.kind[0].upper()}{k}",
+        )
     ax.set_title("rectified left + plane inliers (H/V)")
     ax.axis("off")
     if result.planes.segments:
@@ -80,8 +85,14 @@ def save_result_figure(result: TerrainResult, path: str | Path, *, truth: dict |
             x = s["distance"] * np.cos(t.yaw_rad)
             ztop = t.steps[i].top_z_m
             run = "?" if s["run"] is None else f"{100 * s['run']:.1f}"
-            ax.annotate(f"rise {100 * s['rise']:.1f} cm\nrun {run} cm", (x, ztop), xytext=(4, 6),
-                        textcoords="offset points", fontsize=7, color="r")
+            ax.annotate(
+                f"rise {100 * s['rise']:.1f} cm\nrun {run} cm",
+                (x, ztop),
+                xytext=(4, 6),
+                textcoords="offset points",
+                fontsize=7,
+                color="r",
+            )
     if truth and truth.get("steps"):
         xs, zs = _profile(truth["steps"], 0.0, truth.get("yaw", 0.0))
         ax.plot(xs, zs, "k--", lw=1, label="truth")

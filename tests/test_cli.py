@@ -1,0 +1,172 @@
+"""The command line: success paths and one-line, exit-2 errors for user mistakes."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from stereo_terrain.cli import main
+from stereo_terrain.synthetic import default_scene_spec, render_scene, write_scene
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory):
+    return write_scene(render_scene(default_scene_spec()), tmp_path_factory.mktemp("scene") / "s")
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _reconstruct_args(d, *extra):
+    return ["reconstruct", d / "left.png", d / "right.png", "--calib", d / "calib.yaml", *extra]
+
+
+def test_reconstruct_writes_the_json_contract(scene_dir, tmp_path, capsys):
+    out_json = tmp_path / "r.json"
+    code, out, err = _run(
+        _reconstruct_args(
+            scene_dir, "--rig", scene_dir / "rig.yaml", "--json", out_json, "--plot", tmp_path / "r.png"
+        ),
+        capsys,
+    )
+    assert code == 0, err
+    data = json.loads(out_json.read_text())
+    assert data["version"] == 1 and data["frame"] == "yaw" and data["obstacle"] == "stairs"
+    assert (tmp_path / "r.png").stat().st_size > 10_000
+    assert "obstacle: stairs" in out
+
+
+def test_reconstruct_json_to_stdout(scene_dir, capsys):
+    code, out, _ = _run(_reconstruct_args(scene_dir, "--rig", scene_dir / "rig.yaml", "--json", "-"), capsys)
+    assert code == 0 and json.loads(out)["obstacle"] == "stairs"
+
+
+def test_render_writes_scenes(tmp_path, capsys):
+    code, out, _ = _run(["render", "--out", tmp_path, "--count", 2, "--seed", 3, "--size", "320x240"], capsys)
+    assert code == 0
+    for name in ("scene_000", "scene_001"):
+        d = tmp_path / name
+        assert {"left.png", "right.png", "calib.yaml", "rig.yaml", "truth.json"} <= {
+            p.name for p in d.iterdir()
+        }
+
+
+def _assert_one_line_error(code, err, *words):
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+def test_missing_image(scene_dir, tmp_path, capsys):
+    code, _, err = _run(
+        ["reconstruct", tmp_path / "nope.png", scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"],
+        capsys,
+    )
+    _assert_one_line_error(code, err, "not found", "nope.png")
+
+
+def test_unreadable_image(scene_dir, tmp_path, capsys):
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(b"\x89PNG garbage")
+    code, _, err = _run(
+        ["reconstruct", bad, scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"], capsys
+    )
+    _assert_one_line_error(code, err, "cannot decode")
+
+
+def test_size_mismatch(scene_dir, tmp_path, capsys):
+    import cv2
+
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((240, 320), np.uint8))
+    code, _, err = _run(
+        ["reconstruct", small, scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"], capsys
+    )
+    _assert_one_line_error(code, err, "differ in size")
+    code, _, err = _run(["reconstruct", small, small, "--calib", scene_dir / "calib.yaml"], capsys)
+    _assert_one_line_error(code, err, "calibration is for 640x480")
+
+
+def test_malformed_and_non_finite_calibration(scene_dir, tmp_path, capsys):
+    bad = tmp_path / "calib.yaml"
+    bad.write_text((scene_dir / "calib.yaml").read_text().replace("K1", "KX", 1))
+    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    _assert_one_line_error(code, err, "K1")
+    text = (scene_dir / "calib.yaml").read_text()
+    start = text.index("data:", text.index("T:"))
+    bad.write_text(text[:start] + "data: [ .nan, 0., 0. ]\n")
+    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    _assert_one_line_error(code, err, "non-finite")
+
+
+def test_non_invertible_rig(scene_dir, tmp_path, capsys):
+    rig = tmp_path / "rig.yaml"
+    rig.write_text("T_body_camera: [[0,0,0,0],[0,0,0,0],[0,0,0,0],[0,0,0,1]]\n")
+    code, _, err = _run(_reconstruct_args(scene_dir, "--rig", rig), capsys)
+    _assert_one_line_error(code, err, "rotation")
+
+
+def test_bad_config_and_disparity(scene_dir, tmp_path, capsys):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("orientation: {angle_tol_deg: 100}\n")
+    code, _, err = _run(_reconstruct_args(scene_dir, "--config", cfg), capsys)
+    _assert_one_line_error(code, err, "angle_tol_deg")
+    code, _, err = _run(_reconstruct_args(scene_dir, "--max-disparity", "50"), capsys)
+    _assert_one_line_error(code, err, "multiple of 16")
+
+
+def test_unwritable_output(scene_dir, tmp_path, capsys):
+    code, _, err = _run(_reconstruct_args(scene_dir, "--json", tmp_path / "no" / "dir" / "r.json"), capsys)
+    _assert_one_line_error(code, err, "cannot write")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["reconstruct"],
+        ["frobnicate"],
+        ["render", "--out", "x", "--count", "0"],
+        ["render", "--out", "x", "--size", "big"],
+        ["demo", "--bogus"],
+    ],
+)
+def test_usage_errors_are_one_line_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_console_script_runs_as_a_process(scene_dir):
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "stereo_terrain.cli",
+            "reconstruct",
+            "missing.png",
+            "missing.png",
+            "--calib",
+            str(scene_dir / "calib.yaml"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+
+
+def test_demo_runs(tmp_path, capsys):
+    code, out, err = _run(["demo", "--out", tmp_path / "demo"], capsys)
+    assert code == 0, err
+    assert "recovered steps" in out and "swing plan" in out
+    assert (tmp_path / "demo" / "demo.png").is_file() and (tmp_path / "demo" / "result.json").is_file()
