@@ -245,7 +245,7 @@ def level_from_floor(
     plane = Plane(normals[best], offsets[best])
     all_thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
     inl = (plane.residuals(pts) < all_thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
-    if inl.sum() < 50:
+    if inl.sum() < 30:
         return None
     plane = Plane.estimate(pts[inl]) or plane
     if plane.normal @ up_cam < 0:

@@ -57,7 +57,7 @@ class TerrainConfig:
     max_rise_m: float = 0.30
     edge_margin_m: float = 0.06
     min_riser_width_m: float = 0.15
-    min_riser_points: int = 25
+    min_riser_points: int = 20
     merge_distance_m: float = 0.06
     max_facing_angle_deg: float = 70.0
     axis_spread_deg: float = 20.0
