@@ -81,25 +81,37 @@ def save_result_figure(result: TerrainResult, path: str | Path, *, truth: dict |
     if data["steps"]:
         xs, zs = _profile(data["steps"], t.ground_z_m, t.yaw_rad)
         ax.plot(xs, zs, "r-", lw=2, label=f"recovered {t.obstacle}")
+        lines: list[str] = []
         for i, s in enumerate(data["steps"]):
             x = s["distance"] * np.cos(t.yaw_rad)
             ztop = t.steps[i].top_z_m
             run = "?" if s["run"] is None else f"{100 * s['run']:.1f}"
             ax.annotate(
-                f"rise {100 * s['rise']:.1f} cm\nrun {run} cm",
-                (x, ztop),
-                xytext=(4, 6),
-                textcoords="offset points",
-                fontsize=7,
-                color="r",
+                str(i + 1), (x, ztop), xytext=(-9, 3), textcoords="offset points", fontsize=8, color="r"
             )
+            lines.append(f"{i + 1}: rise {100 * s['rise']:.1f} cm, run {run} cm")
+        ax.text(
+            0.98,
+            0.04,
+            "\n".join(lines),
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=7,
+            color="r",
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"},
+        )
     if truth and truth.get("steps"):
         xs, zs = _profile(truth["steps"], 0.0, truth.get("yaw", 0.0))
         ax.plot(xs, zs, "k--", lw=1, label="truth")
+    if data["steps"]:
+        last = data["steps"][-1]["distance"] * np.cos(t.yaw_rad)
+        ax.set_xlim(0.0, last + 1.0)
+        ax.set_ylim(t.ground_z_m - 0.2, t.steps[-1].top_z_m + 0.5)
     ax.set_xlabel("along stair axis [m]")
     ax.set_ylabel("height [m] (yaw frame)")
     ax.set_title("side view")
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     fig.savefig(str(path), dpi=90)
