@@ -292,8 +292,8 @@ def sample_disparity(
     rows = np.arange(r0, h, stride)
     cols = np.arange(r0, w, stride)
     gh, gw = len(rows), len(cols)
-    rr, cc = np.meshgrid(rows, cols, indexing="ij")
-    rr, cc = rr.reshape(-1), cc.reshape(-1)
+    grid_r, grid_c = np.meshgrid(rows, cols, indexing="ij")
+    rr, cc = grid_r.reshape(-1), grid_c.reshape(-1)
     ru, rd = np.clip(rr - k, 0, h - 1), np.clip(rr + k, 0, h - 1)
     cl, cr = np.clip(cc - k, 0, w - 1), np.clip(cc + k, 0, w - 1)
     dense = cnt > 0.6

@@ -80,11 +80,11 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
         cx, cy = float(K1[0, 2]), float(K1[1, 2])
         doffs = float(calib.K2[0, 2] - K1[0, 2])
         b = calib.baseline_m
-        Q = np.array(
+        Q_rect = np.array(
             [[1, 0, 0, -cx], [0, 1, 0, -cy], [0, 0, 0, f], [0, 0, 1.0 / b, doffs / b]], dtype=np.float64
         )
         return Rectification(
-            calib, f, cx, cy, b, doffs, Q, Transform(np.eye(4), "camera", "camera_rect"), (0, 0, w, h)
+            calib, f, cx, cy, b, doffs, Q_rect, Transform(np.eye(4), "camera", "camera_rect"), (0, 0, w, h)
         )
     try:
         R1, R2, P1, P2, Q, roi1, _roi2 = cv2.stereoRectify(
@@ -115,7 +115,7 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
             "calibration's cameras"
         )
     T_camera_rect = Transform.from_rt(R1.T, np.zeros(3), "camera", "camera_rect")
-    roi = tuple(int(v) for v in roi1)
+    roi: tuple[int, int, int, int] = (int(roi1[0]), int(roi1[1]), int(roi1[2]), int(roi1[3]))
     if roi[2] <= 0 or roi[3] <= 0:
         roi = (0, 0, w, h)
     return Rectification(

@@ -353,31 +353,31 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     # cameras. The first step must be a real riser plane.
     chain: list[tuple[_Riser | None, float, Plane, Plane | None, float]] = []
     level, last_s = ground_z, -np.inf
-    for s_pos, top, r, riser_plane, tread_plane in cands_all:
+    for s_pos, top, cand, riser_plane, tread_plane in cands_all:
         if top < level + config.min_rise_m or top - level > config.max_rise_m + config.edge_margin_m:
             continue
         if s_pos < last_s + config.merge_distance_m:
             continue
-        if r is None:
+        if cand is None:
             if not chain:
                 continue
         else:
-            if r.z_lo < level - config.edge_margin_m:
+            if cand.z_lo < level - config.edge_margin_m:
                 continue  # reaches below the current level: a wall or a side face
             hidden = level > cam[2] - config.edge_margin_m
-            if r.z_lo > level + config.chain_tolerance_m and not hidden:
+            if cand.z_lo > level + config.chain_tolerance_m and not hidden:
                 continue  # floats above the current level: not the next step
-        chain.append((r, top, riser_plane, tread_plane, s_pos))
+        chain.append((cand, top, riser_plane, tread_plane, s_pos))
         level, last_s = top, s_pos
 
     steps: list[Step] = []
     prev_top = ground_z
-    for i, (r, top, riser_plane, tread_plane, s_pos) in enumerate(chain):
+    for i, (cand, top, riser_plane, tread_plane, s_pos) in enumerate(chain):
         rise = top - prev_top
         run = chain[i + 1][4] - s_pos if i + 1 < len(chain) else None
         n = riser_plane.normal
         distance = -riser_plane.offset / n[0] if abs(n[0]) > 0.2 else s_pos / max(abs(u[0]), 1e-6)
-        width = None if r is None or r.touches_border else r.v_hi - r.v_lo
+        width = None if cand is None or cand.touches_border else cand.v_hi - cand.v_lo
         steps.append(
             Step(
                 float(rise),

@@ -94,8 +94,7 @@ def flat_regions(
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
     mag = cv2.magnitude(gx, gy) / 8.0  # Sobel's 3x3 kernel gain
-    flat = (mag < config.flat_gradient).astype(np.uint8)
-    flat = cv2.erode(flat, np.ones((3, 3), np.uint8))
+    flat = cv2.erode((mag < config.flat_gradient).astype(np.uint8), np.ones((3, 3), np.uint8))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(flat, connectivity=4)
     vertical_edges = np.abs(gx) / 8.0 > config.edge_gradient
     return count, labels, stats, vertical_edges
