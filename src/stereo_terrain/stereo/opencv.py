@@ -37,10 +37,6 @@ class OpenCVSGBMConfig:
         range are invalidated.
     mode : str
         ``sgbm`` (5 paths), ``sgbm_3way`` (fast), ``hh`` (full 8 paths), ``hh4``.
-    min_match_width_px : int
-        Narrower pairs are upsampled by an integer factor to at least this width before
-        matching, and the disparities brought back: at 320x240 a pixel of disparity is
-        several centimetres of depth, and matching on the upsampled pair halves it.
     """
 
     block_size_px: int = 5
@@ -52,7 +48,6 @@ class OpenCVSGBMConfig:
     disp12_max_diff_px: int = 1
     pre_filter_cap: int = 63
     mode: str = "sgbm_3way"
-    min_match_width_px: int = 640
 
     def __post_init__(self) -> None:
         if self.block_size_px < 1 or self.block_size_px % 2 == 0 or self.block_size_px > 11:
@@ -93,17 +88,7 @@ class OpenCVSGBM:
 
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
         n = check_max_disparity(max_disparity_px, pair.left.shape[1])
-        h, w = pair.left.shape
-        scale = max(1, -(-self.config.min_match_width_px // w))
-        left, right = pair.left, pair.right
-        if scale > 1:
-            left = cv2.resize(left, (w * scale, h * scale), interpolation=cv2.INTER_CUBIC)
-            right = cv2.resize(right, (w * scale, h * scale), interpolation=cv2.INTER_CUBIC)
-        raw = self._matcher(n * scale).compute(left, right)
-        disp = raw.astype(np.float32) / (16.0 * scale)
+        raw = self._matcher(n).compute(pair.left, pair.right)
+        disp = raw.astype(np.float32) / 16.0
         disp[raw < 0] = np.nan
-        if scale > 1:
-            # Sample the disparity at the original pixel centres.
-            off = (scale - 1) // 2
-            disp = np.ascontiguousarray(disp[off::scale, off::scale][:h, :w])
         return DisparityMap(disp, n, pair.rectification, None, self.name)
