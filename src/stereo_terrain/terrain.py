@@ -57,7 +57,7 @@ class TerrainConfig:
     max_rise_m: float = 0.30
     edge_margin_m: float = 0.06
     min_riser_width_m: float = 0.15
-    min_riser_points: int = 20
+    min_riser_points: int = 25
     merge_distance_m: float = 0.06
     max_facing_angle_deg: float = 70.0
     axis_spread_deg: float = 20.0
@@ -168,11 +168,20 @@ def _riser_edges(
 
 
 def _tread_front(
-    P: np.ndarray, plane: Plane, u: np.ndarray, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float
+    P: np.ndarray,
+    normals: np.ndarray,
+    plane: Plane,
+    u: np.ndarray,
+    v: np.ndarray,
+    v_lo: float,
+    v_hi: float,
+    *,
+    thr: float,
 ) -> float | None:
     """Position along the stair axis of a tread's front edge (its nosing), from every sample
-    on its plane inside the stair's lateral extent; None if too few."""
-    near = plane.residuals(P) < thr
+    on its plane inside the stair's lateral extent, except those on the staircase's side
+    faces (normals along the lateral axis); None if too few."""
+    near = (plane.residuals(P) < thr) & (np.abs(normals @ v) < 0.7)
     q = P[near]
     lat = q @ v
     s = (q @ u)[(lat > v_lo) & (lat < v_hi)]
@@ -341,7 +350,7 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     for k, h in enumerate(horizontals):
         if k in claimed or h.count < config.min_tread_points or h_z[k] < ground_z + config.min_rise_m:
             continue
-        front = _tread_front(P, h.plane, u, v, v_lo_all, v_hi_all, thr=config.edge_band_m)
+        front = _tread_front(P, samples.normals, h.plane, u, v, v_lo_all, v_hi_all, thr=config.edge_band_m)
         if front is None:
             continue
         virtual = Plane(-u, front)  # vertical, facing the robot, through the front edge

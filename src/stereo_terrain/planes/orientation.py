@@ -59,13 +59,13 @@ class OrientationConfig:
     threshold_sigmas: float = 3.0
     min_threshold_m: float = 0.012
     max_threshold_m: float = 0.05
-    hypotheses_per_plane: int = 100
-    score_points: int = 1000
-    min_plane_points: int = 30
+    hypotheses_per_plane: int = 150
+    score_points: int = 1500
+    min_plane_points: int = 40
     min_inlier_ratio: float = 0.01
     max_planes: int = 16
     sample_radius_cells: int = 5
-    target_points: int = 8000
+    target_points: int = 12000
     refine_iterations: int = 3
     seed: int = 0
 
