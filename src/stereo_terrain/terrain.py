@@ -409,12 +409,14 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
     if len(steps) == 1:
-        obstacle, note, steps = _classify_single_step(steps[0], h_info, u, ground_z, config, note)
+        obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)
     return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
 
 
-def _classify_single_step(step: Step, h_info, u, ground_z, config: TerrainConfig, note: str):
+def _classify_single_step(
+    step: Step, h_info: list, ground_z: float, config: TerrainConfig, note: str
+) -> tuple[str, str, list[Step]]:
     """One step is a box when its top is bounded: ground seen again beyond it."""
     if step.tread is None:
         return STAIRS, note + "; top not seen, reported as a one-step staircase", [step]
@@ -431,17 +433,7 @@ def _classify_single_step(step: Step, h_info, u, ground_z, config: TerrainConfig
         return STAIRS, note, [step]
     for _h, z, s_h, _v in h_info:
         if abs(z - ground_z) < config.min_rise_m and np.sum(s_h > top_far + 0.02) >= config.min_tread_points:
-            depth = top_far - step.axis_position_m
-            boxed = Step(
-                step.rise_m,
-                float(depth),
-                step.distance_m,
-                step.width_m,
-                step.top_z_m,
-                step.axis_position_m,
-                step.riser,
-                step.tread,
-            )
+            boxed = dataclasses.replace(step, run_m=float(top_far - step.axis_position_m))
             return BOX, note + "; ground seen beyond the top: a box", [boxed]
     return STAIRS, note, [step]
 
