@@ -46,6 +46,9 @@ class OrientationConfig:
         ... or explains less than this fraction of the scored rest (its cost is too high).
     max_planes : int
         Safety bound on the loop.
+    max_rounds : int
+        MSAC rounds (of ``hypotheses_per_plane`` each) tried for one plane before the loop
+        concludes that no acceptable plane is left.
     sample_radius_cells : int
         Second and third sample points are drawn within this many grid cells of the first.
     target_points : int
@@ -67,6 +70,7 @@ class OrientationConfig:
     sample_radius_cells: int = 5
     target_points: int = 12000
     refine_iterations: int = 3
+    max_rounds: int = 3
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -191,6 +195,46 @@ def local_triplets(
     return trip[:count]
 
 
+def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, orientation_ok, agree_cos):
+    """One MSAC round: local hypotheses, scored on a subset of the rest, refined by IRLS.
+
+    Returns ``(plane, inliers (N,) bool, inlier ratio on the scored subset)`` or None.
+    """
+    trip = local_triplets(
+        lut, gr, gc, first, remaining, config.sample_radius_cells, config.hypotheses_per_plane, rng
+    )
+    score = rng.choice(rest, size=min(config.score_points, len(rest)), replace=False)
+    res = plane_msac(
+        P,
+        thr,
+        trip,
+        point_normals=N,
+        normal_agreement_cos=agree_cos,
+        hypothesis_ok=orientation_ok,
+        score_subset=score,
+    )
+    if res.model is None:
+        return None
+    plane: Plane = res.model
+    inl = res.inliers & remaining
+    # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that a
+    # hypothesis tilted across two levels settles on the better supported one; the
+    # orientation constraint is kept.
+    for _ in range(config.refine_iterations):
+        if inl.sum() < 3:
+            break
+        ratio_r = plane.residuals(P[inl]) / thr[inl]
+        weights = np.clip(1.0 - ratio_r**2, 0.0, 1.0) ** 2 + 1e-6
+        refit = Plane.estimate(P[inl], weights)
+        if refit is None or not orientation_ok(refit.normal[None, :])[0]:
+            break
+        plane = refit
+        r = plane.residuals(P)
+        inl = remaining & (r < thr) & (np.abs(N @ plane.normal.astype(np.float32)) >= agree_cos)
+    ratio = float(np.mean(inl[score])) if len(score) else 0.0
+    return plane, inl, ratio
+
+
 def extract_planes_orientation(
     cloud: PointCloud | GridSample,
     config: OrientationConfig | None = None,
@@ -260,40 +304,25 @@ def extract_planes_orientation(
         if len(first) == 0:
             stop = "no remaining point has a horizontal or vertical normal"
             break
-        trip = local_triplets(
-            lut, gr, gc, first, remaining, config.sample_radius_cells, config.hypotheses_per_plane, rng
-        )
-        score = rng.choice(rest, size=min(config.score_points, len(rest)), replace=False)
-        res = plane_msac(
-            P,
-            thr,
-            trip,
-            point_normals=N,
-            normal_agreement_cos=agree_cos,
-            hypothesis_ok=orientation_ok,
-            score_subset=score,
-        )
-        if res.model is None:
+        # MSAC rounds: a round whose best plane is too small or too costly is retried with
+        # fresh samples (the inlier ratio of the rest can be low when clutter dominates it)
+        # before the loop stops; the number of hypotheses thus grows with need.
+        found = None
+        for _round in range(config.max_rounds):
+            found = _best_plane(
+                P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, orientation_ok, agree_cos
+            )
+            if (
+                found is not None
+                and found[1].sum() >= config.min_plane_points
+                and found[2] >= config.min_inlier_ratio
+            ):
+                break
+        if found is None:
             stop = "no hypothesis satisfied the orientation constraint"
             break
-        plane: Plane = res.model
-        inl = res.inliers & remaining
-        # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that
-        # a hypothesis tilted across two levels settles on the better supported one; the
-        # orientation constraint is kept.
-        for _ in range(config.refine_iterations):
-            if inl.sum() < 3:
-                break
-            ratio_r = plane.residuals(P[inl]) / thr[inl]
-            weights = np.clip(1.0 - ratio_r**2, 0.0, 1.0) ** 2 + 1e-6
-            refit = Plane.estimate(P[inl], weights)
-            if refit is None or not orientation_ok(refit.normal[None, :])[0]:
-                break
-            plane = refit
-            r = plane.residuals(P)
-            inl = remaining & (r < thr) & (np.abs(N @ plane.normal.astype(np.float32)) >= agree_cos)
+        plane, inl, ratio = found
         count = int(inl.sum())
-        ratio = float(np.mean(inl[score])) if len(score) else 0.0
         if count < config.min_plane_points:
             stop = f"best plane too small ({count} < {config.min_plane_points} points)"
             break
