@@ -269,14 +269,15 @@ def plane_msac(
         return empty
     normals, offsets = normals[ok], offsets[ok]
     sub = np.arange(n_pts) if score_subset is None else score_subset
-    ps = pts[sub].astype(np.float64)
-    t = np.broadcast_to(np.asarray(threshold, dtype=np.float64), (n_pts,))[sub]
-    r = np.abs(normals @ ps.T + offsets[:, None])  # (K, M)
+    # Scoring in float32: (K, M) residual matrices are the bulk of the work.
+    nf = normals.astype(np.float32)
+    ps = pts[sub].astype(np.float32)
+    inv_t = 1.0 / np.broadcast_to(np.asarray(threshold, dtype=np.float32), (n_pts,))[sub]
+    r = np.abs(nf @ ps.T + offsets.astype(np.float32)[:, None]) * inv_t  # normalised: threshold 1
     if point_normals is not None:
-        agree = np.abs(normals @ point_normals[sub].T) >= normal_agreement_cos
-        r = np.where(agree, r, np.inf)
-    # Normalised residuals: each point's threshold becomes 1.
-    cost = truncated_quadratic_cost(r / t, 1.0)
+        agree = np.abs(nf @ point_normals[sub].T.astype(np.float32)) >= normal_agreement_cos
+        r[~agree] = 1.0
+    cost = np.minimum(r * r, 1.0).sum(axis=1)
     best = int(np.argmin(cost))
     plane = Plane(normals[best], offsets[best])
     r_all = plane.residuals(pts)

@@ -62,14 +62,14 @@ class OrientationConfig:
     threshold_sigmas: float = 3.0
     min_threshold_m: float = 0.012
     max_threshold_m: float = 0.05
-    hypotheses_per_plane: int = 150
-    score_points: int = 1500
+    hypotheses_per_plane: int = 100
+    score_points: int = 800
     min_plane_points: int = 40
     min_inlier_ratio: float = 0.01
     max_planes: int = 16
     sample_radius_cells: int = 5
     target_points: int = 12000
-    refine_iterations: int = 3
+    refine_iterations: int = 2
     max_rounds: int = 3
     seed: int = 0
 
@@ -217,6 +217,7 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, ori
         return None
     plane: Plane = res.model
     inl = res.inliers & remaining
+    Pr, Nr, thr_r = P[rest], N[rest], thr[rest]
     # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that a
     # hypothesis tilted across two levels settles on the better supported one; the
     # orientation constraint is kept.
@@ -229,8 +230,9 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, ori
         if refit is None or not orientation_ok(refit.normal[None, :])[0]:
             break
         plane = refit
-        r = plane.residuals(P)
-        inl = remaining & (r < thr) & (np.abs(N @ plane.normal.astype(np.float32)) >= agree_cos)
+        ok_r = (plane.residuals(Pr) < thr_r) & (np.abs(Nr @ plane.normal.astype(np.float32)) >= agree_cos)
+        inl = np.zeros(len(P), dtype=bool)
+        inl[rest[ok_r]] = True
     ratio = float(np.mean(inl[score])) if len(score) else 0.0
     return plane, inl, ratio
 
