@@ -1,0 +1,149 @@
+"""The polytope stage on hand-made plane sets with exact geometry."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from stereo_terrain.cloud import GridSample
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.planes.msac import Plane
+from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
+from stereo_terrain.terrain import BOX, NONE, STAIRS, TerrainConfig, build_terrain
+
+CAM = np.array([0.0, 0.0, 0.6])
+EXACT_M = 1e-6
+SPACING_M = 0.02
+
+
+def _grid(u_range, v_range):
+    a = np.arange(*u_range, SPACING_M)
+    b = np.arange(*v_range, SPACING_M)
+    return np.array(np.meshgrid(a, b, indexing="ij")).reshape(2, -1).T
+
+
+def _stairs(n_steps=3, rise=0.17, run=0.29, yaw=0.0, distance=1.3, width=1.0, landing=0.6, box_depth=None):
+    """Points of ground, risers and treads in the yaw frame, and their segments."""
+    u = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    s0 = distance * np.cos(yaw)
+    parts = []  # (points, normals, kind, plane)
+    g = _grid((0.8, s0 + n_steps * run + 1.0), (-1.5, 1.5))
+    ground = g[:, :1] * u + g[:, 1:] * v
+    if box_depth is None:
+        # ground not under the stairs
+        ground = ground[(ground @ u < s0) | (np.abs(ground @ v) > width / 2)]
+    else:
+        ground = ground[(ground @ u < s0) | (ground @ u > s0 + box_depth) | (np.abs(ground @ v) > width / 2)]
+    parts.append((ground, np.tile([0, 0, 1.0], (len(ground), 1)), HORIZONTAL, Plane([0, 0, 1.0], 0.0)))
+    for i in range(n_steps):
+        s_i = s0 + i * run
+        lat_z = _grid((-width / 2, width / 2), (i * rise + 0.01, (i + 1) * rise - 0.01))
+        riser = s_i * u + lat_z[:, :1] * v + lat_z[:, 1:] * np.array([0, 0, 1.0])
+        parts.append((riser, np.tile(-u, (len(riser), 1)), VERTICAL, Plane(-u, s_i)))
+        depth = box_depth if box_depth is not None else (run if i + 1 < n_steps else landing)
+        tz = (i + 1) * rise
+        st_lat = _grid((s_i + 0.01, s_i + depth - 0.01), (-width / 2, width / 2))
+        tread = st_lat[:, :1] * u + st_lat[:, 1:] * v + np.array([0, 0, tz])
+        parts.append((tread, np.tile([0, 0, 1.0], (len(tread), 1)), HORIZONTAL, Plane([0, 0, 1.0], -tz)))
+    pts = np.vstack([p[0] for p in parts]).astype(np.float32)
+    nrm = np.vstack([p[1] for p in parts]).astype(np.float32)
+    n = len(pts)
+    samples = GridSample(
+        points=pts,
+        normals=nrm,
+        sigma_m=np.full(n, 0.005, np.float32),
+        rows=np.zeros(n, np.int32),
+        cols=np.full(n, 300, np.int32),
+        grid_index=np.arange(n, dtype=np.int32),
+        grid_shape=(1, n),
+        stride_px=5,
+        frame="yaw",
+        camera_position=CAM,
+    )
+    segs, start = [], 0
+    for p, _n, kind, plane in parts:
+        idx = np.arange(start, start + len(p))
+        segs.append(PlaneSegment(plane, kind, idx, 0.0))
+        start += len(p)
+    # Columns: put two samples at the image borders so that no riser "touches" them.
+    cols = samples.cols.copy()
+    cols[0], cols[1] = 0, 639
+    samples = GridSample(**{**samples.__dict__, "cols": cols})
+    order = np.random.default_rng(0).permutation(len(segs))  # planes come unordered
+    return PlaneSet(tuple(segs[i] for i in order), samples, np.array([0, 0, 1.0]), "test", CAM)
+
+
+def test_staircase_dimensions_exact():
+    model = build_terrain(_stairs(n_steps=3, rise=0.17, run=0.29, distance=1.3))
+    assert model.obstacle == STAIRS and len(model.steps) == 3
+    for i, s in enumerate(model.steps):
+        assert s.rise_m == pytest.approx(0.17, abs=0.005)
+        assert s.distance_m == pytest.approx(1.3 + 0.29 * i, abs=EXACT_M)
+        if i < 2:
+            assert s.run_m == pytest.approx(0.29, abs=EXACT_M)
+    assert model.steps[-1].run_m is None
+    assert model.yaw_rad == pytest.approx(0.0, abs=EXACT_M)
+
+
+def test_yawed_staircase_distance_where_x_axis_meets_riser():
+    yaw = np.radians(20)
+    model = build_terrain(_stairs(yaw=yaw, distance=1.5))
+    assert model.yaw_rad == pytest.approx(yaw, abs=1e-6)
+    assert model.steps[0].distance_m == pytest.approx(1.5, abs=1e-4)
+    assert model.steps[1].distance_m == pytest.approx(1.5 + 0.29 / np.cos(yaw), abs=1e-4)
+
+
+def test_box_is_one_step_with_ground_beyond():
+    model = build_terrain(_stairs(n_steps=1, rise=0.2, box_depth=0.5))
+    assert model.obstacle == BOX
+    assert model.steps[0].rise_m == pytest.approx(0.2, abs=0.005)
+    assert model.steps[0].run_m == pytest.approx(0.5, abs=0.03)
+
+
+def test_ground_only_is_none():
+    full = _stairs()
+    ground = [s for s in full.segments if s.kind == HORIZONTAL and abs(s.plane.offset) < 1e-9]
+    model = build_terrain(PlaneSet(tuple(ground), full.samples, full.up, "test", CAM))
+    assert model.obstacle == NONE and model.note
+
+
+def test_empty_plane_set_is_none():
+    full = _stairs()
+    assert build_terrain(PlaneSet((), full.samples, full.up, "test", CAM)).obstacle == NONE
+
+
+def test_wall_is_not_a_step():
+    full = _stairs(n_steps=1, rise=1.5)  # a 1.5 m "riser": a wall
+    assert build_terrain(full).obstacle == NONE
+
+
+def test_needs_gravity_aligned_planes():
+    full = _stairs()
+    with pytest.raises(ConfigError):
+        build_terrain(PlaneSet(full.segments, full.samples, np.array([0, -1.0, 0]), "test", CAM))
+    with pytest.raises(ConfigError):
+        TerrainConfig(min_rise_m=0.5, max_rise_m=0.3)
+
+
+@given(
+    st.integers(2, 5),
+    st.floats(0.10, 0.22),
+    st.floats(0.25, 0.35),
+    st.floats(-0.4, 0.4),
+    st.floats(0.9, 2.0),
+)
+def test_polytope_vertices_lie_on_their_planes(n, rise, run, yaw, distance):
+    model = build_terrain(_stairs(n_steps=n, rise=rise, run=run, yaw=yaw, distance=distance))
+    assert model.obstacle == STAIRS and len(model.steps) == n
+    verts = model.polytope.vertices
+    assert len(model.polytope.faces) == 2 * n
+    for k, face in enumerate(model.polytope.faces):
+        step = model.steps[k // 2]
+        quad = verts[list(face)]
+        if k % 2 == 0:  # riser face
+            assert np.allclose(quad @ step.riser.normal + step.riser.offset, 0, atol=1e-6)
+        else:  # tread face at the step's top
+            assert np.allclose(quad[:, 2], step.top_z_m, atol=0.01)
+    for s in model.steps:
+        assert s.rise_m == pytest.approx(rise, abs=0.01)
