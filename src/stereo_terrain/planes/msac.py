@@ -232,6 +232,7 @@ def plane_msac(
     normal_agreement_cos: float = 0.8,
     hypothesis_ok: Callable[[np.ndarray], np.ndarray] | None = None,
     score_subset: np.ndarray | None = None,
+    compute_inliers: bool = True,
 ) -> MsacResult:
     """Vectorised plane MSAC over precomputed minimal samples.
 
@@ -249,6 +250,9 @@ def plane_msac(
         ``hypothesis_ok(normals (K, 3)) -> (K,) bool``: the orientation constraint.
     score_subset : (M,) int, optional
         Indices of the points the hypotheses are scored on (all points if None).
+    compute_inliers : bool
+        False skips the inlier mask over all points (the result's mask is then empty), for
+        callers that compute inliers on a subset themselves.
 
     Returns
     -------
@@ -270,16 +274,26 @@ def plane_msac(
     normals, offsets = normals[ok], offsets[ok]
     sub = np.arange(n_pts) if score_subset is None else score_subset
     # Scoring in float32: (K, M) residual matrices are the bulk of the work.
-    nf = normals.astype(np.float32)
-    ps = pts[sub].astype(np.float32)
+    from ._kernels import msac_costs
+
     inv_t = 1.0 / np.broadcast_to(np.asarray(threshold, dtype=np.float32), (n_pts,))[sub]
-    r = np.abs(nf @ ps.T + offsets.astype(np.float32)[:, None]) * inv_t  # normalised: threshold 1
-    if point_normals is not None:
-        agree = np.abs(nf @ point_normals[sub].T.astype(np.float32)) >= normal_agreement_cos
-        r[~agree] = 1.0
-    cost = np.minimum(r * r, 1.0).sum(axis=1)
+    pn = (
+        np.zeros((0, 3), np.float32)
+        if point_normals is None
+        else np.ascontiguousarray(point_normals[sub], dtype=np.float32)
+    )
+    cost = msac_costs(
+        np.ascontiguousarray(normals, dtype=np.float32),
+        np.ascontiguousarray(offsets, dtype=np.float32),
+        np.ascontiguousarray(pts[sub], dtype=np.float32),
+        np.ascontiguousarray(inv_t, dtype=np.float32),
+        pn,
+        np.float32(normal_agreement_cos),
+    )
     best = int(np.argmin(cost))
     plane = Plane(normals[best], offsets[best])
+    if not compute_inliers:
+        return MsacResult(plane, np.zeros(0, dtype=bool), float(cost[best]), len(samples))
     r_all = plane.residuals(pts)
     inl = r_all < np.broadcast_to(threshold, (n_pts,))
     if point_normals is not None:

@@ -195,15 +195,17 @@ def local_triplets(
     return trip[:count]
 
 
-def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, orientation_ok, agree_cos):
+def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos):
     """One MSAC round: local hypotheses, scored on a subset of the rest, refined by IRLS.
 
-    Returns ``(plane, inliers (N,) bool, inlier ratio on the scored subset)`` or None.
+    ``rest_view`` is ``(rest indices, P[rest], N[rest], thr[rest])``. Returns ``(plane,
+    inliers (N,) bool, inlier ratio on the scored subset)`` or None.
     """
+    rest, Pr, Nr, thr_r = rest_view
     trip = local_triplets(
         lut, gr, gc, first, remaining, config.sample_radius_cells, config.hypotheses_per_plane, rng
     )
-    score = rng.choice(rest, size=min(config.score_points, len(rest)), replace=False)
+    score = rng.choice(len(rest), size=min(config.score_points, len(rest)), replace=False)
     res = plane_msac(
         P,
         thr,
@@ -211,29 +213,34 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, ori
         point_normals=N,
         normal_agreement_cos=agree_cos,
         hypothesis_ok=orientation_ok,
-        score_subset=score,
+        score_subset=rest[score],
+        compute_inliers=False,
     )
     if res.model is None:
         return None
     plane: Plane = res.model
-    inl = res.inliers & remaining
-    Pr, Nr, thr_r = P[rest], N[rest], thr[rest]
+
+    def inliers_of(pl: Plane) -> np.ndarray:
+        return (pl.residuals(Pr) < thr_r) & (np.abs(Nr @ pl.normal.astype(np.float32)) >= agree_cos)
+
+    inl_r = inliers_of(plane)
     # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that a
     # hypothesis tilted across two levels settles on the better supported one; the
     # orientation constraint is kept.
     for _ in range(config.refine_iterations):
-        if inl.sum() < 3:
+        if inl_r.sum() < 3:
             break
-        ratio_r = plane.residuals(P[inl]) / thr[inl]
+        q = Pr[inl_r]
+        ratio_r = plane.residuals(q) / thr_r[inl_r]
         weights = np.clip(1.0 - ratio_r**2, 0.0, 1.0) ** 2 + 1e-6
-        refit = Plane.estimate(P[inl], weights)
+        refit = Plane.estimate(q, weights)
         if refit is None or not orientation_ok(refit.normal[None, :])[0]:
             break
         plane = refit
-        ok_r = (plane.residuals(Pr) < thr_r) & (np.abs(Nr @ plane.normal.astype(np.float32)) >= agree_cos)
-        inl = np.zeros(len(P), dtype=bool)
-        inl[rest[ok_r]] = True
-    ratio = float(np.mean(inl[score])) if len(score) else 0.0
+        inl_r = inliers_of(plane)
+    ratio = float(np.mean(inl_r[score])) if len(score) else 0.0
+    inl = np.zeros(len(P), dtype=bool)
+    inl[rest[inl_r]] = True
     return plane, inl, ratio
 
 
@@ -310,9 +317,10 @@ def extract_planes_orientation(
         # fresh samples (the inlier ratio of the rest can be low when clutter dominates it)
         # before the loop stops; the number of hypotheses thus grows with need.
         found = None
+        rest_view = (rest, P[rest], N[rest], thr[rest])
         for _round in range(config.max_rounds):
             found = _best_plane(
-                P, N, thr, lut, gr, gc, first, remaining, rest, rng, config, orientation_ok, agree_cos
+                P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos
             )
             if (
                 found is not None
