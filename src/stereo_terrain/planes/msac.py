@@ -288,7 +288,7 @@ def plane_msac(
         np.ascontiguousarray(pts[sub], dtype=np.float32),
         np.ascontiguousarray(inv_t, dtype=np.float32),
         pn,
-        np.float32(normal_agreement_cos),
+        float(normal_agreement_cos),
     )
     best = int(np.argmin(cost))
     plane = Plane(normals[best], offsets[best])
