@@ -286,7 +286,7 @@ def sample_disparity(
     vf = valid.astype(np.float32)
     cnt = cv2.boxFilter(vf, -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)
     acc = cv2.boxFilter(
-        np.where(valid, dd, 0.0).astype(np.float32), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
+        np.where(valid, dd, np.float32(0.0)), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
     )
     r0 = stride // 2
     rows = np.arange(r0, h, stride)
@@ -300,20 +300,25 @@ def sample_disparity(
     ok = valid[rr, cc] & dense[rr, cl] & dense[rr, cr] & dense[ru, cc] & dense[rd, cc]
     idx = np.flatnonzero(ok)
     rr, cc, ru, rd, cl, cr = rr[idx], cc[idx], ru[idx], rd[idx], cl[idx], cr[idx]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = acc / cnt
     cx, cy, f = rect.cx, rect.cy, rect.focal_px
 
     def reproject(r: np.ndarray, c: np.ndarray, disp: np.ndarray) -> np.ndarray:
         z = fb / disp
         return np.column_stack([(c - cx) * z / f, (r - cy) * z / f, z])
 
-    p_l = reproject(rr, cl, mean[rr, cl])
-    p_r = reproject(rr, cr, mean[rr, cr])
-    p_u = reproject(ru, cc, mean[ru, cc])
-    p_d = reproject(rd, cc, mean[rd, cc])
-    n = np.cross(p_r - p_l, p_d - p_u)
-    norm = np.linalg.norm(n, axis=1)
+    def mean_at(r: np.ndarray, c: np.ndarray) -> np.ndarray:
+        return acc[r, c] / cnt[r, c]  # only where needed, not over the whole image
+
+    a = reproject(rr, cr, mean_at(rr, cr)) - reproject(rr, cl, mean_at(rr, cl))
+    b = reproject(rd, cc, mean_at(rd, cc)) - reproject(ru, cc, mean_at(ru, cc))
+    n = np.column_stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ]
+    )
+    norm = np.sqrt(np.einsum("ij,ij->i", n, n))
     good = (norm > 0) & np.isfinite(norm)
     n = n[good] / norm[good, None]
     rr, cc, idx = rr[good], cc[good], idx[good]

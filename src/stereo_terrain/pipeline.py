@@ -306,11 +306,16 @@ class Pipeline:
         if backend is None:
             backend = make_backend(self.config.backend, **dataclasses.asdict(self.config.sgbm))
         self.backend = backend
+        self._T_yaw_camera_rect: Transform | None = None
 
     def T_yaw_camera_rect(self) -> Transform | None:
+        """Rectified left camera -> yaw frame from the rig (None without a rig); composed
+        once, the rig being fixed for the pipeline's life."""
         if self.rig is None:
             return None
-        return self.rig.T_yaw_camera @ self.rectification.T_camera_rect
+        if self._T_yaw_camera_rect is None:
+            self._T_yaw_camera_rect = self.rig.T_yaw_camera @ self.rectification.T_camera_rect
+        return self._T_yaw_camera_rect
 
     def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""

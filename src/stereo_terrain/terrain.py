@@ -438,21 +438,29 @@ def _classify_single_step(
     return STAIRS, note, [step]
 
 
-def _intersect3(planes: list[tuple[np.ndarray, float]]) -> np.ndarray | None:
-    A = np.array([p[0] for p in planes])
-    b = -np.array([p[1] for p in planes])
-    if abs(np.linalg.det(A)) < 1e-9:
-        return None
-    return np.linalg.solve(A, b)
+def _intersect_all(triplets: list[list[tuple[np.ndarray, float]]]) -> np.ndarray:
+    """Points where each triplet of planes ``(n, d)`` meets, solved in one batch; NaN rows
+    for (near) parallel triplets."""
+    A = np.array([[p[0] for p in t] for t in triplets], dtype=np.float64).reshape(-1, 3, 3)
+    b = -np.array([[p[1] for p in t] for t in triplets], dtype=np.float64).reshape(-1, 3)
+    ok = np.abs(np.linalg.det(A)) > 1e-9
+    out = np.full((len(A), 3), np.nan)
+    if ok.any():
+        out[ok] = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+    return out
 
 
 def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) -> Polytope:
-    """Vertices from plane intersections: riser x horizontal x lateral bounds."""
+    """Vertices from plane intersections: riser x horizontal x lateral bounds.
+
+    Per step a riser quad (riser plane with the surface below, the tread above and the two
+    lateral bounds) and a tread quad (tread plane with this riser, the next one, and the
+    lateral bounds).
+    """
     by_s = {round(r.s, 6): r for r in risers}
     # Steps without a riser plane of their own span the staircase's lateral extent.
     default_lat = (min(r.v_lo for r in risers), max(r.v_hi for r in risers)) if risers else (-0.5, 0.5)
-    verts: list[np.ndarray] = []
-    faces: list[tuple[int, int, int, int]] = []
+    triplets: list[list[tuple[np.ndarray, float]]] = []
     prev_plane = (np.array([0.0, 0.0, 1.0]), -ground_z)
     for i, st in enumerate(steps):
         r = by_s.get(round(st.axis_position_m, 6))
@@ -464,25 +472,32 @@ def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) ->
             else (np.array([0.0, 0.0, 1.0]), -st.top_z_m)
         )
         lat_lo, lat_hi = (v, -v_lo), (v, -v_hi)
-        quad = [
-            _intersect3([riser, prev_plane, lat_lo]),
-            _intersect3([riser, prev_plane, lat_hi]),
-            _intersect3([riser, top, lat_hi]),
-            _intersect3([riser, top, lat_lo]),
-        ]
         if i + 1 < len(steps):
             nxt = (steps[i + 1].riser.normal, steps[i + 1].riser.offset)
         else:
             depth = st.run_m if st.run_m is not None else 0.3
-            back_s = st.axis_position_m + depth
-            nxt = (-u, back_s)  # the plane u . x = back_s, normal toward the camera
-        tread = [quad[3], quad[2], _intersect3([nxt, top, lat_hi]), _intersect3([nxt, top, lat_lo])]
-        for q in (quad, tread):
-            if any(p is None for p in q):
-                continue
-            base = len(verts)
-            verts.extend(q)  # type: ignore[arg-type]
-            faces.append((base, base + 1, base + 2, base + 3))
+            nxt = (-u, st.axis_position_m + depth)  # the plane u . x = s_back
+        triplets += [
+            [riser, prev_plane, lat_lo],
+            [riser, prev_plane, lat_hi],
+            [riser, top, lat_hi],
+            [riser, top, lat_lo],
+            [riser, top, lat_lo],
+            [riser, top, lat_hi],
+            [nxt, top, lat_hi],
+            [nxt, top, lat_lo],
+        ]
         prev_plane = top
-    arr = np.array(verts, dtype=np.float64) if verts else np.zeros((0, 3))
-    return Polytope(arr, tuple(faces))
+    if not triplets:
+        return Polytope(np.zeros((0, 3)))
+    pts = _intersect_all(triplets)
+    faces: list[tuple[int, int, int, int]] = []
+    keep = []
+    for q in range(len(pts) // 4):
+        quad = pts[4 * q : 4 * q + 4]
+        if np.isfinite(quad).all():
+            base = 4 * len(keep)
+            keep.append(quad)
+            faces.append((base, base + 1, base + 2, base + 3))
+    verts = np.vstack(keep) if keep else np.zeros((0, 3))
+    return Polytope(verts, tuple(faces))
