@@ -492,7 +492,7 @@ def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) ->
         return Polytope(np.zeros((0, 3)))
     pts = _intersect_all(triplets)
     faces: list[tuple[int, int, int, int]] = []
-    keep = []
+    keep: list[np.ndarray] = []
     for q in range(len(pts) // 4):
         quad = pts[4 * q : 4 * q + 4]
         if np.isfinite(quad).all():
