@@ -61,7 +61,8 @@ class PipelineConfig:
     Attributes
     ----------
     backend : str
-        Disparity backend (``opencv``).
+        Disparity backend: ``opencv`` (default; StereoSGBM) or ``sgm`` (the project's own
+        engine, work in progress).
     max_disparity_px : int or None
         Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
     fill : PlanarFillConfig
@@ -81,8 +82,8 @@ class PipelineConfig:
     swing: SwingConfig = field(default_factory=SwingConfig)
 
     def __post_init__(self) -> None:
-        if self.backend not in ("opencv",):
-            raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv")
+        if self.backend not in ("opencv", "sgm"):
+            raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv, sgm")
         if not self.min_depth_m > 0:
             raise ConfigError(f"min_depth_m must be > 0, got {self.min_depth_m}")
 
@@ -304,7 +305,8 @@ class Pipeline:
             n = choose_max_disparity(self.rectification, self.config.min_depth_m)
             self.max_disparity_px = min(n, (calibration.width // 2) // 16 * 16)
         if backend is None:
-            backend = make_backend(self.config.backend, **dataclasses.asdict(self.config.sgbm))
+            options = dataclasses.asdict(self.config.sgbm) if self.config.backend == "opencv" else {}
+            backend = make_backend(self.config.backend, **options)
         self.backend = backend
         self._T_yaw_camera_rect: Transform | None = None
 

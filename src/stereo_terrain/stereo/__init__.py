@@ -93,9 +93,13 @@ def check_max_disparity(max_disparity_px: int, width: int, multiple: int = 16) -
 
 
 def make_backend(name: str, **options) -> DisparityBackend:
-    """Build a disparity backend by name (``opencv``)."""
+    """Build a disparity backend by name (``opencv``, ``sgm``)."""
     if name == "opencv":
         from .opencv import OpenCVSGBM, OpenCVSGBMConfig
 
         return OpenCVSGBM(OpenCVSGBMConfig(**options))
-    raise ConfigError(f"unknown disparity backend '{name}'; choose one of: opencv")
+    if name == "sgm":
+        from .sgm import SGM, SGMConfig
+
+        return SGM(SGMConfig(**options))
+    raise ConfigError(f"unknown disparity backend '{name}'; choose one of: opencv, sgm")

@@ -1,0 +1,285 @@
+"""The project's own Semi-Global Matching engine (Hirschmüller 2005), compiled with Numba.
+
+Work in progress toward issue 3. It is correct and tested, but not yet tuned or
+benchmarked against OpenCV, and it is not the pipeline's default.
+
+Stages:
+
+1. **Census cost.** A 5x5 census transform (24 bits) of both images. The matching cost is
+   the Hamming distance between the two bit strings. It depends only on the order of
+   intensities, so a gain or offset between cheap webcams leaves it unchanged.
+2. **Aggregation along 4, 8 or 16 directions r**, the paper's recurrence:
+   ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d±1) + P1, min_k L_r(p-r, k) + P2')
+   - min_k L_r(p-r, k)``.
+   P1 penalises 1-px disparity steps. ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p-r)| /
+   p2_gradient_scale))`` penalises larger jumps, less so across intensity edges.
+   ``S(p, d) = sum_r L_r(p, d)`` is kept in uint16.
+3. **Disparity selection.** Winner-take-all with a uniqueness ratio, parabola sub-pixel
+   refinement, a left-right consistency check (the right image's disparities come from the
+   same aggregated volume), and speckle removal. Invalid pixels become NaN.
+4. **Confidence** of each pixel from its cost curve:
+   ``(S_second - S_best) / S_second``, with the second best taken outside ``d_best ± 1``.
+
+Memory: cost volume uint8 and aggregate uint16, ``3 * H * W * D`` bytes. That is
+118 MB at 640x480x128 and 59 MB at 64 disparities.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numba import njit
+
+from ..errors import ConfigError, InputError
+from ..rectify import RectifiedPair
+from . import DisparityMap, check_max_disparity
+
+_MAX_COST = 24  # 5x5 census: 24 comparisons
+
+# Directions (dy, dx) of the aggregation paths; 4 and 8 paths are prefixes of this list.
+_DIRECTIONS_16 = (
+    (0, 1),
+    (0, -1),
+    (1, 0),
+    (-1, 0),
+    (1, 1),
+    (1, -1),
+    (-1, 1),
+    (-1, -1),
+    (2, 1),
+    (2, -1),
+    (-2, 1),
+    (-2, -1),
+    (1, 2),
+    (1, -2),
+    (-1, 2),
+    (-1, -2),
+)
+
+
+@dataclass(frozen=True)
+class SGMConfig:
+    """Parameters of the SGM engine (costs are in census bits, 0-24).
+
+    Attributes
+    ----------
+    paths : int
+        Aggregation directions: 4, 8 or 16.
+    p1 : int
+        Penalty for disparity changes of 1 px.
+    p2 : int
+        Penalty for larger changes (before adaptation to the image gradient).
+    p2_gradient_scale : float
+        Grey levels of intensity change that halve P2.
+    uniqueness_ratio_pct : int
+        The best cost must beat the second best (outside +-1 px) by this margin.
+    lr_max_diff_px : float
+        Left-right consistency tolerance.
+    speckle_window_px, speckle_range_px : int
+        Speckle filter (OpenCV's filterSpeckles on the result).
+    """
+
+    paths: int = 8
+    p1: int = 7
+    p2: int = 86
+    p2_gradient_scale: float = 16.0
+    uniqueness_ratio_pct: int = 5
+    lr_max_diff_px: float = 1.0
+    speckle_window_px: int = 100
+    speckle_range_px: int = 2
+
+    def __post_init__(self) -> None:
+        if self.paths not in (4, 8, 16):
+            raise ConfigError(f"paths must be 4, 8 or 16, got {self.paths}")
+        if not 0 < self.p1 < self.p2 <= 255:
+            raise ConfigError(f"need 0 < p1 < p2 <= 255, got p1={self.p1}, p2={self.p2}")
+        if self.p2_gradient_scale <= 0:
+            raise ConfigError("p2_gradient_scale must be > 0")
+        if not 0 <= self.uniqueness_ratio_pct < 100:
+            raise ConfigError("uniqueness_ratio_pct must be in [0, 100)")
+
+
+@njit(cache=True, nogil=True)
+def census5x5(img: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """24-bit census of each pixel (outside the image counts as equal to the centre)."""
+    h, w = img.shape
+    out = np.zeros((h, w), dtype=np.uint32)
+    for y in range(h):
+        for x in range(w):
+            c = img[y, x]
+            bits = np.uint32(0)
+            for dy in range(-2, 3):
+                for dx in range(-2, 3):
+                    if dy == 0 and dx == 0:
+                        continue
+                    yy, xx = y + dy, x + dx
+                    v = c
+                    if 0 <= yy < h and 0 <= xx < w:
+                        v = img[yy, xx]
+                    bits = (bits << np.uint32(1)) | np.uint32(1 if v < c else 0)
+            out[y, x] = bits
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _popcount(v: np.uint32) -> int:  # pragma: no cover - compiled
+    v = v - ((v >> np.uint32(1)) & np.uint32(0x55555555))
+    v = (v & np.uint32(0x33333333)) + ((v >> np.uint32(2)) & np.uint32(0x33333333))
+    v = (v + (v >> np.uint32(4))) & np.uint32(0x0F0F0F0F)
+    return int((v * np.uint32(0x01010101)) >> np.uint32(24))
+
+
+@njit(cache=True, nogil=True)
+def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # pragma: no cover
+    """Hamming distances ``C[y, x, d]`` (uint8); no match (x - d < 0) costs the maximum."""
+    h, w = cl.shape
+    cost = np.empty((h, w, n_disp), dtype=np.uint8)
+    for y in range(h):
+        for x in range(w):
+            a = cl[y, x]
+            for d in range(n_disp):
+                if x - d >= 0:
+                    cost[y, x, d] = _popcount(a ^ cr[y, x - d])
+                else:
+                    cost[y, x, d] = _MAX_COST
+    return cost
+
+
+@njit(cache=True, nogil=True)
+def aggregate(
+    cost: np.ndarray, img: np.ndarray, directions: np.ndarray, p1: int, p2: int, p2_scale: float
+) -> np.ndarray:  # pragma: no cover - compiled
+    """``S = sum_r L_r`` over the given directions (uint16)."""
+    h, w, n = cost.shape
+    total = np.zeros((h, w, n), dtype=np.uint16)
+    big = 1 << 14
+    for k in range(directions.shape[0]):
+        dy, dx = directions[k, 0], directions[k, 1]
+        # Visit pixels so that p - r is always done before p.
+        y0, y1, ys = (0, h, 1) if dy >= 0 else (h - 1, -1, -1)
+        x0, x1, xs = (0, w, 1) if dx >= 0 else (w - 1, -1, -1)
+        lr = np.zeros((h, w, n), dtype=np.uint16) if (dy != 0) else np.zeros((1, w, n), dtype=np.uint16)
+        for y in range(y0, y1, ys):
+            row = y if dy != 0 else 0
+            for x in range(x0, x1, xs):
+                py, px = y - dy, x - dx
+                if py < 0 or py >= h or px < 0 or px >= w:
+                    for d in range(n):
+                        v = cost[y, x, d]
+                        lr[row, x, d] = v
+                        total[y, x, d] += v
+                    continue
+                prow = py if dy != 0 else 0
+                prev_min = big
+                for d in range(n):
+                    if lr[prow, px, d] < prev_min:
+                        prev_min = lr[prow, px, d]
+                grad = abs(int(img[y, x]) - int(img[py, px]))
+                p2a = int(p2 / (1.0 + grad / p2_scale))
+                if p2a < p1 + 1:
+                    p2a = p1 + 1
+                jump = prev_min + p2a
+                for d in range(n):
+                    best = int(lr[prow, px, d])
+                    if d > 0 and lr[prow, px, d - 1] + p1 < best:
+                        best = lr[prow, px, d - 1] + p1
+                    if d + 1 < n and lr[prow, px, d + 1] + p1 < best:
+                        best = lr[prow, px, d + 1] + p1
+                    if jump < best:
+                        best = jump
+                    v = cost[y, x, d] + best - prev_min
+                    lr[row, x, d] = v
+                    total[y, x, d] += v
+    return total
+
+
+@njit(cache=True, nogil=True)
+def select_disparity(
+    total: np.ndarray, uniqueness: float, lr_max_diff: float
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """WTA + uniqueness + parabola sub-pixel + left-right check; NaN where rejected.
+
+    Returns (disparity float32, confidence float32).
+    """
+    h, w, n = total.shape
+    disp = np.full((h, w), np.nan, dtype=np.float32)
+    conf = np.zeros((h, w), dtype=np.float32)
+    right_best = np.empty(w, dtype=np.int32)
+    for y in range(h):
+        # Right image's winner at each column xr: min over d of S[y, xr + d, d].
+        for xr in range(w):
+            best, arg = 1 << 30, -1
+            for d in range(n):
+                x = xr + d
+                if x >= w:
+                    break
+                v = total[y, x, d]
+                if v < best:
+                    best, arg = v, d
+            right_best[xr] = arg
+        for x in range(w):
+            best, arg = 1 << 30, 0
+            for d in range(n):
+                if d > x:
+                    break
+                v = int(total[y, x, d])
+                if v < best:
+                    best, arg = v, d
+            second = 1 << 30
+            for d in range(n):
+                if d > x:
+                    break
+                if d < arg - 1 or d > arg + 1:
+                    v = int(total[y, x, d])
+                    if v < second:
+                        second = v
+            if second < (1 << 30):
+                c = (second - best) / max(second, 1)
+                conf[y, x] = c
+                if best * (1.0 + uniqueness) > second:
+                    continue
+            else:
+                conf[y, x] = 1.0
+            sub = float(arg)
+            if 0 < arg < n - 1 and arg + 1 <= x:
+                a = float(total[y, x, arg - 1])
+                b = float(total[y, x, arg])
+                cc = float(total[y, x, arg + 1])
+                den = a - 2.0 * b + cc
+                if den > 0:
+                    sub = arg + 0.5 * (a - cc) / den
+            xr = x - arg
+            if xr < 0 or right_best[xr] < 0 or abs(right_best[xr] - arg) > lr_max_diff:
+                continue
+            disp[y, x] = sub
+    return disp, conf
+
+
+class SGM:
+    """The project's SGM engine behind the :class:`DisparityBackend` interface."""
+
+    name = "sgm"
+
+    def __init__(self, config: SGMConfig | None = None) -> None:
+        self.config = config or SGMConfig()
+        self._dirs = np.array(_DIRECTIONS_16[: self.config.paths], dtype=np.int64)
+
+    def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
+        left, right = pair.left, pair.right
+        if left.dtype != np.uint8 or left.ndim != 2 or left.shape != right.shape:
+            raise InputError(
+                f"SGM needs two (H, W) uint8 images of one size, got {left.shape} {left.dtype} and "
+                f"{right.shape} {right.dtype}"
+            )
+        n = check_max_disparity(max_disparity_px, left.shape[1])
+        c = self.config
+        cost = census_cost(census5x5(left), census5x5(right), n)
+        total = aggregate(cost, left, self._dirs, c.p1, c.p2, c.p2_gradient_scale)
+        disp, conf = select_disparity(total, c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px)
+        if c.speckle_window_px > 0:
+            fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
+            cv2.filterSpeckles(fixed, -16, c.speckle_window_px, c.speckle_range_px * 16)
+            disp[fixed == -16] = np.nan
+        return DisparityMap(disp, n, pair.rectification, conf, self.name)
