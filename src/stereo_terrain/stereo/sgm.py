@@ -8,7 +8,7 @@ Stages:
 1. **Census cost.** A 5x5 census transform (24 bits) of both images. The matching cost is
    the Hamming distance between the two bit strings. It depends only on the order of
    intensities, so a gain or offset between cheap webcams leaves it unchanged.
-2. **Aggregation along 4, 8 or 16 directions r**, the paper's recurrence:
+2. **Aggregation along 4 or 8 directions r**, the paper's recurrence:
    ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d±1) + P1, min_k L_r(p-r, k) + P2')
    - min_k L_r(p-r, k)``.
    P1 penalises 1-px disparity steps. ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p-r)| /
@@ -20,12 +20,13 @@ Stages:
 4. **Confidence** of each pixel from its cost curve:
    ``(S_second - S_best) / S_second``, with the second best taken outside ``d_best ± 1``.
 
-Memory: cost volume uint8 and aggregate uint16, ``3 * H * W * D`` bytes. That is
-118 MB at 640x480x128 and 59 MB at 64 disparities.
+Memory: the cost volume (uint8) and one aggregate per sweep (uint16), ``5 * H * W * D``
+bytes. That is 197 MB at 640x480x128 and 98 MB at 64 disparities.
 """
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -66,7 +67,8 @@ class SGMConfig:
     Attributes
     ----------
     paths : int
-        Aggregation directions: 4, 8 or 16.
+        Aggregation directions: 4 (rows and columns) or 8 (and diagonals). 16 is not
+        implemented yet.
     p1 : int
         Penalty for disparity changes of 1 px.
     p2 : int
@@ -91,8 +93,8 @@ class SGMConfig:
     speckle_range_px: int = 2
 
     def __post_init__(self) -> None:
-        if self.paths not in (4, 8, 16):
-            raise ConfigError(f"paths must be 4, 8 or 16, got {self.paths}")
+        if self.paths not in (4, 8):
+            raise ConfigError(f"paths must be 4 or 8 (16 is not implemented yet), got {self.paths}")
         if not 0 < self.p1 < self.p2 <= 255:
             raise ConfigError(f"need 0 < p1 < p2 <= 255, got p1={self.p1}, p2={self.p2}")
         if self.p2_gradient_scale <= 0:
@@ -148,50 +150,101 @@ def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # p
 
 
 @njit(cache=True, nogil=True)
-def aggregate(
-    cost: np.ndarray, img: np.ndarray, directions: np.ndarray, p1: int, p2: int, p2_scale: float
+def aggregate_sweep(
+    cost: np.ndarray, img: np.ndarray, forward: bool, diagonals: bool, p1: int, p2: int, p2_scale: float
 ) -> np.ndarray:  # pragma: no cover - compiled
-    """``S = sum_r L_r`` over the given directions (uint16)."""
+    """The paths that one raster sweep can carry, summed (uint16): along the row and from
+    the previous row, plus its two diagonals when ``diagonals``.
+
+    The forward sweep (top to bottom, left to right) carries the directions from the left,
+    from above, and from the two upper diagonals. The backward sweep carries their
+    opposites. Only the previous row of each path is kept, with sentinels at d = -1 and
+    d = D, so that the inner loop over d has no branches and vectorises.
+    """
     h, w, n = cost.shape
+    big = np.int32(1 << 14)
     total = np.zeros((h, w, n), dtype=np.uint16)
-    big = 1 << 14
-    for k in range(directions.shape[0]):
-        dy, dx = directions[k, 0], directions[k, 1]
-        # Visit pixels so that p - r is always done before p.
-        y0, y1, ys = (0, h, 1) if dy >= 0 else (h - 1, -1, -1)
-        x0, x1, xs = (0, w, 1) if dx >= 0 else (w - 1, -1, -1)
-        lr = np.zeros((h, w, n), dtype=np.uint16) if (dy != 0) else np.zeros((1, w, n), dtype=np.uint16)
-        for y in range(y0, y1, ys):
-            row = y if dy != 0 else 0
-            for x in range(x0, x1, xs):
-                py, px = y - dy, x - dx
-                if py < 0 or py >= h or px < 0 or px >= w:
+    # prev/cur rows for the three row-based paths: (path, x, d + 2 sentinels)
+    prev = np.full((3, w, n + 2), big, dtype=np.int32)
+    cur = np.full((3, w, n + 2), big, dtype=np.int32)
+    prev_min = np.zeros((3, w), dtype=np.int32)
+    cur_min = np.zeros((3, w), dtype=np.int32)
+    horiz = np.full(n + 2, big, dtype=np.int32)
+    hnew = np.full(n + 2, big, dtype=np.int32)
+    step = 1 if forward else -1
+    for i in range(h):
+        y = i if forward else h - 1 - i
+        yp = y - step
+        for j in range(w):
+            x = j if forward else w - 1 - j
+            c = cost[y, x]
+            # Path along the row (from the previous pixel of this sweep).
+            xp = x - step
+            if j == 0:
+                m = big
+                for d in range(n):
+                    hnew[d + 1] = c[d]
+                    if c[d] < m:
+                        m = c[d]
+            else:
+                pm = big
+                for d in range(1, n + 1):
+                    if horiz[d] < pm:
+                        pm = horiz[d]
+                g = abs(np.int32(img[y, x]) - np.int32(img[y, xp]))
+                p2a = max(np.int32(p1 + 1), np.int32(p2 / (1.0 + g / p2_scale)))
+                jump = pm + p2a
+                m = big
+                for d in range(1, n + 1):
+                    v = min(min(horiz[d], jump), min(horiz[d - 1], horiz[d + 1]) + p1)
+                    r = np.int32(c[d - 1]) + v - pm
+                    hnew[d] = r
+                    if r < m:
+                        m = r
+            for d in range(n):
+                total[y, x, d] += hnew[d + 1]
+            horiz, hnew = hnew, horiz
+            # Paths from the previous row: straight, and the two diagonals.
+            for k in range(3 if diagonals else 1):
+                if i == 0:
                     for d in range(n):
-                        v = cost[y, x, d]
-                        lr[row, x, d] = v
-                        total[y, x, d] += v
+                        cur[k, x, d + 1] = c[d]
+                    cm = big
+                    for d in range(n):
+                        if c[d] < cm:
+                            cm = c[d]
+                    cur_min[k, x] = cm
+                    for d in range(n):
+                        total[y, x, d] += c[d]
                     continue
-                prow = py if dy != 0 else 0
-                prev_min = big
+                xq = x if k == 0 else (x - 1 if k == 1 else x + 1)
+                if xq < 0 or xq >= w:
+                    for d in range(n):
+                        cur[k, x, d + 1] = c[d]
+                        total[y, x, d] += c[d]
+                    cm = big
+                    for d in range(n):
+                        if c[d] < cm:
+                            cm = c[d]
+                    cur_min[k, x] = cm
+                    continue
+                pm = prev_min[k, xq]
+                g = abs(np.int32(img[y, x]) - np.int32(img[yp, xq]))
+                p2a = max(np.int32(p1 + 1), np.int32(p2 / (1.0 + g / p2_scale)))
+                jump = pm + p2a
+                cm = big
+                pr = prev[k, xq]
+                for d in range(1, n + 1):
+                    v = min(min(pr[d], jump), min(pr[d - 1], pr[d + 1]) + p1)
+                    r = np.int32(c[d - 1]) + v - pm
+                    cur[k, x, d] = r
+                    if r < cm:
+                        cm = r
+                cur_min[k, x] = cm
                 for d in range(n):
-                    if lr[prow, px, d] < prev_min:
-                        prev_min = lr[prow, px, d]
-                grad = abs(int(img[y, x]) - int(img[py, px]))
-                p2a = int(p2 / (1.0 + grad / p2_scale))
-                if p2a < p1 + 1:
-                    p2a = p1 + 1
-                jump = prev_min + p2a
-                for d in range(n):
-                    best = int(lr[prow, px, d])
-                    if d > 0 and lr[prow, px, d - 1] + p1 < best:
-                        best = lr[prow, px, d - 1] + p1
-                    if d + 1 < n and lr[prow, px, d + 1] + p1 < best:
-                        best = lr[prow, px, d + 1] + p1
-                    if jump < best:
-                        best = jump
-                    v = cost[y, x, d] + best - prev_min
-                    lr[row, x, d] = v
-                    total[y, x, d] += v
+                    total[y, x, d] += cur[k, x, d + 1]
+        prev, cur = cur, prev
+        prev_min, cur_min = cur_min, prev_min
     return total
 
 
@@ -264,7 +317,7 @@ class SGM:
 
     def __init__(self, config: SGMConfig | None = None) -> None:
         self.config = config or SGMConfig()
-        self._dirs = np.array(_DIRECTIONS_16[: self.config.paths], dtype=np.int64)
+        self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="sgm")
 
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
         left, right = pair.left, pair.right
@@ -276,7 +329,13 @@ class SGM:
         n = check_max_disparity(max_disparity_px, left.shape[1])
         c = self.config
         cost = census_cost(census5x5(left), census5x5(right), n)
-        total = aggregate(cost, left, self._dirs, c.p1, c.p2, c.p2_gradient_scale)
+        diag = c.paths == 8
+        sweeps = [
+            self._pool.submit(aggregate_sweep, cost, left, fwd, diag, c.p1, c.p2, c.p2_gradient_scale)
+            for fwd in (True, False)
+        ]
+        total = sweeps[0].result()
+        total += sweeps[1].result()
         disp, conf = select_disparity(total, c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px)
         if c.speckle_window_px > 0:
             fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
