@@ -260,6 +260,9 @@ def select_disparity(
     disp = np.full((h, w), np.nan, dtype=np.float32)
     conf = np.zeros((h, w), dtype=np.float32)
     right_best = np.empty(w, dtype=np.int32)
+    # A pixel with only a few candidate disparities (near the left border, where most of
+    # the search range falls outside the right image) cannot pass a uniqueness test.
+    min_x = max(4, n // 4)
     for y in range(h):
         # Right image's winner at each column xr: min over d of S[y, xr + d, d].
         for xr in range(w):
@@ -272,7 +275,7 @@ def select_disparity(
                 if v < best:
                     best, arg = v, d
             right_best[xr] = arg
-        for x in range(w):
+        for x in range(min_x, w):
             best, arg = 1 << 30, 0
             for d in range(n):
                 if d > x:
@@ -294,7 +297,7 @@ def select_disparity(
                 if best * (1.0 + uniqueness) > second:
                     continue
             else:
-                conf[y, x] = 1.0
+                continue
             sub = float(arg)
             if 0 < arg < n - 1 and arg + 1 <= x:
                 a = float(total[y, x, arg - 1])
