@@ -263,40 +263,38 @@ def select_disparity(
     # A pixel with only a few candidate disparities (near the left border, where most of
     # the search range falls outside the right image) cannot pass a uniqueness test.
     min_x = max(4, n // 4)
+    best_arg = np.empty(w, dtype=np.int32)
+    best_cost = np.empty(w, dtype=np.int32)
+    right_min = np.empty(w, dtype=np.int32)
     for y in range(h):
-        # Right image's winner at each column xr: min over d of S[y, xr + d, d].
-        for xr in range(w):
-            best, arg = 1 << 30, -1
-            for d in range(n):
-                x = xr + d
-                if x >= w:
-                    break
-                v = total[y, x, d]
-                if v < best:
-                    best, arg = v, d
-            right_best[xr] = arg
-        for x in range(min_x, w):
+        # One contiguous pass: each pixel's winner, and the right image's winner at each
+        # column xr = x - d (min over the diagonal of the volume).
+        right_min[:] = 1 << 30
+        right_best[:] = -1
+        for x in range(w):
             best, arg = 1 << 30, 0
-            for d in range(n):
-                if d > x:
-                    break
-                v = int(total[y, x, d])
+            top = min(n, x + 1)
+            for d in range(top):
+                v = np.int32(total[y, x, d])
                 if v < best:
                     best, arg = v, d
+                if v < right_min[x - d]:
+                    right_min[x - d] = v
+                    right_best[x - d] = d
+            best_arg[x] = arg
+            best_cost[x] = best
+        for x in range(min_x, w):
+            arg, best = best_arg[x], best_cost[x]
             second = 1 << 30
-            for d in range(n):
-                if d > x:
-                    break
+            for d in range(min(n, x + 1)):
                 if d < arg - 1 or d > arg + 1:
-                    v = int(total[y, x, d])
+                    v = np.int32(total[y, x, d])
                     if v < second:
                         second = v
-            if second < (1 << 30):
-                c = (second - best) / max(second, 1)
-                conf[y, x] = c
-                if best * (1.0 + uniqueness) > second:
-                    continue
-            else:
+            if second >= (1 << 30):
+                continue
+            conf[y, x] = (second - best) / max(second, 1)
+            if best * (1.0 + uniqueness) > second:
                 continue
             sub = float(arg)
             if 0 < arg < n - 1 and arg + 1 <= x:
@@ -307,7 +305,7 @@ def select_disparity(
                 if den > 0:
                     sub = arg + 0.5 * (a - cc) / den
             xr = x - arg
-            if xr < 0 or right_best[xr] < 0 or abs(right_best[xr] - arg) > lr_max_diff:
+            if right_best[xr] < 0 or abs(right_best[xr] - arg) > lr_max_diff:
                 continue
             disp[y, x] = sub
     return disp, conf
