@@ -275,7 +275,7 @@ def select_disparity(
             best, arg = 1 << 30, 0
             top = min(n, x + 1)
             for d in range(top):
-                v = np.int32(total[y, x, d])
+                v = int(total[y, x, d])
                 if v < best:
                     best, arg = v, d
                 if v < right_min[x - d]:
@@ -288,7 +288,7 @@ def select_disparity(
             second = 1 << 30
             for d in range(min(n, x + 1)):
                 if d < arg - 1 or d > arg + 1:
-                    v = np.int32(total[y, x, d])
+                    v = int(total[y, x, d])
                     if v < second:
                         second = v
             if second >= (1 << 30):
