@@ -16,6 +16,15 @@ from typing import Any, NoReturn
 from .errors import InputError, StereoTerrainError
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE = 0, 1, 2
+
+# Disparity methods by name: backend and its options.
+_METHODS: dict[str, tuple[str, dict[str, Any]]] = {
+    "opencv": ("opencv", {}),
+    "opencv-sgbm": ("opencv", {"mode": "sgbm"}),
+    "opencv-hh": ("opencv", {"mode": "hh"}),
+    "sgm": ("sgm", {}),
+    "sgm-4": ("sgm", {"paths": 4}),
+}
 log = logging.getLogger("stereo_terrain")
 
 
@@ -72,6 +81,25 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--max-disparity", type=_positive_int, help="disparity range (multiple of 16)")
     r.add_argument("--json", type=Path, help="write the terrain result here ('-' for stdout)")
     r.add_argument("--plot", type=Path, help="write a figure (PNG)")
+
+    dp = sub.add_parser("disparity", help="stereo pair -> disparity map file")
+    dp.add_argument("left", type=Path)
+    dp.add_argument("right", type=Path)
+    dp.add_argument("--calib", type=Path, required=True)
+    dp.add_argument("--method", choices=sorted(_METHODS), default="opencv")
+    dp.add_argument(
+        "--max-disparity", type=_positive_int, help="multiple of 16 (default: from the calibration)"
+    )
+    dp.add_argument("--out", type=Path, required=True, help="DISP.pfm | DISP.npy | DISP.png")
+
+    ev = sub.add_parser("eval-disparity", help="bad-1/2/4, error and density on Middlebury-layout folders")
+    ev.add_argument("root", type=Path, help="a scene folder or a folder of scene folders")
+    ev.add_argument(
+        "--method",
+        action="append",
+        choices=sorted(_METHODS),
+        help="repeat to compare (default: sgm, opencv, opencv-hh)",
+    )
 
     g = sub.add_parser("render", help="write synthetic stereo scenes with ground truth")
     g.add_argument("--out", type=Path, required=True)
@@ -210,7 +238,119 @@ def cmd_render(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-COMMANDS = {"demo": cmd_demo, "reconstruct": cmd_reconstruct, "render": cmd_render}
+def _pair_disparity(method: str, calib, left, right, max_disparity: int | None):
+    import time
+
+    from .rectify import compute_rectification, rectify
+    from .stereo import check_max_disparity, choose_max_disparity, make_backend
+
+    rect = compute_rectification(calib)
+    pair = rectify(left, right, rect)
+    if max_disparity is not None:
+        n = check_max_disparity(max_disparity, calib.width)
+    elif calib.ndisp:
+        n = -(-calib.ndisp // 16) * 16
+    else:
+        n = choose_max_disparity(rect, 0.7)
+    backend_name, options = _METHODS[method]
+    backend = make_backend(backend_name, **options)
+    t0 = time.perf_counter()
+    dm = backend.compute(pair, n)
+    return dm, (time.perf_counter() - t0) * 1000.0
+
+
+def cmd_disparity(args: argparse.Namespace) -> int:
+    from .calibration import read_calibration
+    from .rectify import read_image
+    from .stereo.io import write_disparity
+
+    calib = read_calibration(args.calib)
+    dm, ms = _pair_disparity(
+        args.method, calib, read_image(args.left), read_image(args.right), args.max_disparity
+    )
+    write_disparity(args.out, dm.disparity)
+    print(f"{args.method}: {dm.max_disparity_px} disparities, density {dm.density:.1%}, {ms:.0f} ms")
+    print(f"wrote {args.out}")
+    return EXIT_OK
+
+
+def _scene_dirs(root: Path) -> list[Path]:
+    need = ("im0.png", "im1.png", "calib.txt", "disp0GT.pfm")
+    if all((root / n).is_file() for n in need):
+        return [root]
+    dirs = (
+        sorted(d for d in root.iterdir() if d.is_dir() and all((d / n).is_file() for n in need))
+        if root.is_dir()
+        else []
+    )
+    if not dirs:
+        raise InputError(f"no Middlebury scene (im0.png, im1.png, calib.txt, disp0GT.pfm) in {root}")
+    return dirs
+
+
+def cmd_eval_disparity(args: argparse.Namespace) -> int:
+    import cv2
+    import numpy as np
+
+    from .calibration import read_calibration
+    from .evaluation import disparity_errors
+    from .rectify import read_image
+    from .stereo.io import read_pfm
+
+    methods = args.method or ["sgm", "opencv", "opencv-hh"]
+    scenes = _scene_dirs(args.root)
+    rows = []
+    total = len(scenes) * len(methods)
+    for i, d in enumerate(scenes):
+        calib = read_calibration(d / "calib.txt")
+        left, right = read_image(d / "im0.png"), read_image(d / "im1.png")
+        truth = read_pfm(d / "disp0GT.pfm")
+        mask_path = d / "mask0nocc.png"
+        nocc: np.ndarray | None = None
+        if mask_path.is_file():
+            nocc = np.asarray(cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE)) == 255
+        for j, m in enumerate(methods):
+            k = i * len(methods) + j + 1
+            bar = "#" * (20 * k // total)
+            sys.stderr.write(f"\r[{bar:<20}] {k}/{total} {d.name} {m}        ")
+            sys.stderr.flush()
+            dm, ms = _pair_disparity(m, calib, left, right, None)
+            e_all = disparity_errors(dm.disparity, truth)
+            e_noc = disparity_errors(dm.disparity, truth, nocc) if nocc is not None else e_all
+            rows.append((d.name, m, e_noc, e_all, ms))
+    sys.stderr.write("\n")
+    print(
+        "| scene | method | bad-1 nonocc | bad-2 nonocc | bad-4 nonocc | bad-2 all | avg err px | density "
+        "| ms |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name, m, en, ea, ms in rows:
+        print(
+            f"| {name} | {m} | {en['bad1']:.1%} | {en['bad2']:.1%} | {en['bad4']:.1%} | {ea['bad2']:.1%} | "
+            f"{en['avgerr']:.2f} | {en['density']:.0%} | {ms:.0f} |"
+        )
+    for m in methods:
+        sel = [r for r in rows if r[1] == m]
+
+        def mean(get, sel=sel) -> float:
+            return float(np.mean([get(r) for r in sel]))
+
+        print(
+            f"| mean | {m} | {mean(lambda r: r[2]['bad1']):.1%} | {mean(lambda r: r[2]['bad2']):.1%} | "
+            f"{mean(lambda r: r[2]['bad4']):.1%} | {mean(lambda r: r[3]['bad2']):.1%} | "
+            f"{mean(lambda r: r[2]['avgerr']):.2f} | {mean(lambda r: r[2]['density']):.0%} | "
+            f"{mean(lambda r: r[4]):.0f} |"
+        )
+    return EXIT_OK
+
+
+COMMANDS = {
+    "demo": cmd_demo,
+    "reconstruct": cmd_reconstruct,
+    "render": cmd_render,
+    "disparity": cmd_disparity,
+    "eval-disparity": cmd_eval_disparity,
+}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -93,3 +93,37 @@ def summarize(scores: Iterable[SceneScore]) -> dict[str, float]:
         "first_distance_median_m": stat(firsts, 50),
         "matched_steps": float(len(rises)),
     }
+
+
+def disparity_errors(
+    disparity: np.ndarray, truth: np.ndarray, mask: np.ndarray | None = None
+) -> dict[str, float]:
+    """Middlebury-style disparity metrics; a pixel without a disparity counts as bad.
+
+    Parameters
+    ----------
+    disparity : (H, W) float32, NaN invalid
+    truth : (H, W) float32, inf/NaN unknown
+    mask : (H, W) bool, optional
+        Pixels evaluated (e.g. non-occluded); always intersected with known truth.
+
+    Returns
+    -------
+    ``bad1``, ``bad2``, ``bad4`` (fractions), ``avgerr`` (px, over pixels with a disparity),
+    ``density`` (fraction of evaluated pixels with a disparity).
+    """
+    known = np.isfinite(truth)
+    if mask is not None:
+        known &= mask
+    d = disparity[known]
+    t = truth[known]
+    have = np.isfinite(d)
+    err = np.where(have, np.abs(d - t), np.inf)
+    n = max(int(known.sum()), 1)
+    return {
+        "bad1": float(np.sum(err > 1.0) / n),
+        "bad2": float(np.sum(err > 2.0) / n),
+        "bad4": float(np.sum(err > 4.0) / n),
+        "avgerr": float(np.mean(err[have])) if have.any() else float("nan"),
+        "density": float(have.mean()) if len(have) else 0.0,
+    }

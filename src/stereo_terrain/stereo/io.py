@@ -1,0 +1,63 @@
+"""Disparity files: Middlebury PFM (float32, rows bottom to top, invalid = inf), NumPy
+``.npy`` (float32, NaN invalid) and 16-bit PNG (disparity x 256, 0 invalid, KITTI style)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+
+
+def read_pfm(path: str | Path) -> np.ndarray:
+    """Read a grey PFM as (H, W) float32 in top-to-bottom row order; inf/NaN stay as is."""
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            kind = f.readline().strip()
+            if kind != b"Pf":
+                raise InputError(f"{path}: not a grey PFM (header {kind[:10]!r}, expected b'Pf')")
+            w, h = (int(v) for v in f.readline().split())
+            scale = float(f.readline())
+            data = np.fromfile(f, dtype="<f4" if scale < 0 else ">f4", count=w * h)
+    except FileNotFoundError:
+        raise InputError(f"disparity file not found: {path}") from None
+    except ValueError:
+        raise InputError(f"{path}: malformed PFM header") from None
+    if data.size != w * h:
+        raise InputError(f"{path}: PFM truncated ({data.size} of {w * h} values)")
+    return np.flipud(data.reshape(h, w)).astype(np.float32)
+
+
+def write_pfm(path: str | Path, disparity: np.ndarray) -> None:
+    """Write (H, W) float32 as Middlebury writes it: little endian, rows bottom to top,
+    invalid (NaN) as inf."""
+    d = np.asarray(disparity, dtype=np.float32)
+    if d.ndim != 2:
+        raise InputError(f"disparity must be (H, W), got {d.shape}")
+    out = np.where(np.isfinite(d), d, np.inf).astype("<f4")
+    h, w = d.shape
+    with Path(path).open("wb") as f:
+        f.write(b"Pf\n" + f"{w} {h}\n".encode() + b"-1.0\n")
+        f.write(np.flipud(out).tobytes())
+
+
+def write_disparity(path: str | Path, disparity: np.ndarray) -> None:
+    """Write by extension: ``.pfm``, ``.npy`` or ``.png`` (uint16, disparity x 256, 0 invalid)."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    try:
+        if ext == ".pfm":
+            write_pfm(path, disparity)
+        elif ext == ".npy":
+            np.save(path, disparity.astype(np.float32))
+        elif ext == ".png":
+            d = np.where(np.isfinite(disparity), np.clip(disparity * 256.0, 1, 65535), 0).astype(np.uint16)
+            if not cv2.imwrite(str(path), d):
+                raise InputError(f"cannot write {path}")
+        else:
+            raise InputError(f"unknown disparity file type '{ext}'; use .pfm, .npy or .png")
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {exc.strerror}") from None
