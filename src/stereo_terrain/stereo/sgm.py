@@ -163,7 +163,8 @@ def aggregate_sweep(
     """
     h, w, n = cost.shape
     big = np.int32(1 << 14)
-    total = np.zeros((h, w, n), dtype=np.uint16)
+    p1i = np.int32(p1)
+    total = np.empty((h, w, n), dtype=np.uint16)
     # prev/cur rows for the three row-based paths: (path, x, d + 2 sentinels)
     prev = np.full((3, w, n + 2), big, dtype=np.int32)
     cur = np.full((3, w, n + 2), big, dtype=np.int32)
@@ -171,78 +172,66 @@ def aggregate_sweep(
     cur_min = np.zeros((3, w), dtype=np.int32)
     horiz = np.full(n + 2, big, dtype=np.int32)
     hnew = np.full(n + 2, big, dtype=np.int32)
+    acc = np.zeros(n, dtype=np.int32)
+    ci = np.zeros(n, dtype=np.int32)
     step = 1 if forward else -1
+    n_row_paths = 3 if diagonals else 1
+    hmin = np.int32(0)
     for i in range(h):
         y = i if forward else h - 1 - i
         yp = y - step
         for j in range(w):
             x = j if forward else w - 1 - j
-            c = cost[y, x]
+            cmin = big
+            for d in range(n):
+                ci[d] = cost[y, x, d]
+                if ci[d] < cmin:
+                    cmin = ci[d]
             # Path along the row (from the previous pixel of this sweep).
-            xp = x - step
             if j == 0:
-                m = big
                 for d in range(n):
-                    hnew[d + 1] = c[d]
-                    if c[d] < m:
-                        m = c[d]
+                    hnew[d + 1] = ci[d]
+                    acc[d] = ci[d]
+                m = cmin
             else:
-                pm = big
-                for d in range(1, n + 1):
-                    if horiz[d] < pm:
-                        pm = horiz[d]
-                g = abs(np.int32(img[y, x]) - np.int32(img[y, xp]))
-                p2a = max(np.int32(p1 + 1), np.int32(p2 / (1.0 + g / p2_scale)))
+                pm = hmin
+                g = abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))
+                p2a = max(p1i + 1, np.int32(p2 / (1.0 + g / p2_scale)))
                 jump = pm + p2a
                 m = big
                 for d in range(1, n + 1):
-                    v = min(min(horiz[d], jump), min(horiz[d - 1], horiz[d + 1]) + p1)
-                    r = np.int32(c[d - 1]) + v - pm
+                    v = min(min(horiz[d], jump), min(horiz[d - 1], horiz[d + 1]) + p1i)
+                    r = ci[d - 1] + v - pm
                     hnew[d] = r
-                    if r < m:
-                        m = r
-            for d in range(n):
-                total[y, x, d] += hnew[d + 1]
+                    acc[d - 1] = r
+                    m = min(m, r)
+            hmin = m
             horiz, hnew = hnew, horiz
             # Paths from the previous row: straight, and the two diagonals.
-            for k in range(3 if diagonals else 1):
-                if i == 0:
-                    for d in range(n):
-                        cur[k, x, d + 1] = c[d]
-                    cm = big
-                    for d in range(n):
-                        if c[d] < cm:
-                            cm = c[d]
-                    cur_min[k, x] = cm
-                    for d in range(n):
-                        total[y, x, d] += c[d]
-                    continue
+            for k in range(n_row_paths):
                 xq = x if k == 0 else (x - 1 if k == 1 else x + 1)
-                if xq < 0 or xq >= w:
+                if i == 0 or xq < 0 or xq >= w:
                     for d in range(n):
-                        cur[k, x, d + 1] = c[d]
-                        total[y, x, d] += c[d]
-                    cm = big
-                    for d in range(n):
-                        if c[d] < cm:
-                            cm = c[d]
-                    cur_min[k, x] = cm
+                        cur[k, x, d + 1] = ci[d]
+                        acc[d] += ci[d]
+                    cur_min[k, x] = cmin
                     continue
                 pm = prev_min[k, xq]
                 g = abs(np.int32(img[y, x]) - np.int32(img[yp, xq]))
-                p2a = max(np.int32(p1 + 1), np.int32(p2 / (1.0 + g / p2_scale)))
+                p2a = max(p1i + 1, np.int32(p2 / (1.0 + g / p2_scale)))
                 jump = pm + p2a
                 cm = big
                 pr = prev[k, xq]
+                cr = cur[k, x]
                 for d in range(1, n + 1):
-                    v = min(min(pr[d], jump), min(pr[d - 1], pr[d + 1]) + p1)
-                    r = np.int32(c[d - 1]) + v - pm
-                    cur[k, x, d] = r
-                    if r < cm:
-                        cm = r
+                    v = min(min(pr[d], jump), min(pr[d - 1], pr[d + 1]) + p1i)
+                    r = ci[d - 1] + v - pm
+                    cr[d] = r
+                    acc[d - 1] += r
+                    cm = min(cm, r)
                 cur_min[k, x] = cm
-                for d in range(n):
-                    total[y, x, d] += cur[k, x, d + 1]
+            for d in range(n):
+                total[y, x, d] = acc[d]
         prev, cur = cur, prev
         prev_min, cur_min = cur_min, prev_min
     return total
