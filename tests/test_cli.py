@@ -170,3 +170,114 @@ def test_demo_runs(tmp_path, capsys):
     assert code == 0, err
     assert "recovered steps" in out and "swing plan" in out
     assert (tmp_path / "demo" / "demo.png").is_file() and (tmp_path / "demo" / "result.json").is_file()
+
+
+def _calib_text(scene_dir):
+    return (scene_dir / "calib.yaml").read_text()
+
+
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda t: "", "calibration"),
+        (lambda t: "hello: [1, 2", "calibration"),
+        (lambda t: t.replace("K1: !!opencv-matrix", 'K1: "hello"\nK1_old: !!opencv-matrix'), "K1"),
+        (lambda t: t.replace("image_width: 640", "image_width: abc"), "image_width"),
+    ],
+)
+def test_broken_opencv_calibrations(scene_dir, tmp_path, capsys, make, words):
+    bad = tmp_path / "calib.yaml"
+    bad.write_text(make(_calib_text(scene_dir)))
+    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    _assert_one_line_error(code, err, words)
+
+
+def test_baseline_in_millimetres_is_refused(scene_dir, tmp_path, capsys):
+    from stereo_terrain.calibration import read_calibration, write_opencv_yaml
+
+    c = read_calibration(scene_dir / "calib.yaml")
+    import dataclasses
+
+    bad = tmp_path / "mm.yaml"
+    # Bypass validation to write what a careless user would.
+    object.__setattr__(c, "T", c.T * 1000)
+    write_opencv_yaml(c, bad)
+    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    _assert_one_line_error(code, err, "millimetres")
+    assert dataclasses.is_dataclass(c)
+
+
+def test_plain_list_matrices_are_read(scene_dir, tmp_path):
+    import re
+
+    from stereo_terrain.calibration import read_calibration
+
+    text = _calib_text(scene_dir)
+    text = re.sub(r"T: !!opencv-matrix\n(?:   .*\n)*?   data: (\[[^\]]*\])", r"T: \1", text)
+    p = tmp_path / "list.yaml"
+    p.write_text(text)
+    assert read_calibration(p).T.shape == (3,)
+
+
+_MB_CAMS = "cam0=[500 0 320; 0 500 240; 0 0 1]\ncam1=[500 0 320; 0 500 240; 0 0 1]\n"
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        (
+            _MB_CAMS + "baseline=-\nwidth=640\nheight=480\n",
+            "baseline",
+        ),
+        (
+            _MB_CAMS + "baseline=-80\nwidth=640\nheight=480\n",
+            "positive",
+        ),
+    ],
+)
+def test_broken_middlebury_calibrations(scene_dir, tmp_path, capsys, text, words):
+    bad = tmp_path / "calib.txt"
+    bad.write_text(text)
+    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    _assert_one_line_error(code, err, words)
+
+
+def test_negative_stereodemo_baseline(scene_dir, tmp_path, capsys):
+    bad = tmp_path / "c.json"
+    bad.write_text(
+        '{"width": 640, "height": 480, "baseline_meters": -0.075, "fx": 450, "fy": 450, '
+        '"cx0": 320, "cx1": 320, "cy": 240}'
+    )
+    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    _assert_one_line_error(code, err, "positive")
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("min_depth_m: abc\n", "min_depth_m"),
+        ("sgbm: {block_size_px: 4.5}\n", "block_size_px"),
+        ("fill: {ring_px: -1}\n", "ring_px"),
+        ("orientation: {max_rounds: 0}\n", "max_rounds"),
+        ("terrain: {min_riser_points: abc}\n", "min_riser_points"),
+        ("sgbm: 3\n", "mapping"),
+    ],
+)
+def test_bad_config_values(scene_dir, tmp_path, capsys, text, words):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text)
+    code, _, err = _run(_reconstruct_args(scene_dir, "--config", cfg), capsys)
+    _assert_one_line_error(code, err, words)
+
+
+def test_config_that_is_a_directory(scene_dir, tmp_path, capsys):
+    code, _, err = _run(_reconstruct_args(scene_dir, "--config", tmp_path), capsys)
+    _assert_one_line_error(code, err, "config file")
+
+
+def test_rig_error_message_said_once(scene_dir, tmp_path, capsys):
+    rig = tmp_path / "rig.yaml"
+    rig.write_text("T_body_camera: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nbody_rpy: [0, 0]\n")
+    code, _, err = _run(_reconstruct_args(scene_dir, "--rig", rig), capsys)
+    _assert_one_line_error(code, err, "body_rpy")
+    assert err.count("rig file") == 1

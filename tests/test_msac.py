@@ -102,3 +102,19 @@ def test_plane_fit_invariant_to_order_and_rigid_motion(seed, r, p, y, t):
     fit_moved = Plane.estimate(moved)
     assert _angle_deg(fit_moved.normal, R @ fit.normal) < EXACT_DEG
     assert np.allclose(fit_moved.residuals(moved), fit.residuals(pts), atol=1e-7)
+
+
+def test_required_trials_edge_cases():
+    assert required_trials(0.0, 3, 0.99) == 2**31 - 1
+    assert required_trials(1e-7, 3, 0.99) == 2**31 - 1
+    with pytest.raises(InputError):
+        required_trials(0.5, 3, 1.0)
+
+
+def test_msac_with_no_inliers_at_all_is_a_failed_result():
+    class Far:
+        def residuals(self, data):
+            return np.ones(len(data))
+
+    res = msac(np.zeros((10, 3)), lambda s: Far(), 3, 0.5, rng=0, max_trials=20)
+    assert res.model is not None and not res.inliers.any() and res.trials == 20

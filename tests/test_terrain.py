@@ -147,3 +147,30 @@ def test_polytope_vertices_lie_on_their_planes(n, rise, run, yaw, distance):
             assert np.allclose(quad[:, 2], step.top_z_m, atol=0.01)
     for s in model.steps:
         assert s.rise_m == pytest.approx(rise, abs=0.01)
+
+
+def test_parallel_vertical_planes_a_few_cm_apart_do_not_crash():
+    full = _stairs(n_steps=2)
+    segs = list(full.segments)
+    riser = next(s for s in segs if s.kind == VERTICAL)
+    pts = full.samples.points.copy()
+    extra = pts[riser.indices] + np.array([0.05, 0.0, 0.0], np.float32)  # a parallel ghost 5 cm behind
+    samples = GridSample(
+        **{
+            **full.samples.__dict__,
+            "points": np.vstack([pts, extra]),
+            "normals": np.vstack([full.samples.normals, full.samples.normals[riser.indices]]),
+            "sigma_m": np.concatenate([full.samples.sigma_m, full.samples.sigma_m[riser.indices]]),
+            "rows": np.concatenate([full.samples.rows, full.samples.rows[riser.indices]]),
+            "cols": np.concatenate([full.samples.cols, full.samples.cols[riser.indices]]),
+        }
+    )
+    ghost_idx = np.arange(len(pts), len(pts) + len(extra))
+    ghost = PlaneSegment(
+        Plane(riser.plane.normal, riser.plane.offset - 0.05 * riser.plane.normal[0] * -1),
+        VERTICAL,
+        ghost_idx,
+        0.0,
+    )
+    model = build_terrain(PlaneSet(tuple(segs) + (ghost,), samples, full.up, "test", CAM))
+    assert model.obstacle in (STAIRS, BOX, NONE)

@@ -21,6 +21,9 @@ import numpy as np
 
 from .errors import CalibrationError, InputError
 
+#: A longer baseline is taken for a unit mistake (millimetres instead of metres).
+MAX_BASELINE_M = 2.0
+
 
 @dataclass(frozen=True)
 class StereoCalibration:
@@ -100,6 +103,11 @@ class StereoCalibration:
             raise CalibrationError(f"calibration{where}: R is not a rotation matrix")
         if np.linalg.norm(self.T) < 1e-4:
             raise CalibrationError(f"calibration{where}: baseline |T| is zero; T must be in metres")
+        if np.linalg.norm(self.T) > MAX_BASELINE_M:
+            raise CalibrationError(
+                f"calibration{where}: baseline |T| = {np.linalg.norm(self.T):.3g} looks like millimetres; "
+                "T must be in metres (docs/conventions.md)"
+            )
         try:
             w, h = (int(v) for v in self.image_size)
         except (TypeError, ValueError):
@@ -142,7 +150,7 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
     path = Path(path)
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error:
+    except (cv2.error, SystemError):  # OpenCV's parser raises SystemError on garbage
         raise CalibrationError(
             f"calibration file {path} is not OpenCV FileStorage YAML/XML (nor Middlebury calib.txt "
             "or stereodemo JSON)"
@@ -158,15 +166,14 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
                     f"calibration file {path} lacks '{key}'; expected K1, D1, K2, D2, R, T, "
                     "image_width, image_height (see docs/conventions.md)"
                 )
-            mat = node.mat()
-            if mat is None:  # a plain sequence rather than !!opencv-matrix
-                mat = np.array([node.at(i).real() for i in range(node.size())])
-            values[key] = np.asarray(mat, dtype=np.float64)
+            values[key] = _read_matrix(node, key, path)
         size = []
         for key in ("image_width", "image_height"):
             node = fs.getNode(key)
             if node.empty():
                 raise CalibrationError(f"calibration file {path} lacks '{key}'")
+            if not (node.isInt() or node.isReal()):
+                raise CalibrationError(f"calibration file {path}: '{key}' must be a number")
             size.append(int(node.real()))
     finally:
         fs.release()
@@ -180,6 +187,25 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
         (size[0], size[1]),
         source=str(path),
     )
+
+
+def _read_matrix(node, key: str, path: Path) -> np.ndarray:
+    """An ``!!opencv-matrix`` or a plain sequence of numbers; CalibrationError otherwise."""
+    try:
+        if node.isMap():
+            mat = node.mat()
+        elif node.isSeq():
+            items = [node.at(i) for i in range(node.size())]
+            if not all(it.isInt() or it.isReal() for it in items):
+                raise CalibrationError(f"calibration file {path}: '{key}' must contain only numbers")
+            mat = np.array([it.real() for it in items])
+        else:
+            raise CalibrationError(f"calibration file {path}: '{key}' must be a matrix or a list of numbers")
+    except cv2.error:
+        raise CalibrationError(f"calibration file {path}: '{key}' is not a readable matrix") from None
+    if mat is None:
+        raise CalibrationError(f"calibration file {path}: '{key}' is not a readable matrix")
+    return np.asarray(mat, dtype=np.float64)
 
 
 def write_opencv_yaml(calib: StereoCalibration, path: str | Path) -> None:
@@ -201,7 +227,7 @@ def write_opencv_yaml(calib: StereoCalibration, path: str | Path) -> None:
 
 
 _MB_MATRIX = re.compile(r"(cam[01])\s*=\s*\[([^\]]*)\]")
-_MB_SCALAR = re.compile(r"(\w+)\s*=\s*([-+0-9.eE]+)")
+_MB_SCALAR = re.compile(r"(\w+)\s*=\s*(\S+)")
 
 
 def read_middlebury_calib(path: str | Path) -> StereoCalibration:
@@ -223,7 +249,12 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
             raise CalibrationError(f"{path}: {name} must have 9 numbers, got {len(nums)}")
         mats[name] = np.array(nums).reshape(3, 3)
     text_wo = _MB_MATRIX.sub("", text)
-    scalars = {k: float(v) for k, v in _MB_SCALAR.findall(text_wo)}
+    scalars: dict[str, float] = {}
+    for k, v in _MB_SCALAR.findall(text_wo):
+        try:
+            scalars[k] = float(v)
+        except ValueError:
+            raise CalibrationError(f"{path}: '{k}' must be a number, got '{v}'") from None
     for key in ("baseline", "width", "height"):
         if key not in scalars:
             raise CalibrationError(f"{path}: Middlebury calib.txt lacks '{key}'")
@@ -236,6 +267,8 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
             f"{path}: doffs={scalars['doffs']} disagrees with cam1.cx - cam0.cx = {K2[0, 2] - K1[0, 2]:.3f}"
         )
     baseline_m = scalars["baseline"] / 1000.0
+    if baseline_m <= 0:
+        raise CalibrationError(f"{path}: baseline must be positive (millimetres), got {scalars['baseline']}")
     ndisp = int(scalars["ndisp"]) if "ndisp" in scalars else None
     return StereoCalibration(
         K1,
@@ -266,6 +299,8 @@ def read_stereodemo_json(path: str | Path) -> StereoCalibration:
         raise CalibrationError(f"{path}: stereodemo calibration lacks {exc}") from None
     except (TypeError, ValueError):
         raise CalibrationError(f"{path}: stereodemo calibration has non-numeric values") from None
+    if baseline <= 0:
+        raise CalibrationError(f"{path}: baseline_meters must be positive, got {baseline}")
     K1 = np.array([[fx, 0, cx0], [0, fy, cy], [0, 0, 1]])
     K2 = np.array([[fx, 0, cx1], [0, fy, cy], [0, 0, 1]])
     return StereoCalibration(

@@ -1,4 +1,4 @@
-"""Command line: ``stereo-terrain demo | reconstruct | render``.
+"""Command line: ``stereo-terrain demo | reconstruct | render | disparity | eval-disparity``.
 
 Thin: parses arguments, calls the pipeline, maps errors to exit codes (0 success, 2 bad
 input or usage with one line on stderr, 1 internal error).

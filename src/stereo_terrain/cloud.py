@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from .checks import check_fields
 from .errors import ConfigError, FrameError
 from .frames import Transform
 from .stereo import DisparityMap
@@ -39,6 +40,7 @@ class CloudConfig:
     max_depth_m: float = 4.0
 
     def __post_init__(self) -> None:
+        check_fields(self)
         if not 0 < self.min_depth_m < self.max_depth_m:
             raise ConfigError(
                 f"need 0 < min_depth_m < max_depth_m, got {self.min_depth_m}, {self.max_depth_m}"

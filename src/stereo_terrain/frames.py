@@ -232,6 +232,8 @@ def load_rig(path: str | Path) -> Rig:
         if rpy_arr.shape != (3,):
             raise InputError(f"rig file {path}: body_rpy must be [roll, pitch, yaw] in radians")
         return Rig(T, tuple(rpy_arr))  # type: ignore[arg-type]
+    except InputError:
+        raise
     except (TypeError, ValueError) as exc:
         raise InputError(f"rig file {path}: {exc}") from None
 

@@ -25,6 +25,7 @@ import numpy as np
 import yaml
 
 from .calibration import StereoCalibration
+from .checks import check_fields
 from .cloud import (
     CloudConfig,
     GridSample,
@@ -82,6 +83,10 @@ class PipelineConfig:
     swing: SwingConfig = field(default_factory=SwingConfig)
 
     def __post_init__(self) -> None:
+        check_fields(self)
+        mdp = self.max_disparity_px
+        if mdp is not None and (isinstance(mdp, bool) or not isinstance(mdp, int)):
+            raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
         if self.backend not in ("opencv", "sgm"):
             raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv, sgm")
         if not self.min_depth_m > 0:
@@ -108,16 +113,26 @@ class PipelineConfig:
             if key in sub_types:
                 sub = sub_types[key]
                 known = {f.name for f in dataclasses.fields(sub)}
-                if not isinstance(value, dict) or not set(value) <= known:
-                    bad = set(value) - known if isinstance(value, dict) else value
-                    raise ConfigError(f"config '{key}': unknown keys {bad}; known: {sorted(known)}")
+                if not isinstance(value, dict):
+                    raise ConfigError(f"config '{key}' must be a mapping of {sorted(known)}")
+                if not set(value) <= known:
+                    raise ConfigError(
+                        f"config '{key}': unknown keys {set(value) - known}; known: {sorted(known)}"
+                    )
                 try:
                     kwargs[key] = sub(**value)
-                except TypeError as exc:
+                except ConfigError:
+                    raise
+                except (TypeError, ValueError) as exc:
                     raise ConfigError(f"config '{key}': {exc}") from None
             else:
                 kwargs[key] = value
-        return cls(**kwargs)
+        try:
+            return cls(**kwargs)
+        except ConfigError:
+            raise
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"pipeline config: {exc}") from None
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> PipelineConfig:
@@ -125,6 +140,8 @@ class PipelineConfig:
             data = yaml.safe_load(Path(path).read_text()) or {}
         except FileNotFoundError:
             raise InputError(f"config file not found: {path}") from None
+        except OSError as exc:
+            raise InputError(f"config file {path} is not readable: {exc.strerror}") from None
         except yaml.YAMLError as exc:
             raise InputError(f"config file {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
         return cls.from_dict(data)
@@ -144,7 +161,8 @@ class TerrainResult:
     rectified : RectifiedPair
     T_yaw_camera_rect : Transform
     gravity_source : str
-        ``rig`` or ``floor`` (no rig: the floor plane was taken as level).
+        ``rig``, ``floor`` (no rig: the floor plane was taken as level) or
+        ``assumed-level`` (no rig and no floor in view: a level camera is assumed).
     timing_ms : dict of stage -> milliseconds
     """
 

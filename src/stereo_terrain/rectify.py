@@ -99,7 +99,8 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
             alpha=alpha,
         )
     except cv2.error as exc:
-        raise CalibrationError(f"stereoRectify failed on this calibration: {exc.err}") from None
+        first = str(exc.err).strip().splitlines()[0] if str(exc.err).strip() else "unknown error"
+        raise CalibrationError(f"stereoRectify failed on this calibration: {first}") from None
     if abs(P2[0, 3]) < 1e-9 or abs(P2[1, 3]) > 1e-6 * abs(P2[0, 3]) + 1e-9:
         raise CalibrationError(
             "calibration baseline is not horizontal; this pipeline needs a side-by-side pair "

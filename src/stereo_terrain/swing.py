@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .checks import check_fields
 from .errors import ConfigError
 from .terrain import NONE, StairModel
 
@@ -36,6 +37,7 @@ class SwingConfig:
     buffer_m: float = 0.10
 
     def __post_init__(self) -> None:
+        check_fields(self)
         if not 0 < self.nominal_height_m <= self.max_height_m:
             raise ConfigError("need 0 < nominal_height_m <= max_height_m")
         if self.clearance_m < 0 or self.buffer_m < 0:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .checks import check_fields, check_min
 from .errors import ConfigError
 from .planes.msac import Plane
 from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
@@ -67,6 +68,18 @@ class TerrainConfig:
     min_tread_points: int = 15
 
     def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 1, "min_riser_points", "min_tread_points")
+        check_min(
+            self,
+            0,
+            "edge_margin_m",
+            "min_riser_width_m",
+            "merge_distance_m",
+            "tread_height_tolerance_m",
+            "edge_band_m",
+            "chain_tolerance_m",
+        )
         if not 0 < self.min_rise_m < self.max_rise_m:
             raise ConfigError(f"need 0 < min_rise_m < max_rise_m, got {self.min_rise_m}, {self.max_rise_m}")
 
@@ -153,8 +166,9 @@ class _Riser:
 
 def _riser_edges(
     P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float
-) -> tuple[float, float]:
-    """Bottom and top edge heights of a riser from every sample on its plane.
+) -> tuple[float, float] | None:
+    """Bottom and top edge heights of a riser from every sample on its plane (None when no
+    sample is on it).
 
     Inliers alone stop short of the edges (normals there mix two faces); any sample within
     ``thr`` of the plane and inside its lateral extent is on the riser or on the surface
@@ -163,6 +177,8 @@ def _riser_edges(
     near = plane.residuals(P) < thr
     lat = P[near] @ v
     z = P[near, 2][(lat > v_lo) & (lat < v_hi)]
+    if len(z) == 0:
+        return None
     lo, hi = np.percentile(z, [2, 98])
     return float(lo), float(hi)
 
@@ -248,7 +264,10 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
         v_lo, v_hi = np.percentile(lat, [2, 98])
         if v_hi - v_lo < config.min_riser_width_m:
             continue
-        z_lo, z_hi = _riser_edges(P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m)
+        edges = _riser_edges(P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m)
+        if edges is None:
+            continue
+        z_lo, z_hi = edges
         if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
             continue
         cols = samples.cols[seg.indices]
@@ -296,7 +315,13 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
             plane = (Plane.estimate(P[idx]) or a.plane).oriented_toward(cam)
             lat = P[idx] @ v
             v_lo, v_hi = np.percentile(lat, [2, 98])
-            z_lo, z_hi = _riser_edges(P, plane, v, v_lo, v_hi, thr=config.edge_band_m)
+            edges = _riser_edges(P, plane, v, v_lo, v_hi, thr=config.edge_band_m)
+            if edges is None:
+                # Parallel planes a few cm apart, not one riser split in two: keep the larger.
+                if len(r.idx) > len(a.idx):
+                    merged[-1] = r
+                continue
+            z_lo, z_hi = edges
             merged[-1] = _Riser(
                 plane,
                 idx,

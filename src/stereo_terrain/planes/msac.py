@@ -124,12 +124,22 @@ def truncated_quadratic_cost(residuals: np.ndarray, threshold: float | np.ndarra
 
 
 def required_trials(inlier_ratio: float, sample_size: int, confidence: float) -> int:
-    """Trials needed to draw one all-inlier sample with probability ``confidence``."""
-    w = float(np.clip(inlier_ratio, 1e-6, 1.0))
+    """Trials needed to draw one all-inlier sample with probability ``confidence``.
+
+    Returns a very large number (``2**31 - 1``) when the inlier ratio is too small for any
+    finite count; callers cap it with their ``max_trials``.
+    """
+    if not 0.0 < confidence < 1.0:
+        raise InputError(f"confidence must be in (0, 1), got {confidence}")
+    w = float(np.clip(inlier_ratio, 0.0, 1.0))
     p_good = w**sample_size
     if p_good >= 1.0 - 1e-12:
         return 1
-    return int(np.ceil(np.log(1.0 - confidence) / np.log(1.0 - p_good)))
+    denom = np.log1p(-p_good)
+    if denom == 0.0:
+        return 2**31 - 1
+    n = np.ceil(np.log1p(-confidence) / denom)
+    return int(n) if np.isfinite(n) and n < 2**31 - 1 else 2**31 - 1
 
 
 def msac(

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..checks import check_fields, check_min
 from ..cloud import GridSample, PointCloud, sample_grid
 from ..errors import ConfigError
 from .msac import Plane, plane_msac
@@ -46,6 +47,10 @@ class OrientationConfig:
         ... or explains less than this fraction of the scored rest (its cost is too high).
     max_planes : int
         Safety bound on the loop.
+    min_threshold_m, max_threshold_m : float
+        Bounds of the per-point inlier threshold.
+    refine_iterations : int
+        IRLS (Tukey) refinement passes on each extracted plane.
     max_rounds : int
         MSAC rounds (of ``hypotheses_per_plane`` each) tried for one plane before the loop
         concludes that no acceptable plane is left.
@@ -74,6 +79,9 @@ class OrientationConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 1, "max_rounds")
+        check_min(self, 0, "refine_iterations", "min_inlier_ratio", "threshold_sigmas")
         if not 0 < self.angle_tol_deg < 45:
             raise ConfigError(f"angle_tol_deg must be in (0, 45), got {self.angle_tol_deg}")
         if not 0 < self.normal_agreement_deg < 90:

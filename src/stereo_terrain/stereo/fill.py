@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..planes.msac import plane_msac
 
@@ -48,9 +49,11 @@ class PlanarFillConfig:
     ring_px : int
         Width of the ring around a region whose disparities also support the fit.
     inlier_threshold_px : float
-        MSAC threshold on the disparity plane.
+        MSAC threshold on the plane in (u, v, d) space (orthogonal distance, pixels; the
+        disparity tolerance is this divided by the normal's d component).
     min_inlier_ratio : float
-        The plane must explain this fraction of the region's valid disparities.
+        The plane must explain this fraction of the support points (the valid disparities
+        on vertical edges in and around the region).
     min_span_ratio : float
         Inliers must span this fraction of the region's width and height.
     hypotheses : int
@@ -73,6 +76,10 @@ class PlanarFillConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 1, "ring_px", "max_support_points")
+        check_min(self, 3, "hypotheses")
+        check_min(self, 0, "min_region_fraction", "edge_gradient")
         if self.smooth_sigma_px <= 0 or self.flat_gradient <= 0 or self.inlier_threshold_px <= 0:
             raise ConfigError("smooth_sigma_px, flat_gradient and inlier_threshold_px must be > 0")
         if not 0 < self.min_inlier_ratio <= 1 or not 0 < self.min_span_ratio <= 1:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity
@@ -50,6 +51,16 @@ class OpenCVSGBMConfig:
     mode: str = "sgbm_3way"
 
     def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(
+            self,
+            0,
+            "uniqueness_ratio_pct",
+            "speckle_window_px",
+            "speckle_range_px",
+            "disp12_max_diff_px",
+            "pre_filter_cap",
+        )
         if self.block_size_px < 1 or self.block_size_px % 2 == 0 or self.block_size_px > 11:
             raise ConfigError(f"block_size_px must be odd in [1, 11], got {self.block_size_px}")
         if not 0 < self.p1_per_px < self.p2_per_px:

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 from numba import njit
 
+from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
 from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity
@@ -93,6 +94,8 @@ class SGMConfig:
     speckle_range_px: int = 2
 
     def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 0, "lr_max_diff_px", "speckle_window_px", "speckle_range_px")
         if self.paths not in (4, 8):
             raise ConfigError(f"paths must be 4 or 8 (16 is not implemented yet), got {self.paths}")
         if not 0 < self.p1 < self.p2 <= 255:
@@ -300,6 +303,17 @@ def select_disparity(
     return disp, conf
 
 
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _sweep_pool() -> ThreadPoolExecutor:
+    """One two-thread pool for the forward and backward sweeps, shared by all engines."""
+    global _POOL
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=2, thread_name_prefix="sgm")
+    return _POOL
+
+
 class SGM:
     """The project's SGM engine behind the :class:`DisparityBackend` interface."""
 
@@ -307,7 +321,6 @@ class SGM:
 
     def __init__(self, config: SGMConfig | None = None) -> None:
         self.config = config or SGMConfig()
-        self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="sgm")
 
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
         left, right = pair.left, pair.right
@@ -321,7 +334,7 @@ class SGM:
         cost = census_cost(census5x5(left), census5x5(right), n)
         diag = c.paths == 8
         sweeps = [
-            self._pool.submit(aggregate_sweep, cost, left, fwd, diag, c.p1, c.p2, c.p2_gradient_scale)
+            _sweep_pool().submit(aggregate_sweep, cost, left, fwd, diag, c.p1, c.p2, c.p2_gradient_scale)
             for fwd in (True, False)
         ]
         total = sweeps[0].result()
