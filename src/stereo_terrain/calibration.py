@@ -132,6 +132,8 @@ class StereoCalibration:
 def read_calibration(path: str | Path) -> StereoCalibration:
     """Read a calibration file of any supported format (chosen from name and content)."""
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path} is a folder, not a calibration file")
     if not path.is_file():
         raise InputError(f"calibration file not found: {path}")
     try:

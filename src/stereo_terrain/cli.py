@@ -264,6 +264,8 @@ def cmd_disparity(args: argparse.Namespace) -> int:
     from .rectify import read_image
     from .stereo.io import write_disparity
 
+    if args.out.suffix.lower() not in (".pfm", ".npy", ".png"):
+        raise InputError(f"unknown disparity file type '{args.out.suffix}'; use .pfm, .npy or .png")
     calib = read_calibration(args.calib)
     dm, ms = _pair_disparity(
         args.method, calib, read_image(args.left), read_image(args.right), args.max_disparity

@@ -169,6 +169,8 @@ def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
 def read_image(path: str | Path) -> np.ndarray:
     """Read an image file as (H, W) uint8 grey; :class:`InputError` if missing/unreadable."""
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path} is a folder, not an image file")
     if not path.is_file():
         raise InputError(f"image not found: {path}")
     img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
