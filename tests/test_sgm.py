@@ -40,14 +40,14 @@ def test_census_cost_ignores_gain_and_offset(shifted):
     assert np.array_equal(census5x5(img), census5x5(img + np.uint8(40)))
 
 
-@pytest.mark.parametrize("paths", [4, 8])
+@pytest.mark.parametrize("paths", [4, 16])
 def test_path_counts(shifted, paths):
     dm = SGM(SGMConfig(paths=paths)).compute(shifted, 32)
     assert np.nanmedian(np.abs(dm.disparity[:, 80:] - 12.5)) < SUBPIXEL_TOL_PX
 
 
 def test_bad_input(shifted):
-    for paths in (6, 16):
+    for paths in (6, 12):
         with pytest.raises(ConfigError):
             SGMConfig(paths=paths)
     with pytest.raises(ConfigError):
@@ -96,79 +96,15 @@ def _paper_recurrence(cost, img, dy, dx, p1, p2, scale):
 
 
 @pytest.mark.parametrize("forward", [True, False])
-def test_sweeps_match_the_paper_recurrence(forward):
-    from stereo_terrain.stereo.sgm import aggregate_sweep
+@pytest.mark.parametrize("paths", [4, 8, 16])
+def test_sweeps_match_the_paper_recurrence(forward, paths):
+    from stereo_terrain.stereo.sgm import ROW_PATHS, aggregate_sweep
 
     rng = np.random.default_rng(4)
-    cost = rng.integers(0, 25, (6, 7, 9)).astype(np.uint8)
-    img = rng.integers(0, 255, (6, 7)).astype(np.uint8)
+    cost = rng.integers(0, 25, (7, 8, 9)).astype(np.uint8)
+    img = rng.integers(0, 255, (7, 8)).astype(np.uint8)
     s = 1 if forward else -1
-    dirs = [(0, s), (s, 0), (s, s), (s, -s)]
+    dirs = [(0, s)] + [(s * b, s * c) for b, c in ROW_PATHS[paths]]
     want = sum(_paper_recurrence(cost, img, dy, dx, 7, 86, 16.0) for dy, dx in dirs)
-    got = aggregate_sweep(cost, img, forward, True, 7, 86, 16.0)
+    got = aggregate_sweep(cost, img, forward, np.array(ROW_PATHS[paths], dtype=np.int64), 7, 86, 16.0)
     assert np.array_equal(got.astype(int), want)
-    want4 = sum(_paper_recurrence(cost, img, dy, dx, 7, 86, 16.0) for dy, dx in dirs[:2])
-    assert np.array_equal(aggregate_sweep(cost, img, forward, False, 7, 86, 16.0).astype(int), want4)
-
-
-# Bounds from `stereo-terrain eval-disparity` on the shared Middlebury scenes (our engine
-# measured 8.7% and 8.4%, OpenCV StereoSGBM 14.7% and 13.4%).
-MIDDLEBURY_BAD2_MAX = {"Teddy": 0.11, "Motorcycle": 0.11}
-
-
-@pytest.mark.parametrize("scene", sorted(MIDDLEBURY_BAD2_MAX))
-def test_middlebury_bad2_bound(shared_data, scene):
-    import cv2
-
-    from stereo_terrain.calibration import read_calibration
-    from stereo_terrain.evaluation import disparity_errors
-    from stereo_terrain.rectify import compute_rectification, read_image, rectify
-    from stereo_terrain.stereo.io import read_pfm
-
-    d = shared_data / "middlebury2014Q" / scene
-    calib = read_calibration(d / "calib.txt")
-    pair = rectify(read_image(d / "im0.png"), read_image(d / "im1.png"), compute_rectification(calib))
-    dm = SGM().compute(pair, -(-calib.ndisp // 16) * 16)
-    nocc = cv2.imread(str(d / "mask0nocc.png"), cv2.IMREAD_GRAYSCALE) == 255
-    errors = disparity_errors(dm.disparity, read_pfm(d / "disp0GT.pfm"), nocc)
-    assert errors["bad2"] < MIDDLEBURY_BAD2_MAX[scene], errors
-
-
-def test_pfm_round_trip_and_disparity_files(tmp_path):
-    from stereo_terrain.stereo.io import read_pfm, write_disparity
-
-    d = np.array([[1.5, np.nan], [3.25, 4.0]], np.float32)
-    write_disparity(tmp_path / "d.pfm", d)
-    back = read_pfm(tmp_path / "d.pfm")
-    assert back[0, 0] == 1.5 and np.isinf(back[0, 1]) and back[1, 0] == 3.25
-    assert (tmp_path / "d.pfm").read_bytes().startswith(b"Pf\n2 2\n-1.0\n")
-    write_disparity(tmp_path / "d.npy", d)
-    write_disparity(tmp_path / "d.png", d)
-    with pytest.raises(InputError, match="unknown disparity file type"):
-        write_disparity(tmp_path / "d.bmp", d)
-    with pytest.raises(InputError, match="not found"):
-        read_pfm(tmp_path / "none.pfm")
-
-
-def test_disparity_and_eval_commands(shared_data, tmp_path, capsys):
-    from stereo_terrain.cli import main
-
-    d = shared_data / "middlebury2014Q" / "Teddy"
-    code = main(
-        [
-            "disparity",
-            str(d / "im0.png"),
-            str(d / "im1.png"),
-            "--calib",
-            str(d / "calib.txt"),
-            "--method",
-            "sgm",
-            "--out",
-            str(tmp_path / "t.pfm"),
-        ]
-    )
-    assert code == 0 and (tmp_path / "t.pfm").is_file()
-    code = main(["eval-disparity", str(d), "--method", "opencv"])
-    out = capsys.readouterr().out
-    assert code == 0 and "| Teddy | opencv |" in out and "| mean | opencv |" in out
-    assert main(["eval-disparity", str(tmp_path)]) == 2

@@ -8,7 +8,7 @@ Stages:
 1. **Census cost.** A 5x5 census transform (24 bits) of both images. The matching cost is
    the Hamming distance between the two bit strings. It depends only on the order of
    intensities, so a gain or offset between cheap webcams leaves it unchanged.
-2. **Aggregation along 4 or 8 directions r**, the paper's recurrence:
+2. **Aggregation along 4, 8 or 16 directions r**, the paper's recurrence:
    ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d±1) + P1, min_k L_r(p-r, k) + P2')
    - min_k L_r(p-r, k)``.
    P1 penalises 1-px disparity steps. ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p-r)| /
@@ -68,8 +68,8 @@ class SGMConfig:
     Attributes
     ----------
     paths : int
-        Aggregation directions: 4 (rows and columns) or 8 (and diagonals). 16 is not
-        implemented yet.
+        Aggregation directions: 4 (rows and columns), 8 (and diagonals) or 16 (and the
+        knight moves (+-1, +-2), (+-2, +-1)).
     p1 : int
         Penalty for disparity changes of 1 px.
     p2 : int
@@ -96,8 +96,8 @@ class SGMConfig:
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 0, "lr_max_diff_px", "speckle_window_px", "speckle_range_px")
-        if self.paths not in (4, 8):
-            raise ConfigError(f"paths must be 4 or 8 (16 is not implemented yet), got {self.paths}")
+        if self.paths not in (4, 8, 16):
+            raise ConfigError(f"paths must be 4, 8 or 16, got {self.paths}")
         if not 0 < self.p1 < self.p2 <= 255:
             raise ConfigError(f"need 0 < p1 < p2 <= 255, got p1={self.p1}, p2={self.p2}")
         if self.p2_gradient_scale <= 0:
@@ -152,37 +152,51 @@ def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # p
     return cost
 
 
+# Row paths carried by a sweep, as (rows back, columns back) in the sweep's own direction;
+# the path along the row is always carried. 4, 8 and 16 paths in all (two sweeps).
+ROW_PATHS = {
+    4: ((1, 0),),
+    8: ((1, 0), (1, 1), (1, -1)),
+    16: ((1, 0), (1, 1), (1, -1), (1, 2), (1, -2), (2, 1), (2, -1)),
+}
+
+
 @njit(cache=True, nogil=True)
 def aggregate_sweep(
-    cost: np.ndarray, img: np.ndarray, forward: bool, diagonals: bool, p1: int, p2: int, p2_scale: float
+    cost: np.ndarray, img: np.ndarray, forward: bool, row_paths: np.ndarray, p1: int, p2: int, p2_scale: float
 ) -> np.ndarray:  # pragma: no cover - compiled
-    """The paths that one raster sweep can carry, summed (uint16): along the row and from
-    the previous row, plus its two diagonals when ``diagonals``.
+    """The paths one raster sweep can carry, summed (uint16).
 
-    The forward sweep (top to bottom, left to right) carries the directions from the left,
-    from above, and from the two upper diagonals. The backward sweep carries their
-    opposites. Only the previous row of each path is kept, with sentinels at d = -1 and
-    d = D, so that the inner loop over d has no branches and vectorises.
+    The forward sweep goes top to bottom and left to right. It carries the path along the
+    row (from the left) and every path in ``row_paths``. A row path ``(b, c)`` comes from
+    pixel ``(y - b, x - c)``: (1, 0) is straight down, (1, +-1) are the diagonals, and the
+    16-path set adds the knight moves (1, +-2) and (2, +-1). The backward sweep mirrors
+    all of them.
+
+    Each path keeps only its last two rows plus the current one, with sentinels at d = -1
+    and d = D, so the inner loop over d has no branches.
     """
     h, w, n = cost.shape
     big = np.int32(1 << 14)
     p1i = np.int32(p1)
+    nk = row_paths.shape[0]
     total = np.empty((h, w, n), dtype=np.uint16)
-    # prev/cur rows for the three row-based paths: (path, x, d + 2 sentinels)
-    prev = np.full((3, w, n + 2), big, dtype=np.int32)
-    cur = np.full((3, w, n + 2), big, dtype=np.int32)
-    prev_min = np.zeros((3, w), dtype=np.int32)
-    cur_min = np.zeros((3, w), dtype=np.int32)
+    # The current row and the two before it, as three arrays rotated every row (separate
+    # arrays, so that reads from the previous rows and writes to this one do not alias).
+    cur = np.full((nk, w, n + 2), big, dtype=np.int32)
+    prev1 = np.full((nk, w, n + 2), big, dtype=np.int32)
+    prev2 = np.full((nk, w, n + 2), big, dtype=np.int32)
+    cur_min = np.zeros((nk, w), dtype=np.int32)
+    min1 = np.zeros((nk, w), dtype=np.int32)
+    min2 = np.zeros((nk, w), dtype=np.int32)
     horiz = np.full(n + 2, big, dtype=np.int32)
     hnew = np.full(n + 2, big, dtype=np.int32)
     acc = np.zeros(n, dtype=np.int32)
     ci = np.zeros(n, dtype=np.int32)
     step = 1 if forward else -1
-    n_row_paths = 3 if diagonals else 1
     hmin = np.int32(0)
     for i in range(h):
         y = i if forward else h - 1 - i
-        yp = y - step
         for j in range(w):
             x = j if forward else w - 1 - j
             cmin = big
@@ -210,33 +224,34 @@ def aggregate_sweep(
                     m = min(m, r)
             hmin = m
             horiz, hnew = hnew, horiz
-            # Paths from the previous row: straight, and the two diagonals.
-            for k in range(n_row_paths):
-                xq = x if k == 0 else (x - 1 if k == 1 else x + 1)
-                if i == 0 or xq < 0 or xq >= w:
+            # Paths from earlier rows.
+            for k in range(nk):
+                back = row_paths[k, 0]
+                xq = x - step * row_paths[k, 1]
+                if i < back or xq < 0 or xq >= w:
                     for d in range(n):
                         cur[k, x, d + 1] = ci[d]
                         acc[d] += ci[d]
                     cur_min[k, x] = cmin
                     continue
-                pm = prev_min[k, xq]
-                g = abs(np.int32(img[y, x]) - np.int32(img[yp, xq]))
+                yq = y - step * back
+                pm = min1[k, xq] if back == 1 else min2[k, xq]
+                g = abs(np.int32(img[y, x]) - np.int32(img[yq, xq]))
                 p2a = max(p1i + 1, np.int32(p2 / (1.0 + g / p2_scale)))
                 jump = pm + p2a
                 cm = big
-                pr = prev[k, xq]
-                cr = cur[k, x]
+                pr = prev1[k, xq] if back == 1 else prev2[k, xq]
                 for d in range(1, n + 1):
                     v = min(min(pr[d], jump), min(pr[d - 1], pr[d + 1]) + p1i)
                     r = ci[d - 1] + v - pm
-                    cr[d] = r
+                    cur[k, x, d] = r
                     acc[d - 1] += r
                     cm = min(cm, r)
                 cur_min[k, x] = cm
             for d in range(n):
                 total[y, x, d] = acc[d]
-        prev, cur = cur, prev
-        prev_min, cur_min = cur_min, prev_min
+        prev2, prev1, cur = prev1, cur, prev2
+        min2, min1, cur_min = min1, cur_min, min2
     return total
 
 
@@ -332,9 +347,9 @@ class SGM:
         n = check_max_disparity(max_disparity_px, left.shape[1])
         c = self.config
         cost = census_cost(census5x5(left), census5x5(right), n)
-        diag = c.paths == 8
+        paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
         sweeps = [
-            _sweep_pool().submit(aggregate_sweep, cost, left, fwd, diag, c.p1, c.p2, c.p2_gradient_scale)
+            _sweep_pool().submit(aggregate_sweep, cost, left, fwd, paths, c.p1, c.p2, c.p2_gradient_scale)
             for fwd in (True, False)
         ]
         total = sweeps[0].result()
