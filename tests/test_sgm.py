@@ -122,12 +122,13 @@ def test_middlebury_bad2_bound(shared_data, scene):
     from stereo_terrain.calibration import read_calibration
     from stereo_terrain.evaluation import disparity_errors
     from stereo_terrain.rectify import compute_rectification, read_image, rectify
+    from stereo_terrain.stereo import default_max_disparity
     from stereo_terrain.stereo.io import read_pfm
 
     d = shared_data / "middlebury2014Q" / scene
-    calib = read_calibration(d / "calib.txt")
-    pair = rectify(read_image(d / "im0.png"), read_image(d / "im1.png"), compute_rectification(calib))
-    dm = SGM().compute(pair, -(-calib.ndisp // 16) * 16)
+    rect = compute_rectification(read_calibration(d / "calib.txt"))
+    pair = rectify(read_image(d / "im0.png"), read_image(d / "im1.png"), rect)
+    dm = SGM().compute(pair, default_max_disparity(rect, 0.7))
     nocc = cv2.imread(str(d / "mask0nocc.png"), cv2.IMREAD_GRAYSCALE) == 255
     errors = disparity_errors(dm.disparity, read_pfm(d / "disp0GT.pfm"), nocc)
     assert errors["bad2"] < MIDDLEBURY_BAD2_MAX[scene], errors

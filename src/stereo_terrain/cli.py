@@ -241,17 +241,16 @@ def cmd_render(args: argparse.Namespace) -> int:
 def _pair_disparity(method: str, calib, left, right, max_disparity: int | None):
     import time
 
+    from .pipeline import PipelineConfig
     from .rectify import compute_rectification, rectify
-    from .stereo import check_max_disparity, choose_max_disparity, make_backend
+    from .stereo import check_max_disparity, default_max_disparity, make_backend
 
     rect = compute_rectification(calib)
     pair = rectify(left, right, rect)
     if max_disparity is not None:
         n = check_max_disparity(max_disparity, calib.width)
-    elif calib.ndisp:
-        n = -(-calib.ndisp // 16) * 16
     else:
-        n = choose_max_disparity(rect, 0.7)
+        n = default_max_disparity(rect, PipelineConfig().min_depth_m)
     backend_name, options = _METHODS[method]
     backend = make_backend(backend_name, **options)
     t0 = time.perf_counter()

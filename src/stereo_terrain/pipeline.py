@@ -46,7 +46,7 @@ from .planes.orientation import (
     local_triplets,
 )
 from .rectify import Rectification, RectifiedPair, compute_rectification, rectify
-from .stereo import DisparityBackend, DisparityMap, check_max_disparity, choose_max_disparity, make_backend
+from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
 from .stereo.fill import PlanarFillConfig, fill_planar_regions
 from .stereo.opencv import OpenCVSGBMConfig
 from .swing import SwingConfig, SwingPlan, plan_swing
@@ -316,26 +316,16 @@ class Pipeline:
         self.rectification: Rectification = compute_rectification(calibration)
         if self.config.max_disparity_px is not None:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
-        elif calibration.ndisp:
-            # The file says how far its disparities go (Middlebury's ndisp).
-            self.max_disparity_px = min(-(-calibration.ndisp // 16) * 16, (calibration.width // 2) // 16 * 16)
         else:
-            n = choose_max_disparity(self.rectification, self.config.min_depth_m)
-            self.max_disparity_px = min(n, (calibration.width // 2) // 16 * 16)
+            self.max_disparity_px = default_max_disparity(self.rectification, self.config.min_depth_m)
         if backend is None:
             options = dataclasses.asdict(self.config.sgbm) if self.config.backend == "opencv" else {}
             backend = make_backend(self.config.backend, **options)
         self.backend = backend
-        self._T_yaw_camera_rect: Transform | None = None
-
-    def T_yaw_camera_rect(self) -> Transform | None:
-        """Rectified left camera -> yaw frame from the rig (None without a rig); composed
-        once, the rig being fixed for the pipeline's life."""
-        if self.rig is None:
-            return None
-        if self._T_yaw_camera_rect is None:
-            self._T_yaw_camera_rect = self.rig.T_yaw_camera @ self.rectification.T_camera_rect
-        return self._T_yaw_camera_rect
+        # Rectified left camera -> yaw frame from the rig (None without one: the floor decides).
+        self.T_yaw_camera_rect: Transform | None = (
+            None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
+        )
 
     def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""
@@ -358,7 +348,7 @@ class Pipeline:
             )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
-        T = self.T_yaw_camera_rect()
+        T = self.T_yaw_camera_rect
         source = "rig"
         if T is None:
             cam_sample = sample_disparity(
