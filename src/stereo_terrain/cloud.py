@@ -175,6 +175,26 @@ def grid_stride(shape: tuple[int, int], target_points: int) -> int:
     return max(1, int(round(np.sqrt(h * w / max(target_points, 1)))))
 
 
+def _grid_cells(valid: np.ndarray, density: np.ndarray, stride: int, k: int):
+    """Centres of a ``stride`` grid and their four neighbours ``k`` px away, kept where the
+    centre is valid and every neighbour's box is mostly valid (``density > 0.6``).
+
+    Returns flat ``(rr, cc, ru, rd, cl, cr, flat_index, (gh, gw))``.
+    """
+    h, w = valid.shape
+    r0 = stride // 2
+    rows = np.arange(r0, h, stride)
+    cols = np.arange(r0, w, stride)
+    grid_r, grid_c = np.meshgrid(rows, cols, indexing="ij")
+    rr, cc = grid_r.reshape(-1), grid_c.reshape(-1)
+    ru, rd = np.clip(rr - k, 0, h - 1), np.clip(rr + k, 0, h - 1)
+    cl, cr = np.clip(cc - k, 0, w - 1), np.clip(cc + k, 0, w - 1)
+    dense = density > 0.6
+    ok = valid[rr, cc] & dense[rr, cl] & dense[rr, cr] & dense[ru, cc] & dense[rd, cc]
+    idx = np.flatnonzero(ok)
+    return rr[idx], cc[idx], ru[idx], rd[idx], cl[idx], cr[idx], idx, (len(rows), len(cols))
+
+
 def sample_grid(cloud: PointCloud, *, target_points: int = 12000, smooth_px: int | None = None) -> GridSample:
     """Subsample ``cloud`` on a regular grid and estimate a normal at each sample.
 
@@ -201,34 +221,16 @@ def sample_grid(cloud: PointCloud, *, target_points: int = 12000, smooth_px: int
     acc = cv2.boxFilter(pts, -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = acc / cnt[:, :, None]
-    r0 = stride // 2
-    rows = np.arange(r0, h, stride)
-    cols = np.arange(r0, w, stride)
-    gh, gw = len(rows), len(cols)
-    rr, cc = np.meshgrid(rows, cols, indexing="ij")
-    ru, rd = np.clip(rr - k, 0, h - 1), np.clip(rr + k, 0, h - 1)
-    cl, cr = np.clip(cc - k, 0, w - 1), np.clip(cc + k, 0, w - 1)
-    du = mean[rr, cr] - mean[rr, cl]
-    dv = mean[rd, cc] - mean[ru, cc]
-    n = np.cross(du, dv)
+    rr, cc, ru, rd, cl, cr, idx, (gh, gw) = _grid_cells(valid, cnt, stride, k)
+    n = np.cross(mean[rr, cr] - mean[rr, cl], mean[rd, cc] - mean[ru, cc])
     norm = np.linalg.norm(n, axis=-1)
-    dense = cnt > 0.6
-    ok = (
-        valid[rr, cc]
-        & dense[rr, cl]
-        & dense[rr, cr]
-        & dense[ru, cc]
-        & dense[rd, cc]
-        & (norm > 0)
-        & np.isfinite(norm)
-    )
-    n = n / np.where(ok, norm, 1.0)[..., None]
-    flat = np.flatnonzero(ok.reshape(-1))
-    sel_r, sel_c = rr.reshape(-1)[flat], cc.reshape(-1)[flat]
+    good = (norm > 0) & np.isfinite(norm)
+    n = n[good] / norm[good, None]
+    sel_r, sel_c, flat = rr[good], cc[good], idx[good]
     conf = None if cloud.confidence is None else cloud.confidence[sel_r, sel_c].astype(np.float32)
     return GridSample(
         points=cloud.points[sel_r, sel_c].astype(np.float32),
-        normals=n.reshape(-1, 3)[flat].astype(np.float32),
+        normals=n.astype(np.float32),
         sigma_m=cloud.sigma_m[sel_r, sel_c].astype(np.float32),
         rows=sel_r.astype(np.int32),
         cols=sel_c.astype(np.int32),
@@ -290,18 +292,7 @@ def sample_disparity(
     acc = cv2.boxFilter(
         np.where(valid, dd, np.float32(0.0)), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
     )
-    r0 = stride // 2
-    rows = np.arange(r0, h, stride)
-    cols = np.arange(r0, w, stride)
-    gh, gw = len(rows), len(cols)
-    grid_r, grid_c = np.meshgrid(rows, cols, indexing="ij")
-    rr, cc = grid_r.reshape(-1), grid_c.reshape(-1)
-    ru, rd = np.clip(rr - k, 0, h - 1), np.clip(rr + k, 0, h - 1)
-    cl, cr = np.clip(cc - k, 0, w - 1), np.clip(cc + k, 0, w - 1)
-    dense = cnt > 0.6
-    ok = valid[rr, cc] & dense[rr, cl] & dense[rr, cr] & dense[ru, cc] & dense[rd, cc]
-    idx = np.flatnonzero(ok)
-    rr, cc, ru, rd, cl, cr = rr[idx], cc[idx], ru[idx], rd[idx], cl[idx], cr[idx]
+    rr, cc, ru, rd, cl, cr, idx, (gh, gw) = _grid_cells(valid, cnt, stride, k)
     cx, cy, f = rect.cx, rect.cy, rect.focal_px
 
     def reproject(r: np.ndarray, c: np.ndarray, disp: np.ndarray) -> np.ndarray:
