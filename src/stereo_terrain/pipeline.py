@@ -256,14 +256,13 @@ def level_from_floor(
         return None
     normals, offsets = normals[ok], offsets[ok]
     sub = rng.choice(len(pts), size=min(2000, len(pts)), replace=False)
-    thr = np.clip(3.0 * samples.sigma_m[sub], 0.015, 0.06)
+    thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
     resid = np.abs(normals @ pts[sub].T + offsets[:, None])
     agree = np.abs(normals @ samples.normals[sub].T.astype(np.float64)) >= 0.9
-    score = ((resid < thr) & agree).sum(axis=1)
+    score = ((resid < thr[sub]) & agree).sum(axis=1)
     best = int(np.argmax(score))
     plane = Plane(normals[best], offsets[best])
-    all_thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
-    inl = (plane.residuals(pts) < all_thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
+    inl = (plane.residuals(pts) < thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
     if inl.sum() < 30:
         return None
     plane = Plane.estimate(pts[inl]) or plane
