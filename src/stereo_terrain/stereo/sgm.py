@@ -152,6 +152,12 @@ def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # p
     return cost
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _adapted_p2(gradient: np.int32, p1: np.int32, p2: int, scale: float) -> np.int32:  # pragma: no cover
+    """Hirschmüller's P2 lowered across intensity edges, never below P1 + 1."""
+    return max(p1 + 1, np.int32(p2 / (1.0 + gradient / scale)))
+
+
 # Row paths carried by a sweep, as (rows back, columns back) in the sweep's own direction;
 # the path along the row is always carried. 4, 8 and 16 paths in all (two sweeps).
 ROW_PATHS = {
@@ -213,7 +219,7 @@ def aggregate_sweep(
             else:
                 pm = hmin
                 g = abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))
-                p2a = max(p1i + 1, np.int32(p2 / (1.0 + g / p2_scale)))
+                p2a = _adapted_p2(g, p1i, p2, p2_scale)
                 jump = pm + p2a
                 m = big
                 for d in range(1, n + 1):
@@ -237,7 +243,7 @@ def aggregate_sweep(
                 yq = y - step * back
                 pm = min1[k, xq] if back == 1 else min2[k, xq]
                 g = abs(np.int32(img[y, x]) - np.int32(img[yq, xq]))
-                p2a = max(p1i + 1, np.int32(p2 / (1.0 + g / p2_scale)))
+                p2a = _adapted_p2(g, p1i, p2, p2_scale)
                 jump = pm + p2a
                 cm = big
                 pr = prev1[k, xq] if back == 1 else prev2[k, xq]
