@@ -137,9 +137,9 @@ def test_config_is_checked():
     seed=st.integers(0, 1000),
 )
 def test_trigger_point_property(riser, speed, noise, seed):
-    """Any approach speed and measurement noise inside the gate: fires within 1.5 cm."""
+    """Any approach speed and measurement noise (sigma <= 1.5 cm): fires within the issue's 3 cm."""
     fired, states = _walk(riser, speed_per_frame=speed, noise=noise, seed=seed, ticks_per_frame=10)
     assert fired is not None
-    assert abs((riser - fired) - 0.10) < 0.015 + speed / 10
+    assert abs((riser - fired) - 0.10) < 0.03
     raised = [s.raise_swing for s in states]
     assert raised == sorted(raised)  # never lowered once raised

@@ -118,7 +118,7 @@ class TriggerConfig:
     """
 
     gate_m: float = 0.08
-    smoothing: float = 0.5
+    smoothing: float = 0.3
     confirm_frames: int = 2
     reacquire_frames: int = 3
     min_visible_m: float = 0.8

@@ -294,11 +294,10 @@ class VideoPair:
     def _grab_one(self) -> tuple[np.ndarray, np.ndarray, float, float] | None:
         got = []
         for cap in self.caps:
-            t = cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
             ok, img = cap.read()
             if not ok:
                 return None
-            got.append((img, t))
+            got.append((img, cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0))  # of the frame just read
         return got[0][0], got[1][0], got[0][1] + self._offset, got[1][1] + self._offset
 
     def _advance(self) -> None:
