@@ -283,3 +283,10 @@ def test_videos_record_and_replay(tmp_path, scene):
     assert n == 4
     rows = read_pairs_index(tmp_path / "rec")
     assert [r.t_left for r in rows] == pytest.approx([0.0, 0.1, 0.2, 0.3])
+    # Played against a clock, videos also give the newest pair only.
+    clock = FakeClock()
+    paced = Paced(VideoPair(*paths), clock=clock)
+    assert paced.read().frame.index == 0
+    clock.sleep(0.25)
+    ev = paced.read()
+    assert ev.frame.index == 2 and ev.skipped == 1

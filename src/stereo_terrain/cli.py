@@ -468,6 +468,7 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
         config=config,
         status=None if args.quiet else sys.stderr,
     )
+    loop.warm_up()
     summary = loop.run()
     print(summary.format())
     if args.summary_json is not None:

@@ -401,6 +401,14 @@ class FolderPairs:
         got = self._row()
         return None if got is None else max(got[0].t_left, got[0].t_right) + got[1]
 
+    def peek_time_after(self) -> float | None:
+        """Time of the pair after the next one."""
+        self._i += 1
+        try:
+            return self.peek_time()
+        finally:
+            self._i -= 1
+
     def skip(self) -> None:
         self._i += 1
 
@@ -480,24 +488,17 @@ class Paced:
         if t_next > due:
             return CaptureEvent(NONE)
         skipped = 0
-        while True:
-            following = self._peek_after()
-            if following is None or following > due:
-                break
-            self.source.skip()
-            skipped += 1
+        if isinstance(self.source, FolderPairs):
+            # Skip superseded pairs by their recorded times, without decoding them.
+            while (following := self.source.peek_time_after()) is not None and following <= due:
+                self.source.skip()
+                skipped += 1
         ev = self.source.read()
+        # Video files decode one pair ahead: drop what is read while a newer pair is due too.
+        while (following := self.source.peek_time()) is not None and following <= due:
+            ev = self.source.read()
+            skipped += 1
         return CaptureEvent(ev.status, self._restamp(ev, now).frame, skipped, ev.detail)
-
-    def _peek_after(self) -> float | None:
-        # Time of the pair after the next one, without decoding anything.
-        src = self.source
-        if isinstance(src, FolderPairs):
-            src._i += 1
-            t = src.peek_time()
-            src._i -= 1
-            return t
-        return None  # video files: cannot look two ahead without decoding; skip one by one
 
     def close(self) -> None:
         self.source.close()

@@ -181,6 +181,17 @@ class LiveLoop:
         self._last_status = -math.inf
         self._rpy: tuple[float, float, float] | None = None
 
+    def warm_up(self) -> None:
+        """Run the pipeline once on a rendered staircase of the calibration's size so that the
+        first real pair is not slowed by just-in-time compilation and first-call allocations
+        (about 0.5 s); a noise pair would leave the plane and stair stages cold."""
+        from ..synthetic import SceneSpec, StairSpec, render_scene
+
+        size = self.pipeline.calibration.image_size
+        stairs = StairSpec(n_steps=2, rise_m=0.17, run_m=0.3, width_m=1.2, distance_m=1.2)
+        scene = render_scene(SceneSpec(obstacle=stairs, image_size=size, supersample=1))
+        self.pipeline.run(scene.left, scene.right)
+
     # ----------------------------------------------------------------- one iteration
 
     def step(self) -> bool:
