@@ -83,7 +83,10 @@ def section_approach(work: Path) -> None:
     th.start()
     log_path = work / "approach.lcmlog"
     log_path.unlink(missing_ok=True)
-    logger = subprocess.Popen([str(BIN / "lcm-logger"), "-q", "-l", url, str(log_path)])
+    # A process group: the wheel's lcm-logger is a wrapper whose child is the real logger.
+    logger = subprocess.Popen(
+        [str(BIN / "lcm-logger"), "-q", "-l", url, str(log_path)], start_new_session=True
+    )
     time.sleep(1.0)
     summary_path = work / "approach_replay.json"
     # Real time at the recording's 30 fps: what the robot would see.
@@ -93,7 +96,7 @@ def section_approach(work: Path) -> None:
         check=True,
     )  # fmt: skip
     time.sleep(1.0)
-    logger.send_signal(signal.SIGINT)
+    os.killpg(logger.pid, signal.SIGINT)
     logger.wait(10)
     stop.set()
     th.join(1)

@@ -1,5 +1,7 @@
 """The swing trigger state machine (paper eq. 2, CONVENTIONS intent) on scripted terrain."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -143,3 +145,28 @@ def test_trigger_point_property(riser, speed, noise, seed):
     assert abs((riser - fired) - 0.10) < 0.03
     raised = [s.raise_swing for s in states]
     assert raised == sorted(raised)  # never lowered once raised
+
+
+def test_a_far_step_merged_in_a_few_frames_does_not_raise_the_height():
+    trig = SwingTrigger()
+    for k in range(9):
+        model = _stairs(1.5 - 0.02 * k)
+        if k % 3 == 0:  # a third of the frames merge the top step with the landing: rise 0.35
+            steps = model.steps[:2] + (dataclasses.replace(model.steps[2], rise_m=0.35),)
+            model = dataclasses.replace(model, steps=steps)
+        s = trig.update(Odometry((0.02 * k, 0.0, 0.0)), model)
+    assert s.phase == PHASE_APPROACH and s.swing_height_m == pytest.approx(0.31)
+
+
+def test_steps_whose_tread_is_above_the_camera_do_not_set_the_height():
+    def model(k):
+        m = _stairs(1.5 - 0.02 * k)  # treads at 0.21, 0.42, 0.63 m
+        return dataclasses.replace(m, steps=m.steps[:2] + (dataclasses.replace(m.steps[2], rise_m=0.35),))
+
+    blind_to_height, aware = SwingTrigger(), SwingTrigger()
+    for k in range(5):
+        odo = Odometry((0.02 * k, 0.0, 0.0))
+        s1 = blind_to_height.update(odo, model(k))
+        s2 = aware.update(odo, model(k), camera_z_m=0.55)
+    assert s1.swing_height_m == pytest.approx(0.40)  # 0.35 + 0.10, capped
+    assert s2.swing_height_m == pytest.approx(0.31)

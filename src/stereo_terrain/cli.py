@@ -555,6 +555,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         f"{summary['frames']} frames, riser at {cfg.riser_x_m:.3f} m, "
         f"d_buffer {result.swing.buffer_m:.2f} m: {raised}"
     )
+    if summary["not_traversable_reported"]:
+        print("stairs reported NOT traversable (a step above the leg's reach): the swing stays nominal")
     for name, key in (("perceived", "edge_clearance_sensed_m"), ("blind", "edge_clearance_blind_m")):
         legs = ", ".join(f"{k} {100 * v:+.1f} cm" for k, v in sorted(summary[key].items()))
         print(f"first riser edge clearance, {name} swing: {legs}")

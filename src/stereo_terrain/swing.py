@@ -113,8 +113,8 @@ class TriggerConfig:
     release_m : float
         The raised swing is kept until the body has passed the last seen riser by this much.
     history : int
-        Accepted plans whose median swing height and step height are used (one bad frame
-        cannot change the height).
+        Accepted frames whose per-step median rises give the height to clear (one bad
+        frame cannot change the swing height).
     """
 
     gate_m: float = 0.08
@@ -211,8 +211,8 @@ class SwingTrigger:
         self._heading = 0.0
         self._d0: float | None = None  # first-riser distance at p0
         self._extent = 0.0  # from the first riser to the far side of the last seen riser
-        self._heights: list[float] = []
-        self._steps: list[float] = []
+        self._camera_z: float | None = None
+        self._rises: list[list[float]] = []  # per accepted frame: the rise of each step, nearest first
         self._nearer = self._farther = self._empty = 0
         self._last = self._state(None)
 
@@ -228,11 +228,10 @@ class SwingTrigger:
         dy = odo.position_m[1] - self._p0[1]
         return dx * math.cos(self._heading) + dy * math.sin(self._heading)
 
-    def _start(self, d: float, plan: SwingPlan, model: StairModel, odo: Odometry | None) -> None:
+    def _start(self, d: float, model: StairModel, odo: Odometry | None) -> None:
         self._d0 = d
         self._set_origin(odo)
-        self._heights = [plan.height_m]
-        self._steps = [plan.step_height_m]
+        self._rises = [self._measured_rises(model)]
         self._extent = self._stair_extent(model)
         self._nearer = self._farther = self._empty = 0
         self._phase = PHASE_APPROACH
@@ -248,7 +247,7 @@ class SwingTrigger:
         return last.distance_m - model.steps[0].distance_m + (last.run_m or 0.0)
 
     def update(
-        self, odometry: Odometry | None, model: StairModel | None = None, plan: SwingPlan | None = None
+        self, odometry: Odometry | None, model: StairModel | None = None, *, camera_z_m: float | None = None
     ) -> TriggerState:
         """Advance with new odometry and, when a frame was processed, its terrain and plan.
 
@@ -257,23 +256,26 @@ class SwingTrigger:
         odometry : Odometry or None
             Body pose now; None when there is no odometry (travel then counts as zero, so
             only the measurements themselves bring the trigger closer).
-        model, plan : StairModel and SwingPlan, optional
-            The frame's terrain (yaw frame) and swing plan; both or neither.
+        model : StairModel, optional
+            The terrain (yaw frame) when a frame was processed.
+        camera_z_m : float, optional
+            Height of the camera in the model's frame. A tread above the camera cannot be
+            seen, so the rise of such a step (beyond the first) is a guess and does not set
+            the swing height; the robot sees it properly once it has climbed.
         """
         cfg = self.config
+        self._camera_z = camera_z_m
         if model is not None:
-            if plan is None:
-                plan = plan_swing(model, self.swing)
             seen = model.obstacle != NONE and bool(model.steps)
             if self._phase == PHASE_IDLE:
                 self._seen = self._seen + 1 if seen else 0
                 if seen and self._seen >= cfg.confirm_frames:
-                    self._start(model.steps[0].distance_m, plan, model, odometry)
+                    self._start(model.steps[0].distance_m, model, odometry)
             elif self._phase in (PHASE_APPROACH, PHASE_BLOCKED):
-                self._measure(odometry, model, plan, seen)
+                self._measure(odometry, model, seen)
         remaining = None if self._d0 is None else self._d0 - self._travelled(odometry)
         if self._phase in (PHASE_APPROACH, PHASE_BLOCKED) and remaining is not None:
-            blocked = self._median(self._steps) > self.swing.max_height_m
+            blocked = self._step_height() > self.swing.max_height_m
             self._phase = PHASE_BLOCKED if blocked else PHASE_APPROACH
             if not blocked and remaining <= self.swing.buffer_m:
                 self._phase = PHASE_RAISED  # eq. 2: travelled >= d - d_buffer; latched
@@ -287,7 +289,7 @@ class SwingTrigger:
         self._last = self._state(remaining)
         return self._last
 
-    def _measure(self, odo: Odometry | None, model: StairModel, plan: SwingPlan, seen: bool) -> None:
+    def _measure(self, odo: Odometry | None, model: StairModel, seen: bool) -> None:
         cfg = self.config
         assert self._d0 is not None
         predicted = self._d0 - self._travelled(odo)
@@ -304,8 +306,7 @@ class SwingTrigger:
         if abs(d - predicted) <= cfg.gate_m:
             self._d0 = predicted + cfg.smoothing * (d - predicted)
             self._set_origin(odo)
-            self._heights = (self._heights + [plan.height_m])[-cfg.history :]
-            self._steps = (self._steps + [plan.step_height_m])[-cfg.history :]
+            self._rises = (self._rises + [self._measured_rises(model)])[-cfg.history :]
             self._extent = max(self._extent, self._stair_extent(model))
             self._nearer = self._farther = 0
             return
@@ -316,7 +317,24 @@ class SwingTrigger:
             # next riser is reported first; that is no reason to move the trigger.
             self._farther, self._nearer = (self._farther + 1 if visible else 0), 0
         if max(self._nearer, self._farther) >= cfg.reacquire_frames:
-            self._start(d, plan, model, odo)
+            self._start(d, model, odo)
+
+    def _measured_rises(self, model: StairModel) -> list[float]:
+        z = self._camera_z
+        steps = model.steps
+        return [s.rise_m for i, s in enumerate(steps) if i == 0 or z is None or s.top_z_m <= z]
+
+    def _step_height(self) -> float:
+        """Top-of-step height to clear: the highest per-step median rise over the recent
+        accepted frames. Step ``i`` counts if at least half of them saw it, so one frame
+        that merges a far step with the landing cannot raise the swing to the cap."""
+        frames = self._rises
+        best = 0.0
+        for i in range(max((len(r) for r in frames), default=0)):
+            rises = [r[i] for r in frames if len(r) > i]
+            if 2 * len(rises) >= len(frames):
+                best = max(best, self._median(rises))
+        return best
 
     @staticmethod
     def _median(values: list[float]) -> float:
@@ -327,7 +345,8 @@ class SwingTrigger:
     def _state(self, remaining: float | None) -> TriggerState:
         sw = self.swing
         idle = self._phase == PHASE_IDLE or self._d0 is None
-        height = sw.nominal_height_m if idle else min(self._median(self._heights), sw.max_height_m)
+        wanted = max(sw.nominal_height_m, self._step_height() + sw.clearance_m)
+        height = sw.nominal_height_m if idle else min(wanted, sw.max_height_m)
         trigger = None if idle else max(0.0, self._d0 - sw.buffer_m)  # type: ignore[operator]
         return TriggerState(
             phase=self._phase,

@@ -250,7 +250,9 @@ class LiveLoop:
             self._quality |= terrain_t.QUALITY_UNREADABLE
             log.warning("pipeline failed on pair %d", frame.index, exc_info=True)
             return
-        trig = self.trigger.update(odo, result.terrain, result.swing)
+        trig = self.trigger.update(
+            odo, result.terrain, camera_z_m=float(result.T_yaw_camera_rect.translation[2])
+        )
         now = self.clock()
         latency = now - frame.t_capture_s
         if self._stalled_since is not None:

@@ -397,6 +397,7 @@ class ApproachResult:
             "swing_height_m": max((f.height_m for f in self.sensed), default=None),
             "edge_clearance_sensed_m": self.edge_clearances(self.sensed),
             "edge_clearance_blind_m": self.edge_clearances(self.blind),
+            "not_traversable_reported": any(not m.traversable for m in self.messages),
             "feet_clear_sensed": all(v > 0 for v in self.edge_clearances(self.sensed).values()),
             "feet_hit_blind": sorted(k for k, v in self.edge_clearances(self.blind).items() if v <= 0),
         }
