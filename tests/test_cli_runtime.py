@@ -59,6 +59,7 @@ def test_replay_status_line_goes_to_stderr(recording, capsys):
           "--no-lcm"], "left video not found"),
         (["record", "--left", "{tmp}/l.avi", "--right", "{tmp}/r.avi", "--out", "{rec}"], "video not found"),
         (["simulate", "--out", "{tmp}/sim", "--start", "0.3"], "end_distance_m < start_distance_m"),
+        (["record", "--left", "98", "--right", "99", "--out", "{tmp}/r"], "cannot open left camera/video 98"),
         (["replay", "{rec}", "--max-skew-ms", "-3"], "expected a finite number >= 0"),
     ],
 )  # fmt: skip

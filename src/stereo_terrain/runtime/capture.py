@@ -171,7 +171,13 @@ def _open_capture(device: int | str, what: str) -> cv2.VideoCapture:
     if isinstance(device, str) and not device.startswith(("/dev/", "rtsp:", "http:", "https:")):
         if not Path(device).exists():
             raise InputError(f"{what} video not found: {device} (give a camera index, /dev/videoN or a file)")
-    cap = cv2.VideoCapture(device)
+    # OpenCV logs its own warnings when a device cannot be opened; the error below says it.
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        cap = cv2.VideoCapture(device)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if not cap.isOpened():
         cap.release()
         raise InputError(
