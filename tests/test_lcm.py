@@ -179,3 +179,48 @@ def test_replay_over_lcm_triggers_on_time_and_the_feet_clear(approach, tmp_path,
     assert all(v < 0 for v in blind.values())  # the blind 0.15 m swing hits the 0.21 m step
     # The replay gives what the simulation itself saw.
     assert res.trigger_x_m == pytest.approx(sim.trigger_x_m, abs=0.005)
+
+
+def test_run_takes_the_body_pose_from_the_state_channel(approach, tmp_path, capsys):
+    """``run`` on two video files with the body state on LCM: attitude and odometry used."""
+    import cv2
+
+    folder, cfg, _ = approach
+    paths = []
+    for side in ("left", "right"):
+        path = tmp_path / f"{side}.avi"
+        w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, cfg.image_size)
+        if not w.isOpened():
+            pytest.skip("OpenCV has no MJPG writer here")
+        for i in range(6):
+            w.write(cv2.cvtColor(cv2.imread(str(folder / f"{side}_{i:06d}.png"), 0), cv2.COLOR_GRAY2BGR))
+        w.release()
+        paths.append(path)
+    url = _url(5)
+    sub = Subscriber(url)
+    stop = threading.Event()
+
+    def publish_state():
+        lc = lcm.LCM(url)
+        st = body_state_t()
+        st.position_m, st.rpy_rad = [1.0, 2.0, 0.0], [0.0, 0.0, 0.3]
+        while not stop.is_set():
+            lc.publish("STATE", st.encode())
+            time.sleep(0.01)
+
+    pub = threading.Thread(target=publish_state, daemon=True)
+    pub.start()
+    try:
+        code = main(
+            ["run", "--left", str(paths[0]), "--right", str(paths[1]), "--calib", str(folder / "calib.yaml"),
+             "--rig", str(folder / "rig.yaml"), "--state-channel", "STATE", "--lcm-url", url, "--quiet"]
+        )  # fmt: skip
+    finally:
+        stop.set()
+        pub.join(1)
+    assert code == 0, capsys.readouterr().err
+    got = sub.wait_for(2)
+    assert got and all(m.quality & terrain_t.QUALITY_POSE_MISSING == 0 for m in got)
+    tracking = [m for m in got if m.trigger_phase == terrain_t.PHASE_APPROACH]
+    assert tracking and all(list(m.p0_m) == [1.0, 2.0, 0.0] for m in tracking)
+    assert tracking[0].heading_rad == pytest.approx(0.3)

@@ -11,9 +11,11 @@ its age, so the controller never acts on old terrain without knowing it.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TextIO
@@ -29,6 +31,9 @@ from .capture import END, FRAME, NONE, SKEW, UNREADABLE, Capture, Clock, StereoF
 from .messages import terrain_message, terrain_t
 
 log = logging.getLogger(__name__)
+
+#: Pairs whose latencies the summary keeps.
+LATENCY_WINDOW = 20_000
 
 #: Pose provider: the body pose for a frame (odometry and roll/pitch/yaw), either may be None.
 PoseProvider = Callable[[StereoFrame | None], tuple[Odometry | None, tuple[float, float, float] | None]]
@@ -88,8 +93,10 @@ class LoopSummary:
     stalled_s: float = 0.0
     elapsed_s: float = 0.0
     interrupted: bool = False
-    latencies_s: list[float] = field(default_factory=list, repr=False)
-    periods_s: list[float] = field(default_factory=list, repr=False)
+    # Bounded, so that memory stays flat however long the loop runs: the latency quantiles
+    # are over the last LATENCY_WINDOW pairs (about 11 minutes at 30 fps).
+    latencies_s: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCY_WINDOW), repr=False)
+    periods_s: deque[float] = field(default_factory=lambda: deque(maxlen=30), repr=False)
 
     @property
     def fps(self) -> float:
@@ -97,7 +104,8 @@ class LoopSummary:
         return self.processed / self.elapsed_s if self.elapsed_s > 0 else 0.0
 
     def latency_ms(self, q: float) -> float:
-        """Capture-to-publish latency quantile ``q`` (0..100), milliseconds (NaN if none)."""
+        """Capture-to-publish latency quantile ``q`` (0..100) over the last ``LATENCY_WINDOW``
+        pairs, milliseconds (NaN if none)."""
         return float(np.percentile(self.latencies_s, q)) * 1e3 if self.latencies_s else math.nan
 
     def format(self) -> str:
@@ -329,9 +337,9 @@ class LiveLoop:
 
     def status_line(self) -> str:
         s = self.summary
-        recent = s.latencies_s[-30:]
+        recent = list(itertools.islice(reversed(s.latencies_s), 30))
         lat = f"{1e3 * float(np.median(recent)):.0f}" if recent else "-"
-        periods = s.periods_s[-30:]
+        periods = list(s.periods_s)
         rate = f"{1.0 / float(np.mean(periods)):.1f}" if periods and np.mean(periods) > 0 else "-"
         t = self.trigger.state
         ahead = "-"
