@@ -97,6 +97,10 @@ class SGMConfig:
         Left-right consistency tolerance.
     speckle_window_px, speckle_range_px : int
         Speckle filter (OpenCV's filterSpeckles on the result).
+    device : str
+        ``cpu`` (Numba, the default), ``cuda`` (Numba-CUDA, :mod:`.sgm_cuda`; 4 or 8 paths,
+        at most 256 disparities; same result as the CPU) or ``auto`` (CUDA when a device is
+        present, else CPU).
 
     Notes
     -----
@@ -115,6 +119,7 @@ class SGMConfig:
     lr_max_diff_px: float = 1.0
     speckle_window_px: int = 100
     speckle_range_px: int = 2
+    device: str = "cpu"
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -127,6 +132,8 @@ class SGMConfig:
             raise ConfigError("p2_gradient_scale must be > 0")
         if not 0 <= self.uniqueness_ratio_pct < 100:
             raise ConfigError("uniqueness_ratio_pct must be in [0, 100)")
+        if self.device not in ("cpu", "cuda", "auto"):
+            raise ConfigError(f"device must be cpu, cuda or auto, got '{self.device}'")
 
 
 @njit(cache=True, nogil=True)
@@ -481,6 +488,38 @@ class SGM:
             )
         n = check_max_disparity(max_disparity_px, left.shape[1])
         c = self.config
+        lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
+        if self._use_cuda():
+            from .sgm_cuda import disparity_cuda
+
+            disp, conf = disparity_cuda(
+                census5x5(left), census5x5(right), left, n, c.paths, lut, c.p1,
+                c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px,
+            )  # fmt: skip
+        else:
+            disp, conf = self._compute_cpu(left, right, n, lut)
+        if c.speckle_window_px > 0:
+            fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
+            cv2.filterSpeckles(fixed, -16, c.speckle_window_px, c.speckle_range_px * 16)
+            disp[fixed == -16] = np.nan
+        return DisparityMap(disp, n, pair.rectification, conf, self.name)
+
+    def _use_cuda(self) -> bool:
+        if self.config.device == "cpu":
+            return False
+        from .sgm_cuda import cuda_available
+
+        if cuda_available():
+            return True
+        if self.config.device == "cuda":
+            raise ConfigError("device='cuda' but Numba finds no CUDA device; use device='cpu' or 'auto'")
+        return False
+
+    def _compute_cpu(
+        self, left: np.ndarray, right: np.ndarray, n: int, lut: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Cost, aggregation and selection on the CPU's two cores (before speckle removal)."""
+        c = self.config
         h, w = left.shape
         pool = _sweep_pool()
         halves = ((0, h // 2), (h // 2, h))
@@ -489,7 +528,6 @@ class SGM:
         for job in [pool.submit(census_cost_rows, cl, cr, y0, y1, cost) for y0, y1 in halves]:
             job.result()
         paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
-        lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
         # Stage 1: the two paths along the rows, in bands of rows. Stage 2: the forward and
         # the backward sweep add their paths, one to each of stage 1's results.
         forward = np.empty((h, w, n), dtype=np.int16)
@@ -512,8 +550,4 @@ class SGM:
             pool.submit(select_disparity_rows, forward, backward, y0, y1, *args) for y0, y1 in halves
         ]:
             job.result()
-        if c.speckle_window_px > 0:
-            fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
-            cv2.filterSpeckles(fixed, -16, c.speckle_window_px, c.speckle_range_px * 16)
-            disp[fixed == -16] = np.nan
-        return DisparityMap(disp, n, pair.rectification, conf, self.name)
+        return disp, conf
