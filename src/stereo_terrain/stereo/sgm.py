@@ -28,11 +28,13 @@ How it is made fast on two cores (numbers in ``docs/benchmarks.md``):
   row (the four rows interleaved, so that one pixel's wait on its neighbour overlaps with
   other rows' work), then the paths from earlier rows (no dependence between the pixels
   of a row). The cost volume is never stored whole.
-- The selection runs in two bands of rows and adds the two sweeps' sums a pixel at a
-  time; the full S is never stored.
+- One volume S for both sweeps, filled in two phases: the forward sweep writes the top
+  half while the backward sweep writes the bottom half; then each goes on into the
+  other half, adds its paths, and chooses the disparities of each row it finishes while
+  the row is still in cache.
 
-Memory: the two sweeps' sums (int16), ``4 * H * W * D`` bytes: 157 MB at 640x480x128
-and 79 MB at 64 disparities, plus row buffers (under 2 MB).
+Memory: S (int16), ``2 * H * W * D`` bytes: 79 MB at 640x480x128 and 39 MB at 64
+disparities, plus row buffers (under 2 MB).
 """
 
 from __future__ import annotations
