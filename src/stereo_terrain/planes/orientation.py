@@ -12,6 +12,7 @@ is too small or the best plane explains too little of it -- not after a fixed co
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -139,6 +140,10 @@ class PlaneSet:
         Gravity-up direction in the cloud's frame.
     stop_reason : str
     method : str
+        ``orientation``, ``contour`` or ``combined`` (``auto``).
+    parameters : dict
+        The parameters the method chose from the data, and counts of what it did (JSON
+        serialisable; reported in the result's ``plane_stage``).
     """
 
     segments: tuple[PlaneSegment, ...]
@@ -147,6 +152,7 @@ class PlaneSet:
     stop_reason: str
     camera_position: np.ndarray = field(repr=False)
     method: str = "orientation"
+    parameters: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
     def frame(self) -> str:
@@ -311,6 +317,7 @@ def extract_planes_orientation(
 
     remaining = np.ones(n_pts, dtype=bool)
     segments: list[PlaneSegment] = []
+    rounds_used = 0
     stop = f"reached max_planes={config.max_planes}"
     for _ in range(config.max_planes):
         rest = np.flatnonzero(remaining)
@@ -327,6 +334,7 @@ def extract_planes_orientation(
         found = None
         rest_view = (rest, P[rest], N[rest], thr[rest])
         for _round in range(config.max_rounds):
+            rounds_used += 1
             found = _best_plane(
                 P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos
             )
@@ -353,4 +361,11 @@ def extract_planes_orientation(
         rms = float(np.sqrt(np.mean(plane.residuals(P[idx]) ** 2)))
         segments.append(PlaneSegment(plane, kind, idx, rms))
         remaining &= ~inl
-    return PlaneSet(tuple(segments), samples, up, stop, cam, "orientation")
+    params = {
+        "angle_tol_deg": config.angle_tol_deg,
+        "inlier_threshold_m_median": round(float(np.median(thr)), 4) if n_pts else None,
+        "msac_rounds": rounds_used,
+        "msac_hypotheses": rounds_used * config.hypotheses_per_plane,
+        "confidence_weighting": False,
+    }
+    return PlaneSet(tuple(segments), samples, up, stop, cam, "orientation", params)
