@@ -224,7 +224,7 @@ def find_regions(
         above = smooth >= level if level > smooth.min() else smooth > level
         # Both sides of the iso-line: a dark face touching the image border is closed
         # only as a region below the level.
-        contours = []
+        contours: list[np.ndarray] = []
         for binary in (above, ~above):
             if binary.all():
                 continue  # the image frame itself is no contour (a uniform image has none)
@@ -407,21 +407,25 @@ def _merge_same_planes(
     """Planes of several regions that are one plane (normals within ``merge_angle_deg``,
     each one's points within ``merge_distance_m`` of the other) become one, refit."""
     cos_m = math.cos(math.radians(config.merge_angle_deg))
-    out: list[tuple[Plane, np.ndarray]] = []
+    planes: list[Plane] = []
+    members: list[np.ndarray] = []  # (N,) bool per merged plane
     for plane, idx in sorted(found, key=lambda f: -len(f[1])):
-        for k, (p2, idx2) in enumerate(out):
+        for k, p2 in enumerate(planes):
             if abs(float(plane.normal @ p2.normal)) < cos_m:
                 continue
             if np.median(p2.residuals(P[idx])) > config.merge_distance_m:
                 continue
-            if np.median(plane.residuals(P[idx2])) > config.merge_distance_m:
+            if np.median(plane.residuals(P[members[k]])) > config.merge_distance_m:
                 continue
-            union = np.union1d(idx2, idx)
-            out[k] = (Plane.estimate(P[union].astype(np.float64)) or p2, union)
+            members[k][idx] = True
+            planes[k] = Plane.estimate(P[members[k]]) or p2
             break
         else:
-            out.append((plane, idx))
-    return out
+            mask = np.zeros(len(P), dtype=bool)
+            mask[idx] = True
+            planes.append(plane)
+            members.append(mask)
+    return [(p, np.flatnonzero(m)) for p, m in zip(planes, members, strict=True)]
 
 
 def extract_planes_contour(
