@@ -274,3 +274,28 @@ def test_methods_on_a_rendered_staircase(rendered, method):
     assert max(score.rise_errors_m) <= RISE_TOL_M
     assert score.first_distance_error_m <= DISTANCE_TOL_M
     assert data["plane_stage"]["method_requested"] == method
+
+
+def test_region_msac_kernel_finds_the_plane_among_outliers():
+    """The compiled per-region MSAC: a region of one plane with 30% gross outliers gives
+    that plane, and stops early (adaptive trials) when the inlier ratio is high."""
+    from stereo_terrain.planes._kernels import region_msac
+    from stereo_terrain.planes.orientation import grid_lookup
+
+    s, _ = _step_scene_with_image()
+    rng = np.random.default_rng(0)
+    ground = np.abs(s.points[:, 2]) < 1e-3
+    P = s.points.astype(np.float64)
+    bad = ground & (rng.random(len(s)) < 0.3)
+    P[bad, 2] += rng.uniform(0.1, 0.5, bad.sum())
+    lut, gr, gc = grid_lookup(s)
+    idx = np.flatnonzero(ground)
+    score = rng.choice(idx, 300, replace=False)
+    args = (P, s.normals.astype(np.float64), np.full(len(s), 1 / 0.01), lut, gr, gc, ground, idx, score, 4)
+    n, d, cost, trials = region_msac(*args, 16, 256, 0.99, 0.9, rng.random((256, 5)))
+    assert _angle(n, [0, 0, 1]) < NORMAL_TOL_DEG and abs(d) < OFFSET_TOL_M
+    assert trials < 256
+    clean = np.flatnonzero(ground & ~bad)
+    args2 = (P, s.normals.astype(np.float64), np.full(len(s), 1 / 0.01), lut, gr, gc, ground & ~bad, clean)
+    _, _, _, few = region_msac(*args2, clean[:300], 4, 16, 256, 0.99, 0.9, rng.random((256, 5)))
+    assert few == 16  # all-inlier region: one batch is enough

@@ -11,6 +11,21 @@ import numpy as np
 from numba import njit
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _point_cost(
+    nx, ny, nz, d, points, point_normals, inv_threshold, m, agreement_cos, use_normals
+):  # pragma: no cover
+    """MSAC cost of point ``m`` for the plane ``(nx, ny, nz) . x + d = 0``: its truncated
+    squared residual in threshold units, 1 when its normal disagrees (``use_normals``)."""
+    if use_normals:
+        c = nx * point_normals[m, 0] + ny * point_normals[m, 1] + nz * point_normals[m, 2]
+        if abs(c) < agreement_cos:
+            return 1.0
+    r = (nx * points[m, 0] + ny * points[m, 1] + nz * points[m, 2] + d) * inv_threshold[m]
+    r2 = r * r
+    return r2 if r2 < 1.0 else 1.0
+
+
 @njit(cache=True, nogil=True)  # no fastmath: same sums on every CPU
 def msac_costs(
     normals: np.ndarray,
@@ -33,13 +48,110 @@ def msac_costs(
         nx, ny, nz, d = normals[k, 0], normals[k, 1], normals[k, 2], offsets[k]
         acc = np.float32(0.0)
         for m in range(m_count):
-            if use_normals:
-                c = nx * point_normals[m, 0] + ny * point_normals[m, 1] + nz * point_normals[m, 2]
-                if abs(c) < agreement_cos:
-                    acc += 1.0
-                    continue
-            r = (nx * points[m, 0] + ny * points[m, 1] + nz * points[m, 2] + d) * inv_threshold[m]
-            r2 = r * r
-            acc += r2 if r2 < 1.0 else 1.0
+            acc += _point_cost(
+                nx, ny, nz, d, points, point_normals, inv_threshold, m, agreement_cos, use_normals
+            )
         costs[k] = acc
     return costs
+
+
+@njit(cache=True, nogil=True)
+def region_msac(
+    points: np.ndarray,
+    normals: np.ndarray,
+    inv_threshold: np.ndarray,
+    grid_lut: np.ndarray,
+    grid_row: np.ndarray,
+    grid_col: np.ndarray,
+    inside: np.ndarray,
+    seeds: np.ndarray,
+    score: np.ndarray,
+    radius: int,
+    batch: int,
+    max_trials: int,
+    confidence: float,
+    agreement_cos: float,
+    uniform: np.ndarray,
+) -> tuple[np.ndarray, float, float, int]:  # pragma: no cover - compiled
+    """Adaptive plane MSAC inside one image region, hypotheses of any orientation.
+
+    Each trial draws a first point from ``seeds`` and two more within ``radius`` grid cells
+    of it that are also ``inside`` the region; the plane through them is scored on the
+    points ``score`` (truncated quadratic, a point whose normal disagrees costs 1). Trials
+    run in batches until ``max_trials``, or until an all-inlier sample has been drawn with
+    probability ``confidence`` given the best hypothesis' inlier ratio (``w**3``).
+
+    ``uniform`` is ``(A, 5)`` floats in [0, 1) from the caller's generator (the randomness
+    stays in one seeded place): one row per attempt; an attempt whose sample is invalid
+    (outside the region, repeated or collinear points) is no trial, and no more than ``A``
+    attempts are made.
+
+    Returns ``(normal (3,), offset, cost, trials)``; cost is inf when no valid sample was
+    drawn.
+    """
+    span = 2 * radius + 1
+    gh, gw = grid_lut.shape
+    best_n = np.zeros(3)
+    best_d = 0.0
+    best_cost = np.inf
+    trials = 0
+    budget = max_trials
+    log_fail = np.log(1.0 - confidence)
+    n_seeds = seeds.shape[0]
+    m_count = score.shape[0]
+    attempts = 0
+    n_attempts = uniform.shape[0]
+    while trials < budget and attempts < n_attempts:
+        for _ in range(batch):
+            if attempts >= n_attempts:
+                break
+            u = uniform[attempts]
+            attempts += 1
+            i0 = seeds[min(int(u[0] * n_seeds), n_seeds - 1)]
+            js = np.empty(2, dtype=np.int64)
+            ok = True
+            for t in range(2):
+                r = min(max(grid_row[i0] + int(u[1 + 2 * t] * span) - radius, 0), gh - 1)
+                c = min(max(grid_col[i0] + int(u[2 + 2 * t] * span) - radius, 0), gw - 1)
+                j = grid_lut[r, c]
+                if j < 0 or not inside[j] or j == i0:
+                    ok = False
+                    break
+                js[t] = j
+            if not ok or js[0] == js[1]:
+                continue
+            p0 = points[i0]
+            a = points[js[0]] - p0
+            b = points[js[1]] - p0
+            nx = a[1] * b[2] - a[2] * b[1]
+            ny = a[2] * b[0] - a[0] * b[2]
+            nz = a[0] * b[1] - a[1] * b[0]
+            norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+            if norm < 1e-9:
+                continue
+            trials += 1
+            nx, ny, nz = nx / norm, ny / norm, nz / norm
+            d = -(nx * p0[0] + ny * p0[1] + nz * p0[2])
+            cost = 0.0
+            inl = 0
+            for k in range(m_count):
+                c = _point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[k], agreement_cos, True)
+                cost += c
+                if c < 1.0:
+                    inl += 1
+            if cost < best_cost:
+                best_cost = cost
+                best_n[0], best_n[1], best_n[2] = nx, ny, nz
+                best_d = d
+                w = inl / max(m_count, 1)
+                p_good = w * w * w
+                if p_good >= 1.0 - 1e-12:
+                    need = 1
+                elif p_good <= 1e-12:
+                    need = max_trials
+                else:
+                    need = int(np.ceil(log_fail / np.log(1.0 - p_good)))
+                budget = min(max_trials, max(batch, need))
+            if trials >= budget or trials >= max_trials:
+                break
+    return best_n, best_d, best_cost, trials

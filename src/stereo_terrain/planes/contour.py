@@ -33,7 +33,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..cloud import GridSample
 from ..errors import ConfigError, InputError
-from .msac import Plane, plane_msac, required_trials
+from .msac import Plane
 from .orientation import (
     HORIZONTAL,
     VERTICAL,
@@ -41,7 +41,6 @@ from .orientation import (
     PlaneSet,
     classify_normal,
     grid_lookup,
-    local_triplets,
     orient_plane,
 )
 
@@ -298,38 +297,30 @@ def _fit_region(
     Returns ``(plane, inlier indices, inlier ratio in the region, trials, threshold)`` or
     None when no hypothesis could be drawn.
     """
+    from ._kernels import region_msac
+
     idx = np.flatnonzero(inside)
     score = idx if len(idx) <= config.score_points else rng.choice(idx, config.score_points, replace=False)
-    best: Plane | None = None
-    best_cost = np.inf
-    trials = 0
-    budget = config.max_hypotheses
-    while trials < budget:
-        radius = config.sample_radius_cells
-        trip = local_triplets(lut, gr, gc, idx, inside, radius, config.min_hypotheses, rng)
-        trials += config.min_hypotheses
-        if len(trip) == 0:
-            continue
-        res = plane_msac(
-            P,
-            thr_sigma,
-            trip,
-            point_normals=N,
-            normal_agreement_cos=agree_cos,
-            score_subset=score,
-            compute_inliers=False,
-        )
-        if res.model is None or res.cost >= best_cost:
-            continue
-        best, best_cost = res.model, res.cost
-        inl = (best.residuals(P[score]) < thr_sigma[score]) & (np.abs(N[score] @ best.normal) >= agree_cos)
-        # Iterations from the inlier ratio of the best hypothesis (Fischler & Bolles).
-        budget = max(
-            config.min_hypotheses,
-            min(config.max_hypotheses, required_trials(float(inl.mean()), 3, config.confidence)),
-        )
-    if best is None:
+    normal, offset, cost, trials = region_msac(
+        P,
+        N,
+        (1.0 / thr_sigma).astype(np.float64),
+        lut,
+        gr,
+        gc,
+        inside,
+        idx,
+        score,
+        config.sample_radius_cells,
+        config.min_hypotheses,
+        config.max_hypotheses,
+        config.confidence,
+        agree_cos,
+        rng.random((4 * config.max_hypotheses, 5)),
+    )
+    if not np.isfinite(cost):
         return None
+    best = Plane(normal, offset)
     plane = best
     Pi, Ni, wi = P[idx], N[idx], weights[idx]
     thr = thr_sigma[idx]
@@ -405,27 +396,40 @@ def _merge_same_planes(
     found: list[tuple[Plane, np.ndarray]], P: np.ndarray, config: ContourConfig
 ) -> list[tuple[Plane, np.ndarray]]:
     """Planes of several regions that are one plane (normals within ``merge_angle_deg``,
-    each one's points within ``merge_distance_m`` of the other) become one, refit."""
+    each one's points within ``merge_distance_m`` of the other, by the median) become one,
+    refit once on the union. Each merged group is represented by its largest plane."""
     cos_m = math.cos(math.radians(config.merge_angle_deg))
+
+    def near(plane: Plane, idx: np.ndarray) -> bool:
+        # A median over every k-th point is plenty to tell two planes apart.
+        sub = P[idx[:: max(1, len(idx) // 400)]]
+        return bool(np.median(plane.residuals(sub)) <= config.merge_distance_m)
+
     planes: list[Plane] = []
     members: list[np.ndarray] = []  # (N,) bool per merged plane
+    first_idx: list[np.ndarray] = []
+    merged_any: list[bool] = []
     for plane, idx in sorted(found, key=lambda f: -len(f[1])):
         for k, p2 in enumerate(planes):
             if abs(float(plane.normal @ p2.normal)) < cos_m:
                 continue
-            if np.median(p2.residuals(P[idx])) > config.merge_distance_m:
-                continue
-            if np.median(plane.residuals(P[members[k]])) > config.merge_distance_m:
+            if not near(p2, idx) or not near(plane, first_idx[k]):
                 continue
             members[k][idx] = True
-            planes[k] = Plane.estimate(P[members[k]]) or p2
+            merged_any[k] = True
             break
         else:
             mask = np.zeros(len(P), dtype=bool)
             mask[idx] = True
             planes.append(plane)
             members.append(mask)
-    return [(p, np.flatnonzero(m)) for p, m in zip(planes, members, strict=True)]
+            first_idx.append(idx)
+            merged_any.append(False)
+    out = []
+    for p, m, again in zip(planes, members, merged_any, strict=True):
+        idx = np.flatnonzero(m)
+        out.append(((Plane.estimate(P[idx]) or p) if again else p, idx))
+    return out
 
 
 def extract_planes_contour(
