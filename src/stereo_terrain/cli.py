@@ -103,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         action="append",
         choices=sorted(_METHODS),
-        help="repeat to compare (default: sgm, opencv, opencv-hh)",
+        help="repeat to compare (default: sgm and the three OpenCV modes)",
     )
 
     g = sub.add_parser("render", help="write synthetic stereo scenes with ground truth")
@@ -307,7 +307,7 @@ def cmd_eval_disparity(args: argparse.Namespace) -> int:
     from .rectify import read_image
     from .stereo.io import read_pfm
 
-    methods = args.method or ["sgm", "opencv", "opencv-hh"]
+    methods = args.method or ["sgm", "opencv", "opencv-sgbm", "opencv-hh"]
     scenes = _scene_dirs(args.root)
     rows = []
     total = len(scenes) * len(methods)
