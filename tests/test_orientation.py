@@ -107,7 +107,8 @@ def test_confidence_keeps_low_confidence_outliers_out():
     pts[bad, 2] += rng.uniform(0.05, 0.3, bad.sum()).astype(np.float32)
     conf = np.where(bad, 0.01, 1.0).astype(np.float32)
     noisy = GridSample(**{**s.__dict__, "points": pts, "confidence": conf})
-    ps = extract_planes_orientation(noisy)
+    assert extract_planes_orientation(noisy).parameters["confidence_weighting"] is False  # opt-in
+    ps = extract_planes_orientation(noisy, OrientationConfig(min_confidence=0.2, confidence_weights=True))
     assert ps.parameters["confidence_weighting"] is True
     assert ps.parameters["low_confidence_seeds_excluded"] > 0
     horiz = [g for g in ps.segments if g.kind == HORIZONTAL]
