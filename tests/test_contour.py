@@ -299,3 +299,19 @@ def test_region_msac_kernel_finds_the_plane_among_outliers():
     args2 = (P, s.normals.astype(np.float64), np.full(len(s), 1 / 0.01), lut, gr, gc, ground & ~bad, clean)
     _, _, _, few = region_msac(*args2, clean[:300], 4, 16, 256, 0.99, 0.9, rng.random((256, 5)))
     assert few == 16  # all-inlier region: one batch is enough
+
+
+def test_auto_takes_the_contour_planes_when_they_add_steps(rendered):
+    """With the orientation method cut short (two planes), the contour planes complete the
+    staircase and auto says so."""
+    from stereo_terrain.planes.orientation import OrientationConfig
+
+    cut = OrientationConfig(max_planes=2)
+    short = Pipeline(rendered.calibration, rendered.rig, PipelineConfig(orientation=cut))
+    auto = Pipeline(rendered.calibration, rendered.rig, PipelineConfig(method="auto", orientation=cut))
+    n_short = len(short.run(rendered.left, rendered.right).terrain.steps)
+    data = auto.run(rendered.left, rendered.right).to_json_dict()
+    assert len(data["steps"]) > n_short
+    assert data["plane_stage"]["method_used"] == "combined"
+    assert "added" in data["plane_stage"]["reason"]
+    assert data["plane_stage"]["parameters"]["contour_planes_added"] >= 1
