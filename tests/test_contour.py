@@ -315,3 +315,10 @@ def test_auto_takes_the_contour_planes_when_they_add_steps(rendered):
     assert data["plane_stage"]["method_used"] == "combined"
     assert "added" in data["plane_stage"]["reason"]
     assert data["plane_stage"]["parameters"]["contour_planes_added"] >= 1
+
+
+def test_method_and_contour_section_from_config_mapping():
+    cfg = PipelineConfig.from_dict({"method": "contour", "contour": {"levels": 8, "iou_threshold": 0.4}})
+    assert cfg.method == "contour" and cfg.contour.levels == 8 and cfg.contour.iou_threshold == 0.4
+    with pytest.raises(ConfigError, match="unknown keys"):
+        PipelineConfig.from_dict({"contour": {"levles": 8}})
