@@ -322,3 +322,28 @@ def test_method_and_contour_section_from_config_mapping():
     assert cfg.method == "contour" and cfg.contour.levels == 8 and cfg.contour.iou_threshold == 0.4
     with pytest.raises(ConfigError, match="unknown keys"):
         PipelineConfig.from_dict({"contour": {"levles": 8}})
+
+
+@given(
+    st.floats(-np.pi, np.pi),
+    st.floats(0.5, 3.0),
+    st.floats(-3.0, 3.0),
+    st.integers(0, 2**16),
+)
+def test_snap_to_gravity_property(yaw, distance, tilt_deg, seed):
+    """Points of a vertical plane (any yaw and distance) with a slightly tilted free fit
+    snap to that exact vertical plane; horizontal ones to their height."""
+    from stereo_terrain.planes.contour import snap_to_gravity
+
+    rng = np.random.default_rng(seed)
+    up = np.array([0.0, 0.0, 1.0])
+    n = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    lateral = np.array([-n[1], n[0], 0.0])
+    pts = distance * n + rng.uniform(-0.5, 0.5, (60, 1)) * lateral + rng.uniform(0, 0.2, (60, 1)) * up
+    t = np.radians(tilt_deg)
+    free = Plane(np.cos(t) * n + np.sin(t) * up, -distance)
+    snapped = snap_to_gravity(free, pts, up, VERTICAL)
+    assert abs(snapped.normal @ up) < 1e-9
+    assert np.max(snapped.residuals(pts)) < 1e-6
+    flat = snap_to_gravity(Plane(up + 0.01 * n, 0.0), pts * [1, 1, 0] + [0, 0, 0.3], up, HORIZONTAL)
+    assert np.allclose(flat.normal, up) and flat.offset == pytest.approx(-0.3)
