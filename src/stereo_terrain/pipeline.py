@@ -426,11 +426,11 @@ class Pipeline:
         if cfg.method == "contour":
             planes = extract_planes_contour(samples, image, cfg.contour)
             lap("planes")
-            return planes, build_terrain(planes, cfg.terrain), "requested"
+            return planes, build_terrain(planes, cfg.terrain), "contour requested"
         planes = extract_planes_orientation(samples, cfg.orientation)
         if cfg.method == "orientation":
             lap("planes")
-            return planes, build_terrain(planes, cfg.terrain), "requested"
+            return planes, build_terrain(planes, cfg.terrain), "orientation requested (the default)"
         contour = extract_planes_contour(samples, image, cfg.contour)
         combined, added = combine_plane_sets(planes, contour)
         lap("planes")
