@@ -26,6 +26,23 @@ def _point_cost(
     return r2 if r2 < 1.0 else 1.0
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _plane_through(points, i, j, k):  # pragma: no cover
+    """Unit normal and offset of the plane through points ``i, j, k`` (differences taken in
+    the points' dtype, products in float64); ``valid`` False when they are collinear."""
+    p0 = points[i]
+    a = points[j] - p0
+    b = points[k] - p0
+    nx = float(a[1]) * b[2] - float(a[2]) * b[1]
+    ny = float(a[2]) * b[0] - float(a[0]) * b[2]
+    nz = float(a[0]) * b[1] - float(a[1]) * b[0]
+    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if norm <= 1e-9:
+        return 0.0, 0.0, 0.0, 0.0, False
+    nx, ny, nz = nx / norm, ny / norm, nz / norm
+    return nx, ny, nz, -(nx * p0[0] + ny * p0[1] + nz * p0[2]), True
+
+
 @njit(cache=True, nogil=True)  # no fastmath: same sums on every CPU
 def msac_costs(
     normals: np.ndarray,
@@ -120,18 +137,10 @@ def region_msac(
                 js[t] = j
             if not ok or js[0] == js[1]:
                 continue
-            p0 = points[i0]
-            a = points[js[0]] - p0
-            b = points[js[1]] - p0
-            nx = a[1] * b[2] - a[2] * b[1]
-            ny = a[2] * b[0] - a[0] * b[2]
-            nz = a[0] * b[1] - a[1] * b[0]
-            norm = np.sqrt(nx * nx + ny * ny + nz * nz)
-            if norm < 1e-9:
+            nx, ny, nz, d, valid = _plane_through(points, i0, js[0], js[1])
+            if not valid:
                 continue
             trials += 1
-            nx, ny, nz = nx / norm, ny / norm, nz / norm
-            d = -(nx * p0[0] + ny * p0[1] + nz * p0[2])
             cost = 0.0
             inl = 0
             for k in range(m_count):
@@ -155,3 +164,126 @@ def region_msac(
             if trials >= budget or trials >= max_trials:
                 break
     return best_n, best_d, best_cost, trials
+
+
+@njit(cache=True, nogil=True)
+def best_oriented_hypothesis(
+    points: np.ndarray,
+    normals: np.ndarray,
+    inv_threshold: np.ndarray,
+    triplets: np.ndarray,
+    score: np.ndarray,
+    up: np.ndarray,
+    cos_tol: float,
+    sin_tol: float,
+    agreement_cos: float,
+) -> tuple[np.ndarray, float, float]:  # pragma: no cover - compiled
+    """The orientation method's MSAC scoring in one pass: the plane through each triplet
+    (``(K, 3)`` indices), kept only when its normal is within the tolerance of horizontal
+    (``|n . up| >= cos_tol``) or vertical (``<= sin_tol``), scored on the points ``score``
+    by the truncated quadratic with the normal-agreement test.
+
+    Returns ``(normal (3,), offset, cost)`` of the cheapest; cost is inf when no triplet
+    gives a valid hypothesis.
+    """
+    best_n = np.zeros(3)
+    best_d = 0.0
+    best_cost = np.inf
+    for k in range(triplets.shape[0]):
+        nx, ny, nz, d, valid = _plane_through(points, triplets[k, 0], triplets[k, 1], triplets[k, 2])
+        if not valid:
+            continue
+        c = abs(nx * up[0] + ny * up[1] + nz * up[2])
+        if not (c >= cos_tol or c <= sin_tol):
+            continue
+        cost = 0.0
+        for m in range(score.shape[0]):
+            cost += _point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos, True)
+        if cost < best_cost:
+            best_cost = cost
+            best_n[0], best_n[1], best_n[2] = nx, ny, nz
+            best_d = d
+    return best_n, best_d, best_cost
+
+
+@njit(cache=True, nogil=True)
+def oriented_inliers(
+    points: np.ndarray,
+    normals: np.ndarray,
+    threshold: np.ndarray,
+    n: np.ndarray,
+    d: float,
+    agreement_cos: float,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """Inlier mask: residual under the point's threshold and local normal agreeing."""
+    out = np.empty(points.shape[0], dtype=np.bool_)
+    for i in range(points.shape[0]):
+        r = abs(n[0] * points[i, 0] + n[1] * points[i, 1] + n[2] * points[i, 2] + d)
+        c = abs(n[0] * normals[i, 0] + n[1] * normals[i, 1] + n[2] * normals[i, 2])
+        out[i] = r < threshold[i] and c >= agreement_cos
+    return out
+
+
+@njit(cache=True, nogil=True)
+def refine_oriented_plane(
+    points: np.ndarray,
+    normals: np.ndarray,
+    threshold: np.ndarray,
+    weights: np.ndarray,
+    n: np.ndarray,
+    d: float,
+    up: np.ndarray,
+    cos_tol: float,
+    sin_tol: float,
+    agreement_cos: float,
+    iterations: int,
+) -> tuple[np.ndarray, float, np.ndarray]:  # pragma: no cover - compiled
+    """IRLS (Tukey weights times ``weights``) on the inliers of ``n . x + d = 0``, keeping
+    the orientation constraint: a refit that leaves it, or a degenerate one, stops the
+    refinement. Returns ``(normal, offset, inlier mask)``."""
+    n = n.copy()
+    inl = oriented_inliers(points, normals, threshold, n, d, agreement_cos)
+    for _ in range(iterations):
+        count = 0
+        sw = 0.0
+        cx = cy = cz = 0.0
+        for i in range(points.shape[0]):
+            if inl[i]:
+                count += 1
+        if count < 3:
+            break
+        w = np.zeros(points.shape[0])
+        for i in range(points.shape[0]):
+            if inl[i]:
+                r = (n[0] * points[i, 0] + n[1] * points[i, 1] + n[2] * points[i, 2] + d) / threshold[i]
+                t = max(1.0 - r * r, 0.0)
+                w[i] = (t * t + 1e-6) * weights[i]
+                sw += w[i]
+                cx += w[i] * points[i, 0]
+                cy += w[i] * points[i, 1]
+                cz += w[i] * points[i, 2]
+        if sw <= 0.0:
+            break
+        cx, cy, cz = cx / sw, cy / sw, cz / sw
+        cov = np.zeros((3, 3))
+        for i in range(points.shape[0]):
+            if inl[i]:
+                q0, q1, q2 = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
+                cov[0, 0] += w[i] * q0 * q0
+                cov[0, 1] += w[i] * q0 * q1
+                cov[0, 2] += w[i] * q0 * q2
+                cov[1, 1] += w[i] * q1 * q1
+                cov[1, 2] += w[i] * q1 * q2
+                cov[2, 2] += w[i] * q2 * q2
+        cov[1, 0], cov[2, 0], cov[2, 1] = cov[0, 1], cov[0, 2], cov[1, 2]
+        ev, vec = np.linalg.eigh(cov)
+        if ev[1] <= 1e-12 * max(ev[2], 1e-300):
+            break  # (nearly) collinear inliers
+        m = vec[:, 0] / np.sqrt(vec[0, 0] ** 2 + vec[1, 0] ** 2 + vec[2, 0] ** 2)
+        c = abs(m[0] * up[0] + m[1] * up[1] + m[2] * up[2])
+        if not (c >= cos_tol or c <= sin_tol):
+            break
+        n = m
+        d = -(m[0] * cx + m[1] * cy + m[2] * cz)
+        inl = oriented_inliers(points, normals, threshold, n, d, agreement_cos)
+    return n, d, inl

@@ -19,7 +19,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..cloud import GridSample, PointCloud, sample_grid
 from ..errors import ConfigError
-from .msac import Plane, plane_msac, required_trials
+from .msac import Plane, required_trials
 
 HORIZONTAL, VERTICAL, OTHER = "horizontal", "vertical", "other"
 
@@ -232,45 +232,39 @@ def local_triplets(
     return trip[:count]
 
 
-def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos):
+def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos):
     """One MSAC round: local hypotheses, scored on a subset of the rest, refined by IRLS.
 
     ``rest_view`` is ``(rest indices, P[rest], N[rest], thr[rest], confidence[rest] or
-    None)``. Returns ``(plane,
-    inliers (N,) bool, inlier ratio on the scored subset)`` or None.
+    None)``; ``orient`` is ``(up, cos_tol, sin_tol, 1 / thr)``. Scoring, inliers and
+    refinement are compiled (``_kernels``); the sampling stays here, on ``rng``. Returns
+    ``(plane, inliers (N,) bool, inlier ratio on the scored subset, samples drawn)`` or
+    None.
     """
-    rest, Pr, Nr, thr_r, conf_r = rest_view
-    radius = config.sample_radius_cells
+    from ._kernels import best_oriented_hypothesis, oriented_inliers, refine_oriented_plane
 
-    def inliers_of(pl: Plane) -> np.ndarray:
-        return (pl.residuals(Pr) < thr_r) & (np.abs(Nr @ pl.normal.astype(np.float32)) >= agree_cos)
+    rest, Pr, Nr, thr_r, conf_r = rest_view
+    up, cos_tol, sin_tol, inv_thr = orient
+    radius = config.sample_radius_cells
 
     batch = config.hypotheses_per_plane
     trip = local_triplets(lut, gr, gc, first, remaining, radius, batch, rng)
     score = rng.choice(len(rest), size=min(config.score_points, len(rest)), replace=False)
     drawn: list[np.ndarray] = []
     requested = batch  # samples asked for (fewer come back where the grid has holes)
-    plane: Plane | None = None
+    best: tuple[np.ndarray, float] | None = None
     best_cost = np.inf
     inl_r = np.zeros(len(rest), dtype=bool)
+    scored = rest[score]
     while True:
         drawn.append(trip)
-        res = plane_msac(
-            P,
-            thr,
-            trip,
-            point_normals=N,
-            normal_agreement_cos=agree_cos,
-            hypothesis_ok=orientation_ok,
-            score_subset=rest[score],
-            compute_inliers=False,
-        )
-        if res.model is not None and res.cost < best_cost:
-            plane, best_cost = res.model, res.cost
-            inl_r = inliers_of(plane)
+        n, d, cost = best_oriented_hypothesis(P, N, inv_thr, trip, scored, up, cos_tol, sin_tol, agree_cos)
+        if cost < best_cost:
+            best, best_cost = (n, d), cost
+            inl_r = oriented_inliers(Pr, Nr, thr_r, n, d, agree_cos)
         if requested >= config.max_hypotheses_per_plane or len(trip) == 0:
             break
-        if plane is not None:
+        if best is not None:
             # Iterations from the data: the fraction of the local samples drawn so far that
             # lie wholly on the best plane is the chance of a good sample; stop once one has
             # been drawn with probability ``confidence`` (Fischler & Bolles' rule applied
@@ -284,24 +278,17 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config
         requested += size
         trip = local_triplets(lut, gr, gc, first, remaining, radius, size, rng)
     hypotheses = sum(len(t) for t in drawn)
-    if plane is None:
+    if best is None:
         return None
     # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that a
     # hypothesis tilted across two levels settles on the better supported one; the
-    # orientation constraint is kept.
-    for _ in range(config.refine_iterations):
-        if inl_r.sum() < 3:
-            break
-        q = Pr[inl_r]
-        ratio_r = plane.residuals(q) / thr_r[inl_r]
-        weights = np.clip(1.0 - ratio_r**2, 0.0, 1.0) ** 2 + 1e-6
-        if conf_r is not None and config.confidence_weights:
-            weights = weights * conf_r[inl_r]  # disparity confidence, where the backend gives one
-        refit = Plane.estimate(q, weights)
-        if refit is None or not orientation_ok(refit.normal[None, :])[0]:
-            break
-        plane = refit
-        inl_r = inliers_of(plane)
+    # orientation constraint is kept. Weighted by the disparity confidence if asked.
+    use_conf = conf_r is not None and config.confidence_weights
+    weights = conf_r if use_conf else np.ones(len(rest))
+    n, d, inl_r = refine_oriented_plane(
+        Pr, Nr, thr_r, weights, best[0], best[1], up, cos_tol, sin_tol, agree_cos, config.refine_iterations
+    )
+    plane = Plane(n, d)
     ratio = float(np.mean(inl_r[score])) if len(score) else 0.0
     inl = np.zeros(len(P), dtype=bool)
     inl[rest[inl_r]] = True
@@ -371,10 +358,7 @@ def extract_planes_orientation(
         n_low = int((low & seedable).sum())
         seedable &= ~low
 
-    def orientation_ok(normals: np.ndarray) -> np.ndarray:
-        c = np.abs(normals @ up)
-        return (c >= cos_tol) | (c <= sin_tol)
-
+    orient = (up, float(cos_tol), float(sin_tol), (1.0 / thr).astype(np.float32))
     remaining = np.ones(n_pts, dtype=bool)
     segments: list[PlaneSegment] = []
     rounds_used = 0
@@ -397,7 +381,7 @@ def extract_planes_orientation(
         for _round in range(config.max_rounds):
             rounds_used += 1
             found = _best_plane(
-                P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos
+                P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos
             )
             if found is not None:
                 hypotheses.append(found[3])
