@@ -287,3 +287,38 @@ def refine_oriented_plane(
         d = -(m[0] * cx + m[1] * cy + m[2] * cz)
         inl = oriented_inliers(points, normals, threshold, n, d, agreement_cos)
     return n, d, inl
+
+
+@njit(cache=True, nogil=True)
+def triplets_from_draws(
+    grid_lut: np.ndarray,
+    grid_row: np.ndarray,
+    grid_col: np.ndarray,
+    first: np.ndarray,
+    offsets: np.ndarray,
+    remaining: np.ndarray,
+    count: int,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """Index triplets from drawn first points ``(D,)`` and cell offsets ``(D, 2, 2)`` of the
+    two others: kept, in draw order, where both cells hold a remaining sample and the
+    three are distinct; at most ``count``. Returns ``(<= count, 3)`` int64."""
+    gh, gw = grid_lut.shape
+    out = np.empty((min(count, first.shape[0]), 3), dtype=np.int64)
+    n = 0
+    for t in range(first.shape[0]):
+        if n >= count:
+            break
+        i0 = first[t]
+        j = np.empty(2, dtype=np.int64)
+        ok = True
+        for s in range(2):
+            r = min(max(grid_row[i0] + offsets[t, s, 0], 0), gh - 1)
+            c = min(max(grid_col[i0] + offsets[t, s, 1], 0), gw - 1)
+            j[s] = grid_lut[r, c]
+            if j[s] < 0 or not remaining[j[s]] or j[s] == i0:
+                ok = False
+        if not ok or j[0] == j[1]:
+            continue
+        out[n, 0], out[n, 1], out[n, 2] = i0, j[0], j[1]
+        n += 1
+    return out[:n]

@@ -219,17 +219,11 @@ def local_triplets(
 ) -> np.ndarray:
     """Draw up to ``count`` index triplets: a first point from ``first``, two more within
     ``radius`` grid cells of it (so that most triplets lie on one surface)."""
-    gh, gw = grid_lut.shape
+    from ._kernels import triplets_from_draws
+
     i0 = rng.choice(first, size=count * 2)
     off = rng.integers(-radius, radius + 1, size=(count * 2, 2, 2))
-    r = np.clip(gr[i0, None] + off[:, :, 0], 0, gh - 1)
-    c = np.clip(gc[i0, None] + off[:, :, 1], 0, gw - 1)
-    j = grid_lut[r, c]
-    ok = (j >= 0).all(axis=1)
-    j = np.where(j >= 0, j, 0)
-    ok &= remaining[j].all(axis=1) & (j[:, 0] != i0) & (j[:, 1] != i0) & (j[:, 0] != j[:, 1])
-    trip = np.column_stack([i0, j])[ok]
-    return trip[:count]
+    return triplets_from_draws(grid_lut, gr, gc, i0, off, remaining, count)
 
 
 def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos):
