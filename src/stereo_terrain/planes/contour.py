@@ -320,8 +320,7 @@ def _fit_region(
     )
     if not np.isfinite(cost):
         return None
-    best = Plane(normal, offset)
-    plane = best
+    plane = Plane(normal, offset)
     Pi, Ni, wi = P[idx], N[idx], weights[idx]
     thr = thr_sigma[idx]
     inl = (plane.residuals(Pi) < thr) & (np.abs(Ni @ plane.normal) >= agree_cos)
@@ -382,7 +381,7 @@ def snap_to_gravity(plane: Plane, points: np.ndarray, up: np.ndarray, kind: str)
     # Refine the horizontal direction by PCA of the points projected on the level plane.
     q = points - np.outer(points @ up, up)
     c = q.mean(axis=0)
-    w, v = np.linalg.eigh((q - c).T @ (q - c))
+    _, v = np.linalg.eigh((q - c).T @ (q - c))
     cand = [v[:, i] for i in range(3) if abs(v[:, i] @ up) < 0.5]
     if cand:
         best = min(cand, key=lambda e: float(np.sum(((q - c) @ e) ** 2)))
