@@ -79,6 +79,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--config", type=Path, help="pipeline config YAML")
     r.add_argument("--max-disparity", type=_positive_int, help="disparity range (multiple of 16)")
+    r.add_argument(
+        "--method",
+        choices=["orientation", "contour", "auto"],
+        help="plane extraction (default: the config's, else orientation); auto runs both, explains its pick",
+    )
     r.add_argument("--json", type=Path, help="write the terrain result here ('-' for stdout)")
     r.add_argument("--plot", type=Path, help="write a figure (PNG)")
 
@@ -198,10 +203,12 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     calib = read_calibration(args.calib)
     rig = load_rig(args.rig) if args.rig else None
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
-    if args.max_disparity is not None:
-        import dataclasses
+    import dataclasses
 
+    if args.max_disparity is not None:
         config = dataclasses.replace(config, max_disparity_px=args.max_disparity)
+    if args.method is not None:
+        config = dataclasses.replace(config, method=args.method)
     left = read_image(args.left)
     right = read_image(args.right)
     pipeline = Pipeline(calib, rig, config)
@@ -211,6 +218,8 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         _write_json(data, args.json)
     if str(args.json) != "-":
         print(f"obstacle: {data['obstacle']} ({data['note']}); gravity from {data['gravity_source']}")
+        ps = data["plane_stage"]
+        print(f"planes: {len(data['planes'])} by {ps['method_used']} ({ps['reason']})")
         _print_steps("steps:", data["steps"])
         sw = data["swing"]
         print(
