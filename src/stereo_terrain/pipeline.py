@@ -35,6 +35,7 @@ from .cloud import (
     transform_cloud,
     transform_sample,
 )
+from .drift import CorrectionUpdate, DriftConfig, OnlineRectifier
 from .errors import ConfigError, InputError
 from .frames import R_BODY_OPTICAL, Rig, Transform
 from .planes.msac import Plane, planes_from_triplets
@@ -70,6 +71,9 @@ class PipelineConfig:
         Planar fill of texture-poor faces after matching (``fill.enabled``).
     min_depth_m : float
         Closest depth the disparity range must reach when chosen automatically.
+    drift : DriftConfig
+        Online correction of the rectification for a rig that moved since calibration
+        (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
     """
 
     backend: str = "opencv"
@@ -81,6 +85,7 @@ class PipelineConfig:
     orientation: OrientationConfig = field(default_factory=OrientationConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)
+    drift: DriftConfig = field(default_factory=DriftConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -106,6 +111,7 @@ class PipelineConfig:
             "orientation": OrientationConfig,
             "terrain": TerrainConfig,
             "swing": SwingConfig,
+            "drift": DriftConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -313,6 +319,11 @@ class Pipeline:
         self.calibration = calibration
         self.rig = rig
         self.rectification: Rectification = compute_rectification(calibration)
+        # Online drift correction (opt-in): owns the rectification from here on.
+        self.rectifier: OnlineRectifier | None = (
+            OnlineRectifier(self.rectification, self.config.drift) if self.config.drift.online else None
+        )
+        self.last_correction: CorrectionUpdate | None = None
         if self.config.max_disparity_px is not None:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
         else:
@@ -338,6 +349,11 @@ class Pipeline:
             t = now
 
         pair = rectify(left, right, self.rectification)
+        if self.rectifier is not None:
+            self.last_correction = self.rectifier.update(pair)
+            if self.last_correction.changed:  # re-rectify this frame with the corrected rig
+                self.rectification = self.last_correction.rectification
+                pair = rectify(left, right, self.rectification)
         lap("rectify")
         disp = self.backend.compute(pair, self.max_disparity_px)
         if self.config.fill.enabled:
