@@ -1,0 +1,200 @@
+"""Drift of a rig from its calibration: the rotation estimate, the check's verdict, and the
+online correction on rendered scenes whose right camera turned after calibration."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from stereo_terrain.cli import main
+from stereo_terrain.drift import (
+    DriftConfig,
+    OnlineRectifier,
+    check_calibration,
+    estimate_right_rotation,
+    rotation_effect_px,
+)
+from stereo_terrain.errors import CalibrationError, ConfigError, InputError
+from stereo_terrain.evaluation import score_result
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.rectify import compute_rectification, rectify
+from stereo_terrain.synthetic import default_scene_spec, render_scene, write_scene
+
+ANGLE_DEG = 0.3
+ROT_TOL_DEG = {0: 0.01, 1: 0.05, 2: 0.01}  # yaw (y) is seen only through a second-order term
+
+
+def _disturbed(axis: int | None, angle_deg: float = ANGLE_DEG):
+    rv = [0.0, 0.0, 0.0]
+    if axis is not None:
+        rv[axis] = math.radians(angle_deg)
+    return render_scene(dataclasses.replace(default_scene_spec(), right_disturbance_rotvec_rad=tuple(rv)))
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    return {axis: _disturbed(axis) for axis in (None, 0, 1, 2)}
+
+
+def _check(scene):
+    return check_calibration(rectify(scene.left, scene.right, compute_rectification(scene.calibration)))
+
+
+# --------------------------------------------------------------------------- the estimator
+
+
+@given(
+    st.tuples(*[st.floats(-0.5, 0.5)] * 3),
+    st.integers(0, 2**32 - 1),
+)
+def test_rotation_is_recovered_from_exact_rays(angles_deg, seed):
+    rng = np.random.default_rng(seed)
+    n, f, b = 300, 500.0, 0.08
+    x, y = rng.uniform(-0.6, 0.6, n), rng.uniform(-0.45, 0.45, n)
+    z = rng.uniform(1.0, 6.0, n)
+    left = np.column_stack([x, y, np.ones(n)])
+    true_right = np.column_stack([x - b / z, y, np.ones(n)])
+    w = np.radians(angles_deg)
+    R, _ = cv2.Rodrigues(-w.reshape(3, 1))  # the camera turned by -w: w undoes it
+    seen = true_right @ R.T
+    seen /= seen[:, 2:3]
+    rot = estimate_right_rotation(left, seen, f, component_sigma=0.0)
+    assert rot is not None
+    assert np.allclose(np.degrees(rot.rotvec_rad), angles_deg, atol=1e-4)
+    assert rot.rms_after_px < 1e-3
+
+
+def test_estimator_ignores_outliers_and_needs_matches():
+    rng = np.random.default_rng(4)
+    n = 400
+    left = np.column_stack([rng.uniform(-0.6, 0.6, n), rng.uniform(-0.45, 0.45, n), np.ones(n)])
+    right = left.copy()
+    right[:, 1] += rng.normal(0.0, 0.1 / 500.0, n)  # 0.1 px noise, no drift
+    right[:40, 1] += rng.uniform(-0.03, 0.03, 40)  # 10 % gross mismatches (up to 15 px)
+    rot = estimate_right_rotation(left, right, 500.0)
+    assert rot is not None and rot.n_inliers < n
+    assert np.degrees(np.abs(rot.rotvec_rad)).max() < 0.01
+    assert estimate_right_rotation(left[:5], right[:5], 500.0) is None
+
+
+def test_rotation_effect_of_a_pan_is_a_disparity_error(scenes):
+    rect = compute_rectification(scenes[None].calibration)
+    vert, horiz = rotation_effect_px(np.radians([0.0, 0.5, 0.0]), rect)
+    assert horiz > rect.focal_px * math.radians(0.5) and vert < 0.3 * horiz
+    assert rotation_effect_px(np.zeros(3), rect) == (0.0, 0.0)
+
+
+# --------------------------------------------------------------------------- check
+
+
+def test_check_passes_the_calibrated_rig(scenes):
+    c = _check(scenes[None])
+    assert c.verdict == "ok", c
+    assert c.n_matches > 200 and abs(c.median_px) < 0.05 and c.spread_px < 0.2
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_check_flags_a_turned_right_camera_and_measures_the_turn(scenes, axis):
+    c = _check(scenes[axis])
+    assert c.verdict in ("degraded", "recalibrate"), c
+    assert c.rotation is not None
+    found = np.degrees(c.rotation.rotvec_rad)
+    expected = np.zeros(3)
+    expected[axis] = -ANGLE_DEG  # the correction undoes the turn
+    assert abs(found[axis] - expected[axis]) < ROT_TOL_DEG[axis], found
+    assert np.abs(np.delete(found, axis)).max() < 0.03, found
+
+
+def test_check_calib_cli(scenes, tmp_path, capsys):
+    d = write_scene(scenes[0], tmp_path / "s")
+    code = main(["check-calib", str(d / "left.png"), str(d / "right.png"), "--calib", str(d / "calib.yaml")])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "vertical disparity" in out and "verdict: recalibrate" in out and "median +2.9" in out
+
+
+def test_check_calib_cli_bad_input(scenes, tmp_path, capsys):
+    d = write_scene(scenes[None], tmp_path / "s")
+    code = main(["check-calib", str(d / "nope.png"), str(d / "right.png"), "--calib", str(d / "calib.yaml")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "not found" in err[0]
+
+
+def test_texture_free_pair_is_unknown(scenes):
+    rect = compute_rectification(scenes[None].calibration)
+    blank = np.full((480, 640), 120, np.uint8)
+    c = check_calibration(rectify(blank, blank, rect))
+    assert c.verdict == "unknown" and c.n_matches == 0
+
+
+# --------------------------------------------------------------------------- online correction
+
+
+def _online(**kw):
+    return PipelineConfig(drift=DriftConfig(online=True, **kw))
+
+
+def test_online_correction_leaves_a_good_rig_alone(scenes):
+    s = scenes[None]
+    p = Pipeline(s.calibration, s.rig, _online())
+    for _ in range(2):
+        p.run(s.left, s.right)
+        assert p.last_correction is not None and not p.last_correction.changed
+    assert p.rectification.right_correction is None
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_online_correction_restores_the_rise(scenes, axis):
+    s = scenes[axis]
+    truth = s.truth
+    plain = score_result(Pipeline(s.calibration, s.rig).run(s.left, s.right).to_json_dict(), truth)
+    base = score_result(
+        Pipeline(scenes[None].calibration, scenes[None].rig)
+        .run(scenes[None].left, scenes[None].right)
+        .to_json_dict(),
+        truth,
+    )
+    p = Pipeline(s.calibration, s.rig, _online())
+    fixed = score_result(p.run(s.left, s.right).to_json_dict(), truth)
+    assert p.last_correction is not None and p.last_correction.changed
+    found = np.degrees(p.rectifier.correction_rotvec_rad)  # type: ignore[union-attr]
+    assert abs(found[axis] + ANGLE_DEG) < ROT_TOL_DEG[axis], found
+    assert fixed.count_right and len(fixed.rise_errors_m) == len(truth["steps"])
+    # Back near the undisturbed error (the bench holds the 1.5x bound over a sequence).
+    assert max(fixed.rise_errors_m) <= max(2.0 * max(base.rise_errors_m), 0.005)
+    assert not plain.count_right or max(plain.rise_errors_m) > max(fixed.rise_errors_m)
+
+
+def test_online_correction_needs_a_raw_calibration(shared_data):
+    from stereo_terrain.calibration import read_calibration
+
+    calib = read_calibration(shared_data / "middlebury2014Q" / "Piano" / "calib.txt")
+    with pytest.raises(InputError, match="raw calibration"):
+        Pipeline(calib, None, _online())
+    with pytest.raises(CalibrationError):
+        compute_rectification(calib, right_correction=np.eye(3))
+
+
+def test_online_correction_reset_and_config(scenes):
+    s = scenes[1]
+    r = OnlineRectifier(compute_rectification(s.calibration))
+    upd = r.update(rectify(s.left, s.right, r.current))
+    assert upd.changed and np.any(r.correction_rotvec_rad)
+    r.reset()
+    assert r.current is r.base and not np.any(r.correction_rotvec_rad)
+    cfg = PipelineConfig.from_dict({"drift": {"online": True, "window_frames": 4}})
+    assert cfg.drift.online and cfg.drift.window_frames == 4
+    for bad in (
+        {"ratio": 1.5},
+        {"ok_px": 2.0, "recalibrate_px": 1.0},
+        {"window_frames": 0},
+        {"online": "yes"},
+    ):
+        with pytest.raises(ConfigError):
+            DriftConfig(**bad)  # type: ignore[arg-type]
