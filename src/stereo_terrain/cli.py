@@ -117,8 +117,13 @@ def build_parser() -> argparse.ArgumentParser:
     k = sub.add_parser(
         "check-calib", help="how far a rig has drifted from its calibration (vertical disparity)"
     )
-    k.add_argument("left", type=Path)
-    k.add_argument("right", type=Path)
+    k.add_argument(
+        "images",
+        type=Path,
+        nargs="+",
+        metavar="LEFT RIGHT",
+        help="a raw pair; more pairs (different views) pool their matches and can confirm a yaw",
+    )
     k.add_argument("--calib", type=Path, required=True)
 
     g = sub.add_parser("render", help="write synthetic stereo scenes with ground truth")
@@ -355,11 +360,19 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
     from .drift import DriftConfig, check_calibration
     from .rectify import compute_rectification, read_image, rectify
 
+    if len(args.images) % 2:
+        raise InputError(
+            f"check-calib takes pairs of images (LEFT RIGHT [LEFT RIGHT ...]), got {len(args.images)} files"
+        )
     calib = read_calibration(args.calib)
-    pair = rectify(read_image(args.left), read_image(args.right), compute_rectification(calib))
+    rect = compute_rectification(calib)
+    pairs = [
+        rectify(read_image(left), read_image(right), rect)
+        for left, right in zip(args.images[::2], args.images[1::2], strict=True)
+    ]
     cfg = DriftConfig()
-    c = check_calibration(pair, cfg)
-    print(f"matches: {c.n_matches}")
+    c = check_calibration(pairs, cfg)
+    print(f"pairs: {c.n_pairs}, matches: {c.n_matches}")
     if c.n_matches:
         print(
             f"vertical disparity y_left - y_right: median {c.median_px:+.3f} px, spread {c.spread_px:.3f} px "
@@ -372,6 +385,11 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
             for a, d, s in zip("xyz", deg, se, strict=True)
         )
         print(f"right camera drift to undo (deg, rectified frame; 0 = not significant): {parts}")
+        if not c.yaw_confirmed:
+            print(
+                f"  yaw (y) held at 0: it needs {cfg.yaw_frames} pairs of different views that agree on it "
+                "(one view cannot tell a yaw from a lens-distortion residual)"
+            )
         print(
             f"worst error it causes over the image: vertical {c.vertical_error_px:.2f} px, "
             f"disparity {c.disparity_error_px:.2f} px"
