@@ -3,6 +3,7 @@ the quality report, and one-line exit-2 errors for every bad input."""
 
 from __future__ import annotations
 
+import math
 import shutil
 
 import cv2
@@ -18,9 +19,9 @@ from stereo_terrain.calibrate import (
 )
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.cli import main
-from stereo_terrain.drift import FeatureMatches, check_matches, match_features
+from stereo_terrain.drift import DriftConfig, FeatureMatches, OnlineRectifier, check_matches, match_features
 from stereo_terrain.errors import ConfigError, InputError
-from stereo_terrain.rectify import compute_rectification, read_image, rectify
+from stereo_terrain.rectify import compute_rectification, read_image, rectify, rectify_points
 
 # OpenCV's reference left-camera result for this set (left_intrinsics.yml, 9x6, 0.025 m).
 REF_F_PX, REF_CX, REF_CY = 535.916, 342.283, 235.571
@@ -210,3 +211,32 @@ def test_library_errors_are_package_errors():
         BoardConfig(9, True, 0.025)  # type: ignore[arg-type]
     obj = BoardConfig(9, 6, 0.025).object_points
     assert obj.shape == (54, 3) and np.isclose(obj[-1, 0], 8 * 0.025) and np.isclose(obj[-1, 1], 5 * 0.025)
+
+
+def _square_size_error_mm(result, rect) -> float:
+    """Mean |median triangulated square side - 25 mm| over the views, millimetres."""
+    errors = []
+    for cl, cr in zip(result.views.left, result.views.right, strict=True):
+        pl, pr = rectify_points(cl, rect, "left"), rectify_points(cr, rect, "right")
+        xyd = np.column_stack([pl, pl[:, 0] - pr[:, 0]]).reshape(-1, 1, 3)
+        pts = cv2.perspectiveTransform(xyd, rect.Q).reshape(6, 9, 3)
+        sides = np.r_[
+            np.linalg.norm(np.diff(pts, axis=1), axis=2).ravel(),
+            np.linalg.norm(np.diff(pts, axis=0), axis=2).ravel(),
+        ]
+        errors.append(abs(float(np.median(sides)) - 0.025))
+    return 1000.0 * float(np.mean(errors))
+
+
+def test_online_correction_does_not_spoil_a_good_real_calibration(chessboard, board_dir):
+    """The guard on real images: run the online correction over the 13 real pairs and
+    triangulate the boards; their 25 mm squares must stay as right as without it."""
+    base = compute_rectification(chessboard.calibration)
+    online = OnlineRectifier(base, DriftConfig(online=True, every_frames=1))
+    for lp, rp in find_image_pairs(str(board_dir / "left*.jpg"), str(board_dir / "right*.jpg")):
+        online.update(rectify(read_image(lp), read_image(rp), online.current))
+    assert math.degrees(float(np.linalg.norm(online.correction_rotvec_rad))) < 0.1
+    assert online.correction_rotvec_rad[1] == 0.0  # no yaw from views that do not agree on one
+    before = _square_size_error_mm(chessboard, base)
+    after = _square_size_error_mm(chessboard, online.current)
+    assert before < 0.1 and after < before + 0.02, (before, after)

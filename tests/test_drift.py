@@ -19,6 +19,7 @@ from stereo_terrain.drift import (
     check_calibration,
     estimate_right_rotation,
     rotation_effect_px,
+    yaws_agree,
 )
 from stereo_terrain.errors import CalibrationError, ConfigError, InputError
 from stereo_terrain.evaluation import score_result
@@ -222,3 +223,19 @@ def test_online_correction_reset_and_config(scenes):
     ):
         with pytest.raises(ConfigError):
             DriftConfig(**bad)  # type: ignore[arg-type]
+
+
+def test_yaws_agree_only_when_views_agree_on_a_large_enough_yaw():
+    cfg = DriftConfig()
+    se = math.radians(0.01)
+    same = [(math.radians(0.3 + d), se) for d in (-0.01, 0.0, 0.012)]
+    assert yaws_agree(same, cfg)
+    assert not yaws_agree(same[:2], cfg)  # too few views
+    # The three OAK-D Lite scenes: each view sure of itself, the views disagreeing.
+    oakd = [(math.radians(v), math.radians(0.05)) for v in (0.55, 0.54, -0.26)]
+    assert not yaws_agree(oakd, cfg)
+    small = [(math.radians(0.09), math.radians(0.005))] * 3  # agreed, but under min_yaw_deg
+    assert not yaws_agree(small, cfg)
+    assert yaws_agree(small, dataclasses.replace(cfg, min_yaw_deg=0.0))
+    noisy = [(math.radians(0.3), math.radians(0.2))] * 3  # not significant
+    assert not yaws_agree(noisy, cfg)
