@@ -236,7 +236,7 @@ def test_online_correction_does_not_spoil_a_good_real_calibration(chessboard, bo
     for lp, rp in find_image_pairs(str(board_dir / "left*.jpg"), str(board_dir / "right*.jpg")):
         online.update(rectify(read_image(lp), read_image(rp), online.current))
     assert math.degrees(float(np.linalg.norm(online.correction_rotvec_rad))) < 0.1
-    assert online.correction_rotvec_rad[1] == 0.0  # no yaw from views that do not agree on one
+    assert abs(online.correction_rotvec_rad[1]) < 1e-9  # no yaw from views that do not agree on one
     before = _square_size_error_mm(chessboard, base)
     after = _square_size_error_mm(chessboard, online.current)
     assert before < 0.1 and after < before + 0.02, (before, after)
