@@ -99,7 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         action="append",
         choices=sorted(_METHODS),
-        help="repeat to compare (default: sgm, opencv, opencv-hh)",
+        help="repeat to compare (default: sgm and the three OpenCV modes)",
     )
 
     c = sub.add_parser(
@@ -416,7 +416,7 @@ def cmd_eval_disparity(args: argparse.Namespace) -> int:
     from .rectify import read_image
     from .stereo.io import read_pfm
 
-    methods = args.method or ["sgm", "opencv", "opencv-hh"]
+    methods = args.method or ["sgm", "opencv", "opencv-sgbm", "opencv-hh"]
     scenes = _scene_dirs(args.root)
     rows = []
     total = len(scenes) * len(methods)

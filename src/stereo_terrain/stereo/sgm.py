@@ -1,27 +1,37 @@
 """The project's own Semi-Global Matching engine (Hirschmüller 2005), compiled with Numba.
 
-Work in progress toward issue 3. It is correct and tested, but not yet tuned or
-benchmarked against OpenCV, and it is not the pipeline's default.
-
 Stages:
 
 1. **Census cost.** A 5x5 census transform (24 bits) of both images. The matching cost is
-   the Hamming distance between the two bit strings. It depends only on the order of
-   intensities, so a gain or offset between cheap webcams leaves it unchanged.
+   the Hamming distance between the two bit strings (uint8 volume ``C[y, x, d]``). It
+   depends only on the order of intensities, so a gain or offset between cheap webcams
+   leaves it unchanged.
 2. **Aggregation along 4, 8 or 16 directions r**, the paper's recurrence:
    ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d±1) + P1, min_k L_r(p-r, k) + P2')
    - min_k L_r(p-r, k)``.
    P1 penalises 1-px disparity steps. ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p-r)| /
    p2_gradient_scale))`` penalises larger jumps, less so across intensity edges.
-   ``S(p, d) = sum_r L_r(p, d)`` is kept in uint16.
+   ``S(p, d) = sum_r L_r(p, d)``.
 3. **Disparity selection.** Winner-take-all with a uniqueness ratio, parabola sub-pixel
-   refinement, a left-right consistency check (the right image's disparities come from the
-   same aggregated volume), and speckle removal. Invalid pixels become NaN.
+   refinement, a left-right consistency check, and speckle removal. Invalid pixels become
+   NaN.
 4. **Confidence** of each pixel from its cost curve:
    ``(S_second - S_best) / S_second``, with the second best taken outside ``d_best ± 1``.
 
-Memory: the cost volume (uint8) and one aggregate per sweep (uint16), ``5 * H * W * D``
-bytes. That is 197 MB at 640x480x128 and 98 MB at 64 disparities.
+How it is made fast on two cores (numbers in ``docs/benchmarks.md``):
+
+- Every path update is one loop over d in int16 that LLVM vectorises (32 disparities per
+  AVX-512 instruction); see :func:`_path_update` for what keeps it vectorisable.
+- The two paths along the rows are independent from row to row: bands of rows run on
+  two threads, four rows interleaved so that one pixel's wait on its left neighbour
+  overlaps with other rows' work. Then the forward sweep (paths from the rows above)
+  and the backward sweep (from the rows below) run on one thread each, with no
+  dependence between the pixels of a row. The cost and the selection run in two bands.
+- The selection adds the two sweeps' sums a pixel at a time; the full S is never stored.
+
+Memory: the cost volume (uint8) and the two sweeps' sums (int16), ``5 * H * W * D``
+bytes: 197 MB at 640x480x128 and 98 MB at 64 disparities, plus row buffers
+(``3 * paths/2 * W * (D + 2) * 2`` bytes, under 2 MB).
 """
 
 from __future__ import annotations
@@ -31,7 +41,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
@@ -39,6 +51,9 @@ from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity
 
 _MAX_COST = 24  # 5x5 census: 24 comparisons
+_BIG = 16000  # "no value" in the int16 path buffers; + P2 (<= 255) still fits in int16
+_ROW_GROUP = 4  # rows whose paths along the row advance together
+_PAD = 2  # padding columns of the row buffers: row paths step at most 2 columns
 
 # Directions (dy, dx) of the aggregation paths; 4 and 8 paths are prefixes of this list.
 _DIRECTIONS_16 = (
@@ -82,16 +97,29 @@ class SGMConfig:
         Left-right consistency tolerance.
     speckle_window_px, speckle_range_px : int
         Speckle filter (OpenCV's filterSpeckles on the result).
+    device : str
+        ``cpu`` (Numba, the default), ``cuda`` (Numba-CUDA, :mod:`.sgm_cuda`; 4 or 8 paths,
+        at most 256 disparities; same result as the CPU) or ``auto`` (CUDA when a device is
+        present, else CPU).
+
+    Notes
+    -----
+    P1 and P2 were chosen by ``benchmarks/tune_sgm.py`` on the eight Middlebury 2014
+    quarter-size scenes (the lowest mean bad-2.0 on a small grid; those scenes are also
+    the evaluation set, as ``docs/benchmarks.md`` says beside them). A uniqueness ratio of
+    2% scores better there (bad-2.0 counts holes as errors) but finds fewer rendered
+    staircases than 5% (``docs/benchmarks.md``), so the default keeps 5%.
     """
 
     paths: int = 8
-    p1: int = 7
-    p2: int = 86
+    p1: int = 14
+    p2: int = 80
     p2_gradient_scale: float = 16.0
     uniqueness_ratio_pct: int = 5
     lr_max_diff_px: float = 1.0
     speckle_window_px: int = 100
     speckle_range_px: int = 2
+    device: str = "cpu"
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -104,6 +132,8 @@ class SGMConfig:
             raise ConfigError("p2_gradient_scale must be > 0")
         if not 0 <= self.uniqueness_ratio_pct < 100:
             raise ConfigError("uniqueness_ratio_pct must be in [0, 100)")
+        if self.device not in ("cpu", "cuda", "auto"):
+            raise ConfigError(f"device must be cpu, cuda or auto, got '{self.device}'")
 
 
 @njit(cache=True, nogil=True)
@@ -128,38 +158,166 @@ def census5x5(img: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, nogil=True)
-def _popcount(v: np.uint32) -> int:  # pragma: no cover - compiled
-    v = v - ((v >> np.uint32(1)) & np.uint32(0x55555555))
-    v = (v & np.uint32(0x33333333)) + ((v >> np.uint32(2)) & np.uint32(0x33333333))
-    v = (v + (v >> np.uint32(4))) & np.uint32(0x0F0F0F0F)
-    return int((v * np.uint32(0x01010101)) >> np.uint32(24))
+@intrinsic
+def _popcount32(typingctx, value):  # pragma: no cover - compiled
+    """LLVM's ``ctpop`` on a uint32: one POPCNT (VPOPCNTD once vectorised) instead of the
+    dozen shifts and masks of the portable bit trick; Numba has no popcount of its own."""
+    if value != types.uint32:
+        return None
+
+    def codegen(context, builder, signature, args):
+        fn = builder.module.declare_intrinsic("llvm.ctpop", [ir.IntType(32)])
+        return builder.call(fn, [args[0]])
+
+    return types.uint32(types.uint32), codegen
 
 
 @njit(cache=True, nogil=True)
-def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # pragma: no cover
-    """Hamming distances ``C[y, x, d]`` (uint8); no match (x - d < 0) costs the maximum."""
-    h, w = cl.shape
-    cost = np.empty((h, w, n_disp), dtype=np.uint8)
-    for y in range(h):
+def census_cost_rows(
+    cl: np.ndarray, cr: np.ndarray, y0: int, y1: int, cost: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    """Hamming distances ``C[y, x, d]`` for rows ``y0 .. y1 - 1``, written into ``cost``.
+
+    No match (x - d < 0) costs the maximum. The right census row is read reversed so that
+    the inner loop over d reads memory forward and vectorises.
+    """
+    w = cl.shape[1]
+    n = cost.shape[2]
+    reversed_right = np.empty(w, dtype=np.uint32)
+    for y in range(y0, y1):
+        for k in range(w):
+            reversed_right[k] = cr[y, w - 1 - k]
         for x in range(w):
             a = cl[y, x]
-            for d in range(n_disp):
-                if x - d >= 0:
-                    cost[y, x, d] = _popcount(a ^ cr[y, x - d])
-                else:
-                    cost[y, x, d] = _MAX_COST
+            base = w - 1 - x
+            top = min(n, x + 1)
+            for d in range(top):
+                cost[y, x, d] = np.uint8(_popcount32(np.uint32(a ^ reversed_right[base + d])))  # type: ignore[call-arg]
+            for d in range(top, n):
+                cost[y, x, d] = _MAX_COST
+
+
+def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:
+    """Hamming distances ``C[y, x, d]`` (uint8, (H, W, n_disp)) of two census images."""
+    h, w = cl.shape
+    cost = np.empty((h, w, n_disp), dtype=np.uint8)
+    census_cost_rows(cl, cr, 0, h, cost)
     return cost
 
 
+def p2_table(p1: int, p2: int, p2_scale: float) -> np.ndarray:
+    """Hirschmüller's P2 lowered across intensity edges, for every grey-level step 0-255.
+
+    ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p - r)| / p2_scale))``, as int16: one table
+    look-up per pixel and path instead of a division.
+    """
+    g = np.arange(256, dtype=np.float64)
+    return np.maximum(p1 + 1, (p2 / (1.0 + g / p2_scale)).astype(np.int32)).astype(np.int16)
+
+
 @njit(cache=True, nogil=True, inline="always")
-def _adapted_p2(gradient: np.int32, p1: np.int32, p2: int, scale: float) -> np.int32:  # pragma: no cover
-    """Hirschmüller's P2 lowered across intensity edges, never below P1 + 1."""
-    return max(p1 + 1, np.int32(p2 / (1.0 + gradient / scale)))
+def _path_update(cost, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jump, p1):  # pragma: no cover
+    """One step of a path, the paper's recurrence for pixel (y, x) and every disparity:
+
+    ``L(p, d) = C(p, d) + min(L(q, d), L(q, d±1) + P1, min_k L(q, k) + P2') - min_k L(q, k)``
+
+    with q the previous pixel on the path: ``prev[pk, px]`` holds L(q) (with sentinels at
+    d = -1 and d = D, so the loop has no branch), ``pm`` its minimum and ``jump`` = pm + P2'.
+    Writes L(p) to ``out[ok, ox]``, sets ``total[y, x] = keep * total[y, x] + L(p)`` and
+    returns min_d L(p).
+
+    Everything stays int16 (L <= 24 + 255) and every intermediate is cast back to int16,
+    so LLVM vectorises the loop 32 disparities to an AVX-512 register. ``keep`` (0 or 1)
+    is a factor, not a branch: a branch inside the loop stops the vectorisation (measured
+    4x slower). With keep = 0, whatever ``total`` held (even uninitialised) is multiplied
+    by zero.
+    """
+    m = np.int16(_BIG)
+    for d in range(cost.shape[2]):
+        a = np.int16(min(prev[pk, px, d], prev[pk, px, d + 2]) + p1)
+        v = min(a, min(prev[pk, px, d + 1], jump))
+        r = np.int16(np.int16(cost[y, x, d]) + np.int16(v - pm))
+        out[ok, ox, d + 1] = r
+        total[y, x, d] = np.int16(keep * total[y, x, d] + r)
+        m = min(m, r)
+    return m
 
 
-# Row paths carried by a sweep, as (rows back, columns back) in the sweep's own direction;
-# the path along the row is always carried. 4, 8 and 16 paths in all (two sweeps).
+@njit(cache=True, nogil=True)
+def aggregate_along_rows(
+    cost: np.ndarray,
+    img: np.ndarray,
+    y0: int,
+    y1: int,
+    p2_lut: np.ndarray,
+    p1: int,
+    from_left: np.ndarray,
+    from_right: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """The two paths along the rows for rows ``y0 .. y1 - 1``.
+
+    Writes the path from the left into ``from_left`` and the path from the right into
+    ``from_right`` (int16, (H, W, D)), which the two sweeps then add to. Rows are independent, so bands of
+    rows run on separate threads, and within a band ``_ROW_GROUP`` rows advance together:
+    each pixel waits on its left neighbour's result, and interleaving independent rows
+    keeps the CPU busy meanwhile (measured 2x faster than one row at a time). The previous
+    pixel's values alternate between two buffers (even and odd x) so that reads and
+    writes never alias.
+    """
+    h, w, n = cost.shape
+    p1 = np.int16(p1)  # type: ignore[assignment]
+    zero = np.int16(0)
+    even = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
+    odd = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
+    start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
+    start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
+    m = np.zeros(_ROW_GROUP, dtype=np.int16)
+    new = np.int16(0)  # the paths along the rows are the first written: keep nothing
+    for g0 in range(y0, y1, _ROW_GROUP):
+        rows = min(_ROW_GROUP, y1 - g0)
+        for r in range(rows):
+            m[r] = _path_update(cost, g0 + r, 0, start, 0, 0, even, r, 0, from_left, new, zero, zero, p1)
+        for x in range(1, w):
+            for r in range(rows):
+                y = g0 + r
+                jump = np.int16(m[r] + p2_lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - 1]))])
+                if x % 2:
+                    m[r] = _path_update(cost, y, x, even, r, 0, odd, r, 0, from_left, new, m[r], jump, p1)
+                else:
+                    m[r] = _path_update(cost, y, x, odd, r, 0, even, r, 0, from_left, new, m[r], jump, p1)
+        for r in range(rows):
+            m[r] = _path_update(cost, g0 + r, w - 1, start, 0, 0, even, r, 0, from_right, new, zero, zero, p1)
+        for j in range(1, w):
+            x = w - 1 - j
+            for r in range(rows):
+                y = g0 + r
+                jump = np.int16(m[r] + p2_lut[abs(np.int32(img[y, x]) - np.int32(img[y, x + 1]))])
+                if j % 2:
+                    m[r] = _path_update(cost, y, x, even, r, 0, odd, r, 0, from_right, new, m[r], jump, p1)
+                else:
+                    m[r] = _path_update(cost, y, x, odd, r, 0, even, r, 0, from_right, new, m[r], jump, p1)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _row_path_step(
+    cost, img, y, x, step, k, back, dx, prev, prev_min, cur, cur_min, out, lut, p1
+):  # pragma: no cover
+    """Path k at pixel (y, x), from pixel (y - step * back, x - step * dx) of an earlier row."""
+    h, w = img.shape
+    xq = x - step * dx
+    # Grey level of the previous pixel, clamped into the image (where a path starts, its
+    # buffers hold zeros and P2 does not matter).
+    g = img[min(max(y - step * back, 0), h - 1), min(max(xq, 0), w - 1)]
+    pm = prev_min[k, xq + _PAD]
+    jump = np.int16(pm + lut[abs(np.int32(img[y, x]) - np.int32(g))])
+    cur_min[k, x + _PAD] = _path_update(
+        cost, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, out, np.int16(1), pm, jump, p1
+    )
+
+
+# Paths that come from earlier rows, as (rows back, columns back) in the sweep's own
+# direction: (1, 0) is straight down, (1, +-1) the diagonals, and the 16-path set adds the
+# knight moves (1, +-2), (2, +-1). With the two paths along the rows: 4, 8 or 16 paths.
 ROW_PATHS = {
     4: ((1, 0),),
     8: ((1, 0), (1, 1), (1, -1)),
@@ -169,159 +327,137 @@ ROW_PATHS = {
 
 @njit(cache=True, nogil=True)
 def aggregate_sweep(
-    cost: np.ndarray, img: np.ndarray, forward: bool, row_paths: np.ndarray, p1: int, p2: int, p2_scale: float
-) -> np.ndarray:  # pragma: no cover - compiled
-    """The paths one raster sweep can carry, summed (uint16).
+    cost: np.ndarray,
+    img: np.ndarray,
+    forward: bool,
+    row_paths: np.ndarray,
+    p2_lut: np.ndarray,
+    p1: int,
+    out: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """The paths from earlier rows, in one raster sweep, added to ``out`` (int16, (H, W, D)).
 
-    The forward sweep goes top to bottom and left to right. It carries the path along the
-    row (from the left) and every path in ``row_paths``. A row path ``(b, c)`` comes from
-    pixel ``(y - b, x - c)``: (1, 0) is straight down, (1, +-1) are the diagonals, and the
-    16-path set adds the knight moves (1, +-2) and (2, +-1). The backward sweep mirrors
-    all of them.
+    The forward sweep goes top to bottom and carries every path in ``row_paths``; a path
+    ``(b, c)`` comes from pixel ``(y - b, x - c)``. The backward sweep mirrors them.
+    ``p2_lut`` is :func:`p2_table`.
 
-    Each path keeps only its last two rows plus the current one, with sentinels at d = -1
-    and d = D, so the inner loop over d has no branches.
+    Within a row the paths of different pixels are independent, so nothing waits on the
+    previous pixel. Each path keeps only its last two rows and the current one, in
+    separate arrays rotated every row (reads from the previous rows and writes to this one
+    never alias). A path starts (no previous pixel in the image) with ``L = C``.
     """
     h, w, n = cost.shape
-    big = np.int32(1 << 14)
-    p1i = np.int32(p1)
+    lut = p2_lut
+    p1 = np.int16(p1)  # type: ignore[assignment]
     nk = row_paths.shape[0]
-    total = np.empty((h, w, n), dtype=np.uint16)
-    # The current row and the two before it, as three arrays rotated every row (separate
-    # arrays, so that reads from the previous rows and writes to this one do not alias).
-    cur = np.full((nk, w, n + 2), big, dtype=np.int32)
-    prev1 = np.full((nk, w, n + 2), big, dtype=np.int32)
-    prev2 = np.full((nk, w, n + 2), big, dtype=np.int32)
-    cur_min = np.zeros((nk, w), dtype=np.int32)
-    min1 = np.zeros((nk, w), dtype=np.int32)
-    min2 = np.zeros((nk, w), dtype=np.int32)
-    horiz = np.full(n + 2, big, dtype=np.int32)
-    hnew = np.full(n + 2, big, dtype=np.int32)
-    acc = np.zeros(n, dtype=np.int32)
-    ci = np.zeros(n, dtype=np.int32)
+    # Row buffers have _PAD columns of padding on each side. A path that starts (its
+    # previous pixel lies outside the image) reads padding or the initial rows: L = 0 and
+    # min 0, so that the update gives L = C with no branch (a branch here stops LLVM from
+    # vectorising the update: measured 3x slower).
+    wp = w + 2 * _PAD
+    cur = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
+    prev1 = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
+    prev2 = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
+    for buf in (cur, prev1, prev2):
+        buf[:, :, 1 : n + 1] = 0
+    cur_min = np.zeros((nk, wp), dtype=np.int16)
+    min1 = np.zeros((nk, wp), dtype=np.int16)
+    min2 = np.zeros((nk, wp), dtype=np.int16)
     step = 1 if forward else -1
-    hmin = np.int32(0)
     for i in range(h):
         y = i if forward else h - 1 - i
-        for j in range(w):
-            x = j if forward else w - 1 - j
-            cmin = big
-            for d in range(n):
-                ci[d] = cost[y, x, d]
-                if ci[d] < cmin:
-                    cmin = ci[d]
-            # Path along the row (from the previous pixel of this sweep).
-            if j == 0:
-                for d in range(n):
-                    hnew[d + 1] = ci[d]
-                    acc[d] = ci[d]
-                m = cmin
-            else:
-                pm = hmin
-                g = abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))
-                p2a = _adapted_p2(g, p1i, p2, p2_scale)
-                jump = pm + p2a
-                m = big
-                for d in range(1, n + 1):
-                    v = min(min(horiz[d], jump), min(horiz[d - 1], horiz[d + 1]) + p1i)
-                    r = ci[d - 1] + v - pm
-                    hnew[d] = r
-                    acc[d - 1] = r
-                    m = min(m, r)
-            hmin = m
-            horiz, hnew = hnew, horiz
-            # Paths from earlier rows.
+        for x in range(w):
+            # Paths from one row back, then from two rows back (the 16-path knight moves):
+            # two loops, since one loop choosing its buffer per path does not vectorise.
             for k in range(nk):
-                back = row_paths[k, 0]
-                xq = x - step * row_paths[k, 1]
-                if i < back or xq < 0 or xq >= w:
-                    for d in range(n):
-                        cur[k, x, d + 1] = ci[d]
-                        acc[d] += ci[d]
-                    cur_min[k, x] = cmin
-                    continue
-                yq = y - step * back
-                pm = min1[k, xq] if back == 1 else min2[k, xq]
-                g = abs(np.int32(img[y, x]) - np.int32(img[yq, xq]))
-                p2a = _adapted_p2(g, p1i, p2, p2_scale)
-                jump = pm + p2a
-                cm = big
-                pr = prev1[k, xq] if back == 1 else prev2[k, xq]
-                for d in range(1, n + 1):
-                    v = min(min(pr[d], jump), min(pr[d - 1], pr[d + 1]) + p1i)
-                    r = ci[d - 1] + v - pm
-                    cur[k, x, d] = r
-                    acc[d - 1] += r
-                    cm = min(cm, r)
-                cur_min[k, x] = cm
-            for d in range(n):
-                total[y, x, d] = acc[d]
+                if row_paths[k, 0] == 1:
+                    dx = row_paths[k, 1]
+                    _row_path_step(cost, img, y, x, step, k, 1, dx, prev1, min1, cur, cur_min, out, lut, p1)
+            for k in range(nk):
+                if row_paths[k, 0] == 2:
+                    dx = row_paths[k, 1]
+                    _row_path_step(cost, img, y, x, step, k, 2, dx, prev2, min2, cur, cur_min, out, lut, p1)
         prev2, prev1, cur = prev1, cur, prev2
         min2, min1, cur_min = min1, cur_min, min2
-    return total
 
 
 @njit(cache=True, nogil=True)
-def select_disparity(
-    total: np.ndarray, uniqueness: float, lr_max_diff: float
-) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
-    """WTA + uniqueness + parabola sub-pixel + left-right check; NaN where rejected.
+def select_disparity_rows(
+    forward: np.ndarray,
+    backward: np.ndarray,
+    y0: int,
+    y1: int,
+    uniqueness: float,
+    lr_max_diff: float,
+    disp: np.ndarray,
+    conf: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """WTA + uniqueness + parabola sub-pixel + left-right check for rows ``y0 .. y1 - 1``.
 
-    Returns (disparity float32, confidence float32).
+    ``S = forward + backward`` (the two sweeps' sums) is formed here, a pixel at a time, so
+    the full volume is never summed into a third array. Writes ``disp`` (NaN where
+    rejected) and ``conf`` (``(S_second - S_best) / S_second``, second best outside
+    ``d_best +- 1``).
+
+    The left-right check uses the right image's winners as OpenCV's SGBM does: each left
+    winner (x, d) is a candidate for right pixel x - d, and the candidate of lowest cost
+    wins there. That needs one pass over the winners instead of a second pass over the
+    volume along its diagonals.
     """
-    h, w, n = total.shape
-    disp = np.full((h, w), np.nan, dtype=np.float32)
-    conf = np.zeros((h, w), dtype=np.float32)
-    right_best = np.empty(w, dtype=np.int32)
+    w = forward.shape[1]
+    n = forward.shape[2]
+    s = np.empty(n, dtype=np.int16)
+    best_d = np.empty(w, dtype=np.int32)
+    right_cost = np.empty(w, dtype=np.int32)
+    right_d = np.empty(w, dtype=np.int32)
+    never = np.int16(32000)
     # A pixel with only a few candidate disparities (near the left border, where most of
     # the search range falls outside the right image) cannot pass a uniqueness test.
     min_x = max(4, n // 4)
-    best_arg = np.empty(w, dtype=np.int32)
-    best_cost = np.empty(w, dtype=np.int32)
-    right_min = np.empty(w, dtype=np.int32)
-    for y in range(h):
-        # One contiguous pass: each pixel's winner, and the right image's winner at each
-        # column xr = x - d (min over the diagonal of the volume).
-        right_min[:] = 1 << 30
-        right_best[:] = -1
+    for y in range(y0, y1):
+        right_cost[:] = 1 << 30
+        right_d[:] = -1
+        best_d[:] = -1
         for x in range(w):
-            best, arg = 1 << 30, 0
-            top = min(n, x + 1)
-            for d in range(top):
-                v = int(total[y, x, d])
-                if v < best:
-                    best, arg = v, d
-                if v < right_min[x - d]:
-                    right_min[x - d] = v
-                    right_best[x - d] = d
-            best_arg[x] = arg
-            best_cost[x] = best
-        for x in range(min_x, w):
-            arg, best = best_arg[x], best_cost[x]
-            second = 1 << 30
-            for d in range(min(n, x + 1)):
-                if d < arg - 1 or d > arg + 1:
-                    v = int(total[y, x, d])
-                    if v < second:
-                        second = v
-            if second >= (1 << 30):
+            disp[y, x] = np.nan
+            conf[y, x] = 0.0
+            if x < min_x:
                 continue
-            conf[y, x] = (second - best) / max(second, 1)
-            if best * (1.0 + uniqueness) > second:
+            m = never
+            for d in range(n):
+                v = np.int16(forward[y, x, d] + backward[y, x, d])
+                s[d] = v
+                m = min(m, v)
+            arg = np.int16(n)
+            for d in range(n):
+                arg = min(arg, np.int16(d) if s[d] == m else np.int16(n))
+            second = never
+            for d in range(n):
+                far = (d < arg - 1) | (d > arg + 1)
+                second = min(second, s[d] if far else never)
+            if arg > x or second >= never:  # no match for the winner, or nothing else
                 continue
+            conf[y, x] = float(second - m) / max(float(second), 1.0)
+            if m * (1.0 + uniqueness) > second:
+                continue
+            xr = x - arg
+            if m < right_cost[xr]:
+                right_cost[xr] = m
+                right_d[xr] = arg
             sub = float(arg)
             if 0 < arg < n - 1 and arg + 1 <= x:
-                a = float(total[y, x, arg - 1])
-                b = float(total[y, x, arg])
-                cc = float(total[y, x, arg + 1])
-                den = a - 2.0 * b + cc
+                a = float(s[arg - 1])
+                b = float(s[arg])
+                c = float(s[arg + 1])
+                den = a - 2.0 * b + c
                 if den > 0:
-                    sub = arg + 0.5 * (a - cc) / den
-            xr = x - arg
-            if right_best[xr] < 0 or abs(right_best[xr] - arg) > lr_max_diff:
-                continue
+                    sub = arg + 0.5 * (a - c) / den
+            best_d[x] = arg
             disp[y, x] = sub
-    return disp, conf
+        for x in range(min_x, w):
+            arg = best_d[x]
+            if arg >= 0 and abs(right_d[x - arg] - arg) > lr_max_diff:
+                disp[y, x] = np.nan
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -352,17 +488,66 @@ class SGM:
             )
         n = check_max_disparity(max_disparity_px, left.shape[1])
         c = self.config
-        cost = census_cost(census5x5(left), census5x5(right), n)
-        paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
-        sweeps = [
-            _sweep_pool().submit(aggregate_sweep, cost, left, fwd, paths, c.p1, c.p2, c.p2_gradient_scale)
-            for fwd in (True, False)
-        ]
-        total = sweeps[0].result()
-        total += sweeps[1].result()
-        disp, conf = select_disparity(total, c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px)
+        lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
+        if self._use_cuda():
+            from .sgm_cuda import disparity_cuda
+
+            disp, conf = disparity_cuda(
+                census5x5(left), census5x5(right), left, n, c.paths, lut, c.p1,
+                c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px,
+            )  # fmt: skip
+        else:
+            disp, conf = self._compute_cpu(left, right, n, lut)
         if c.speckle_window_px > 0:
             fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
             cv2.filterSpeckles(fixed, -16, c.speckle_window_px, c.speckle_range_px * 16)
             disp[fixed == -16] = np.nan
         return DisparityMap(disp, n, pair.rectification, conf, self.name)
+
+    def _use_cuda(self) -> bool:
+        if self.config.device == "cpu":
+            return False
+        from .sgm_cuda import cuda_available
+
+        if cuda_available():
+            return True
+        if self.config.device == "cuda":
+            raise ConfigError("device='cuda' but Numba finds no CUDA device; use device='cpu' or 'auto'")
+        return False
+
+    def _compute_cpu(
+        self, left: np.ndarray, right: np.ndarray, n: int, lut: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Cost, aggregation and selection on the CPU's two cores (before speckle removal)."""
+        c = self.config
+        h, w = left.shape
+        pool = _sweep_pool()
+        halves = ((0, h // 2), (h // 2, h))
+        cl, cr = census5x5(left), census5x5(right)
+        cost = np.empty((h, w, n), dtype=np.uint8)
+        for job in [pool.submit(census_cost_rows, cl, cr, y0, y1, cost) for y0, y1 in halves]:
+            job.result()
+        paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
+        # Stage 1: the two paths along the rows, in bands of rows. Stage 2: the forward and
+        # the backward sweep add their paths, one to each of stage 1's results.
+        forward = np.empty((h, w, n), dtype=np.int16)
+        backward = np.empty((h, w, n), dtype=np.int16)
+        for job in [
+            pool.submit(aggregate_along_rows, cost, left, y0, y1, lut, c.p1, forward, backward)
+            for y0, y1 in halves
+        ]:
+            job.result()
+        for job in [
+            pool.submit(aggregate_sweep, cost, left, fwd, paths, lut, c.p1, out)
+            for fwd, out in ((True, forward), (False, backward))
+        ]:
+            job.result()
+        del cost
+        disp = np.empty((h, w), dtype=np.float32)
+        conf = np.empty((h, w), dtype=np.float32)
+        args = (c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px, disp, conf)
+        for job in [
+            pool.submit(select_disparity_rows, forward, backward, y0, y1, *args) for y0, y1 in halves
+        ]:
+            job.result()
+        return disp, conf
