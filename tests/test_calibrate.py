@@ -16,6 +16,7 @@ from stereo_terrain.calibrate import (
     find_image_pairs,
     parse_pattern,
     quality_report,
+    same_corner_order,
 )
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.cli import main
@@ -240,3 +241,11 @@ def test_online_correction_does_not_spoil_a_good_real_calibration(chessboard, bo
     before = _square_size_error_mm(chessboard, base)
     after = _square_size_error_mm(chessboard, online.current)
     assert before < 0.1 and after < before + 0.02, (before, after)
+
+
+def test_right_corners_labelled_from_the_other_end_are_reordered(chessboard):
+    left, right = chessboard.views.left[0], chessboard.views.right[0]
+    assert same_corner_order(left, right) is right
+    assert np.array_equal(same_corner_order(left, right[::-1]), right)
+    assert "median rectified epipolar error" in "\n".join(quality_report(chessboard))
+    assert chessboard.quality.per_view_epipolar_px.shape == (13,)

@@ -157,6 +157,24 @@ def detect_corners(image: np.ndarray, board: BoardConfig) -> np.ndarray | None:
     return np.asarray(corners, dtype=np.float32).reshape(-1, 2)
 
 
+def same_corner_order(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """``right``'s corners in the order of ``left``'s.
+
+    A board with an odd and an even number of inner corners still has a 180-degree
+    ambiguity: ``findChessboardCorners`` may start from opposite corners in the two
+    images, and a stereo calibration of mislabelled corners is garbage. Side-by-side
+    cameras see the board turned the same way, so the first-to-last-corner diagonals must
+    point the same way; if they do not, the right corners are reversed.
+
+    Parameters
+    ----------
+    left, right : (N, 2) float32, pixels
+    """
+    if float(np.dot(left[-1] - left[0], right[-1] - right[0])) < 0.0:
+        return np.ascontiguousarray(right[::-1])
+    return right
+
+
 @dataclass(frozen=True)
 class BoardViews:
     """Corners found in the pairs where both sides saw the whole board.
@@ -226,7 +244,7 @@ def detect_board_views(
         else:
             names.append(lp.name)
             lefts.append(cl)
-            rights.append(cr)
+            rights.append(same_corner_order(cl, cr))
         if progress is not None:
             progress(i + 1, len(pairs), lp.name, reason)
     if not names:
@@ -262,6 +280,8 @@ class CalibrationQuality:
     baseline_m : float
     epipolar_median_px, epipolar_rms_px, epipolar_max_px : float
         ``|y_left - y_right|`` of the corners after rectification with the result, pixels.
+    per_view_epipolar_px : (V,) float64
+        Median ``|y_left - y_right|`` of each view's rectified corners, pixels.
     """
 
     rms_px: float
@@ -275,6 +295,7 @@ class CalibrationQuality:
     epipolar_median_px: float
     epipolar_rms_px: float
     epipolar_max_px: float
+    per_view_epipolar_px: np.ndarray = field(repr=False)
 
 
 @dataclass(frozen=True)
@@ -351,6 +372,7 @@ def calibrate_stereo(views: BoardViews, board: BoardConfig) -> CheckerboardCalib
         float(np.median(dy)),
         float(np.sqrt(np.mean(dy**2))),
         float(np.max(dy)),
+        np.median(dy.reshape(n, -1), axis=1),
     )
     return CheckerboardCalibration(calib, quality, views, board)
 
@@ -391,11 +413,12 @@ def quality_report(result: CheckerboardCalibration) -> list[str]:
         *(f"  skipped {name}: {why}" for name, why in v.skipped),
         f"RMS reprojection error: stereo {q.rms_px:.3f} px (left alone {q.rms_left_px:.3f}, "
         f"right alone {q.rms_right_px:.3f})",
-        "per-view RMS px (left, right):",
+        "per view: RMS reprojection error left, right; median rectified epipolar error (px)",
     ]
     dropped = set(q.worth_dropping)
-    for name, (el, er) in zip(v.names, q.per_view_rms_px, strict=True):
-        lines.append(f"  {name:<24} {el:6.3f} {er:6.3f}{'   <- worth dropping' if name in dropped else ''}")
+    for name, (el, er), ee in zip(v.names, q.per_view_rms_px, q.per_view_epipolar_px, strict=True):
+        mark = "   <- worth dropping" if name in dropped else ""
+        lines.append(f"  {name:<24} {el:6.3f} {er:6.3f}   {ee:6.3f}{mark}")
     lines.append("views worth dropping: " + (", ".join(q.worth_dropping) if q.worth_dropping else "none"))
     lines.append(
         f"coverage of the image by the boards: left {q.coverage[0]:.0%}, right {q.coverage[1]:.0%}"
