@@ -239,3 +239,14 @@ def test_yaws_agree_only_when_views_agree_on_a_large_enough_yaw():
     assert yaws_agree(small, dataclasses.replace(cfg, min_yaw_deg=0.0))
     noisy = [(math.radians(0.3), math.radians(0.2))] * 3  # not significant
     assert not yaws_agree(noisy, cfg)
+
+
+def test_check_calib_cli_several_pairs_and_odd_count(yawed_views, tmp_path, capsys):
+    dirs = [write_scene(v, tmp_path / f"s{i}") for i, v in enumerate(yawed_views)]
+    images = [str(d / name) for d in dirs for name in ("left.png", "right.png")]
+    code = main(["check-calib", *images, "--calib", str(dirs[0] / "calib.yaml")])
+    out = capsys.readouterr().out
+    assert code == 0 and "pairs: 3" in out and "verdict: recalibrate" in out and "held at 0" not in out
+    code = main(["check-calib", *images[:3], "--calib", str(dirs[0] / "calib.yaml")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "pairs of images" in err[0]
