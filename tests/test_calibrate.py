@@ -249,3 +249,13 @@ def test_right_corners_labelled_from_the_other_end_are_reordered(chessboard):
     assert np.array_equal(same_corner_order(left, right[::-1]), right)
     assert "median rectified epipolar error" in "\n".join(quality_report(chessboard))
     assert chessboard.quality.per_view_epipolar_px.shape == (13,)
+
+
+def test_unwritable_outputs_fail_before_detection(tmp_path, capsys):
+    _pairs(tmp_path, 1)
+    code, last = _calibrate(capsys, tmp_path / "l*.png", tmp_path / "r*.png", out=tmp_path / "no" / "c.yaml")
+    _one_line(code, last, "cannot write", "does not exist")
+    code, last = _calibrate(
+        capsys, tmp_path / "l*.png", tmp_path / "r*.png", "--figure", tmp_path / "no" / "f.png"
+    )
+    _one_line(code, last, "cannot write")

@@ -329,6 +329,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     cols, rows = parse_pattern(args.pattern)
     board = BoardConfig(cols, rows, args.square)
+    for target in (args.out, args.figure):  # fail before the detection work, not after it
+        if target is not None and (target.is_dir() or not target.resolve().parent.is_dir()):
+            raise InputError(f"cannot write {target}: it is a folder or its folder does not exist")
 
     def progress(done: int, total: int, name: str, reason: str | None) -> None:
         _progress(done, total, f"{name}: {'board found' if reason is None else 'skipped, ' + reason}")
