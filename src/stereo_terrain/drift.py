@@ -201,8 +201,20 @@ def match_features(pair: RectifiedPair, config: DriftConfig | None = None) -> Fe
         & (disp >= -cfg.search_rows_px)
         & (disp <= w / 2)
     )
-    knn = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(dl, dr, k=2, mask=band.astype(np.uint8))
-    pairs = [m[0] for m in knn if len(m) == 2 and m[0].distance < cfg.ratio * m[1].distance]
+    matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
+    knn = matcher.knnMatch(dl, dr, k=2, mask=band.astype(np.uint8))
+    # Mutual best within the region too: a repeated pattern (a checkerboard's corners)
+    # offers many look-alikes in the same rows.
+    back = {
+        m[0].queryIdx: m[0].trainIdx for m in matcher.knnMatch(dr, dl, k=1, mask=band.T.astype(np.uint8)) if m
+    }
+    pairs = [
+        m[0]
+        for m in knn
+        if len(m) == 2
+        and m[0].distance < cfg.ratio * m[1].distance
+        and back.get(m[0].trainIdx) == m[0].queryIdx
+    ]
     if not pairs:
         return empty
     pl = xyl[[m.queryIdx for m in pairs]]
