@@ -24,7 +24,7 @@ from stereo_terrain.drift import (
 from stereo_terrain.errors import CalibrationError, ConfigError, InputError
 from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
-from stereo_terrain.rectify import compute_rectification, rectify
+from stereo_terrain.rectify import compute_rectification, rectify, rectify_points
 from stereo_terrain.synthetic import default_scene_spec, render_scene, write_scene
 
 ANGLE_DEG = 0.3
@@ -250,3 +250,28 @@ def test_check_calib_cli_several_pairs_and_odd_count(yawed_views, tmp_path, caps
     code = main(["check-calib", *images[:3], "--calib", str(dirs[0] / "calib.yaml")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "pairs of images" in err[0]
+
+
+@given(st.tuples(*[st.floats(-1.0, 1.0)] * 3), st.floats(20.0, 620.0), st.floats(20.0, 460.0))
+def test_right_correction_turns_the_rectified_right_rays(scene_calibration, angles_deg, u, v):
+    """compute_rectification(right_correction=C): every raw right pixel lands where the
+    base rectified ray turned by C projects; the left camera does not change."""
+    base = compute_rectification(scene_calibration)
+    C, _ = cv2.Rodrigues(np.radians(angles_deg).reshape(3, 1))
+    corr = compute_rectification(scene_calibration, right_correction=C)
+    p = np.array([[u, v]])
+    q_base = rectify_points(p, base, "right")[0]
+    ray = np.array([(q_base[0] - base.P2[0, 2]) / base.focal_px, (q_base[1] - base.cy) / base.focal_px, 1.0])
+    turned = C @ ray
+    expected = [
+        base.focal_px * turned[0] / turned[2] + base.P2[0, 2],
+        base.focal_px * turned[1] / turned[2] + base.cy,
+    ]
+    assert np.allclose(rectify_points(p, corr, "right")[0], expected, atol=1e-6)
+    assert np.allclose(rectify_points(p, corr, "left"), rectify_points(p, base, "left"))
+    assert np.array_equal(corr.Q, base.Q) and corr.focal_px == base.focal_px
+
+
+@pytest.fixture(scope="module")
+def scene_calibration(scenes):
+    return scenes[None].calibration
