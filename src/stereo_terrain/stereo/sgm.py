@@ -22,16 +22,17 @@ How it is made fast on two cores (numbers in ``docs/benchmarks.md``):
 
 - Every path update is one loop over d in int16 that LLVM vectorises (32 disparities per
   AVX-512 instruction); see :func:`_path_update` for what keeps it vectorisable.
-- The two paths along the rows are independent from row to row: bands of rows run on
-  two threads, four rows interleaved so that one pixel's wait on its left neighbour
-  overlaps with other rows' work. Then the forward sweep (paths from the rows above)
-  and the backward sweep (from the rows below) run on one thread each, with no
-  dependence between the pixels of a row. The cost and the selection run in two bands.
-- The selection adds the two sweeps' sums a pixel at a time; the full S is never stored.
+- Two raster sweeps, one per core: the forward sweep carries the path from the left and
+  the paths from the rows above, the backward sweep the mirror images. Each computes the
+  matching costs of four rows at a time and, for those rows, first the paths along the
+  row (the four rows interleaved, so that one pixel's wait on its neighbour overlaps with
+  other rows' work), then the paths from earlier rows (no dependence between the pixels
+  of a row). The cost volume is never stored whole.
+- The selection runs in two bands of rows and adds the two sweeps' sums a pixel at a
+  time; the full S is never stored.
 
-Memory: the cost volume (uint8) and the two sweeps' sums (int16), ``5 * H * W * D``
-bytes: 197 MB at 640x480x128 and 98 MB at 64 disparities, plus row buffers
-(``3 * paths/2 * W * (D + 2) * 2`` bytes, under 2 MB).
+Memory: the two sweeps' sums (int16), ``4 * H * W * D`` bytes: 157 MB at 640x480x128
+and 79 MB at 64 disparities, plus row buffers (under 2 MB).
 """
 
 from __future__ import annotations
@@ -54,26 +55,6 @@ _MAX_COST = 24  # 5x5 census: 24 comparisons
 _BIG = 16000  # "no value" in the int16 path buffers; + P2 (<= 255) still fits in int16
 _ROW_GROUP = 4  # rows whose paths along the row advance together
 _PAD = 2  # padding columns of the row buffers: row paths step at most 2 columns
-
-# Directions (dy, dx) of the aggregation paths; 4 and 8 paths are prefixes of this list.
-_DIRECTIONS_16 = (
-    (0, 1),
-    (0, -1),
-    (1, 0),
-    (-1, 0),
-    (1, 1),
-    (1, -1),
-    (-1, 1),
-    (-1, -1),
-    (2, 1),
-    (2, -1),
-    (-2, 1),
-    (-2, -1),
-    (1, 2),
-    (1, -2),
-    (-1, 2),
-    (-1, -2),
-)
 
 
 @dataclass(frozen=True)
@@ -172,36 +153,35 @@ def _popcount32(typingctx, value):  # pragma: no cover - compiled
     return types.uint32(types.uint32), codegen
 
 
-@njit(cache=True, nogil=True)
-def census_cost_rows(
-    cl: np.ndarray, cr: np.ndarray, y0: int, y1: int, cost: np.ndarray
-) -> None:  # pragma: no cover - compiled
-    """Hamming distances ``C[y, x, d]`` for rows ``y0 .. y1 - 1``, written into ``cost``.
-
-    No match (x - d < 0) costs the maximum. The right census row is read reversed so that
-    the inner loop over d reads memory forward and vectorises.
-    """
+@njit(cache=True, nogil=True, inline="always")
+def _census_cost_row(cl, cr, y, cost, r, reversed_right):  # pragma: no cover - compiled
+    """Hamming distances of row y into ``cost[r]`` (uint8, (W, D)); no match (x - d < 0)
+    costs the maximum. The right census row is read reversed (into ``reversed_right``) so
+    that the inner loop over d reads memory forward and vectorises."""
     w = cl.shape[1]
     n = cost.shape[2]
-    reversed_right = np.empty(w, dtype=np.uint32)
-    for y in range(y0, y1):
-        for k in range(w):
-            reversed_right[k] = cr[y, w - 1 - k]
-        for x in range(w):
-            a = cl[y, x]
-            base = w - 1 - x
-            top = min(n, x + 1)
-            for d in range(top):
-                cost[y, x, d] = np.uint8(_popcount32(np.uint32(a ^ reversed_right[base + d])))  # type: ignore[call-arg]
-            for d in range(top, n):
-                cost[y, x, d] = _MAX_COST
+    for k in range(w):
+        reversed_right[k] = cr[y, w - 1 - k]
+    for x in range(w):
+        a = cl[y, x]
+        top = min(n, x + 1)
+        # A view, so that the index is d itself: with ``base + d`` Numba's negative-index
+        # handling turns the contiguous reads into gathers (measured 2x slower).
+        candidates = reversed_right[w - 1 - x : w - 1 - x + top]
+        for d in range(top):
+            cost[r, x, d] = np.uint8(_popcount32(np.uint32(a ^ candidates[d])))  # type: ignore[call-arg]
+        for d in range(top, n):
+            cost[r, x, d] = _MAX_COST
 
 
-def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:
+@njit(cache=True, nogil=True)
+def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # pragma: no cover - compiled
     """Hamming distances ``C[y, x, d]`` (uint8, (H, W, n_disp)) of two census images."""
     h, w = cl.shape
     cost = np.empty((h, w, n_disp), dtype=np.uint8)
-    census_cost_rows(cl, cr, 0, h, cost)
+    reversed_right = np.empty(w, dtype=np.uint32)
+    for y in range(h):
+        _census_cost_row(cl, cr, y, cost, y, reversed_right)
     return cost
 
 
@@ -216,15 +196,15 @@ def p2_table(p1: int, p2: int, p2_scale: float) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _path_update(cost, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jump, p1):  # pragma: no cover
+def _path_update(cost, cy, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jump, p1):  # pragma: no cover
     """One step of a path, the paper's recurrence for pixel (y, x) and every disparity:
 
     ``L(p, d) = C(p, d) + min(L(q, d), L(q, d±1) + P1, min_k L(q, k) + P2') - min_k L(q, k)``
 
     with q the previous pixel on the path: ``prev[pk, px]`` holds L(q) (with sentinels at
     d = -1 and d = D, so the loop has no branch), ``pm`` its minimum and ``jump`` = pm + P2'.
-    Writes L(p) to ``out[ok, ox]``, sets ``total[y, x] = keep * total[y, x] + L(p)`` and
-    returns min_d L(p).
+    The costs C(p) are ``cost[cy, x]``. Writes L(p) to ``out[ok, ox]``, sets
+    ``total[y, x] = keep * total[y, x] + L(p)`` and returns min_d L(p).
 
     Everything stays int16 (L <= 24 + 255) and every intermediate is cast back to int16,
     so LLVM vectorises the loop 32 disparities to an AVX-512 register. ``keep`` (0 or 1)
@@ -236,71 +216,16 @@ def _path_update(cost, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jump, p
     for d in range(cost.shape[2]):
         a = np.int16(min(prev[pk, px, d], prev[pk, px, d + 2]) + p1)
         v = min(a, min(prev[pk, px, d + 1], jump))
-        r = np.int16(np.int16(cost[y, x, d]) + np.int16(v - pm))
+        r = np.int16(np.int16(cost[cy, x, d]) + np.int16(v - pm))
         out[ok, ox, d + 1] = r
         total[y, x, d] = np.int16(keep * total[y, x, d] + r)
         m = min(m, r)
     return m
 
 
-@njit(cache=True, nogil=True)
-def aggregate_along_rows(
-    cost: np.ndarray,
-    img: np.ndarray,
-    y0: int,
-    y1: int,
-    p2_lut: np.ndarray,
-    p1: int,
-    from_left: np.ndarray,
-    from_right: np.ndarray,
-) -> None:  # pragma: no cover - compiled
-    """The two paths along the rows for rows ``y0 .. y1 - 1``.
-
-    Writes the path from the left into ``from_left`` and the path from the right into
-    ``from_right`` (int16, (H, W, D)), which the two sweeps then add to. Rows are independent, so bands of
-    rows run on separate threads, and within a band ``_ROW_GROUP`` rows advance together:
-    each pixel waits on its left neighbour's result, and interleaving independent rows
-    keeps the CPU busy meanwhile (measured 2x faster than one row at a time). The previous
-    pixel's values alternate between two buffers (even and odd x) so that reads and
-    writes never alias.
-    """
-    h, w, n = cost.shape
-    p1 = np.int16(p1)  # type: ignore[assignment]
-    zero = np.int16(0)
-    even = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
-    odd = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
-    start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
-    start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
-    m = np.zeros(_ROW_GROUP, dtype=np.int16)
-    new = np.int16(0)  # the paths along the rows are the first written: keep nothing
-    for g0 in range(y0, y1, _ROW_GROUP):
-        rows = min(_ROW_GROUP, y1 - g0)
-        for r in range(rows):
-            m[r] = _path_update(cost, g0 + r, 0, start, 0, 0, even, r, 0, from_left, new, zero, zero, p1)
-        for x in range(1, w):
-            for r in range(rows):
-                y = g0 + r
-                jump = np.int16(m[r] + p2_lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - 1]))])
-                if x % 2:
-                    m[r] = _path_update(cost, y, x, even, r, 0, odd, r, 0, from_left, new, m[r], jump, p1)
-                else:
-                    m[r] = _path_update(cost, y, x, odd, r, 0, even, r, 0, from_left, new, m[r], jump, p1)
-        for r in range(rows):
-            m[r] = _path_update(cost, g0 + r, w - 1, start, 0, 0, even, r, 0, from_right, new, zero, zero, p1)
-        for j in range(1, w):
-            x = w - 1 - j
-            for r in range(rows):
-                y = g0 + r
-                jump = np.int16(m[r] + p2_lut[abs(np.int32(img[y, x]) - np.int32(img[y, x + 1]))])
-                if j % 2:
-                    m[r] = _path_update(cost, y, x, even, r, 0, odd, r, 0, from_right, new, m[r], jump, p1)
-                else:
-                    m[r] = _path_update(cost, y, x, odd, r, 0, even, r, 0, from_right, new, m[r], jump, p1)
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _row_path_step(
-    cost, img, y, x, step, k, back, dx, prev, prev_min, cur, cur_min, out, lut, p1
+    cost, cy, img, y, x, step, k, back, dx, prev, prev_min, cur, cur_min, out, lut, p1
 ):  # pragma: no cover
     """Path k at pixel (y, x), from pixel (y - step * back, x - step * dx) of an earlier row."""
     h, w = img.shape
@@ -311,13 +236,14 @@ def _row_path_step(
     pm = prev_min[k, xq + _PAD]
     jump = np.int16(pm + lut[abs(np.int32(img[y, x]) - np.int32(g))])
     cur_min[k, x + _PAD] = _path_update(
-        cost, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, out, np.int16(1), pm, jump, p1
+        cost, cy, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, out, np.int16(1), pm, jump, p1
     )
 
 
 # Paths that come from earlier rows, as (rows back, columns back) in the sweep's own
 # direction: (1, 0) is straight down, (1, +-1) the diagonals, and the 16-path set adds the
-# knight moves (1, +-2), (2, +-1). With the two paths along the rows: 4, 8 or 16 paths.
+# knight moves (1, +-2), (2, +-1). With the path along the row, each of the two sweeps
+# carries half of the 4, 8 or 16 paths.
 ROW_PATHS = {
     4: ((1, 0),),
     8: ((1, 0), (1, 1), (1, -1)),
@@ -327,7 +253,8 @@ ROW_PATHS = {
 
 @njit(cache=True, nogil=True)
 def aggregate_sweep(
-    cost: np.ndarray,
+    census_left: np.ndarray,
+    census_right: np.ndarray,
     img: np.ndarray,
     forward: bool,
     row_paths: np.ndarray,
@@ -335,25 +262,42 @@ def aggregate_sweep(
     p1: int,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
-    """The paths from earlier rows, in one raster sweep, added to ``out`` (int16, (H, W, D)).
+    """Half of the paths in one raster sweep, their sum written to ``out`` (int16, (H, W, D)).
 
-    The forward sweep goes top to bottom and carries every path in ``row_paths``; a path
-    ``(b, c)`` comes from pixel ``(y - b, x - c)``. The backward sweep mirrors them.
-    ``p2_lut`` is :func:`p2_table`.
+    The forward sweep goes top to bottom and carries the path along the row from the left
+    and every path in ``row_paths``; a path ``(b, c)`` comes from pixel ``(y - b, x - c)``.
+    The backward sweep mirrors them all. ``p2_lut`` is :func:`p2_table`. The matching
+    costs are computed here from the census images, ``_ROW_GROUP`` rows at a time, and
+    never stored whole.
 
-    Within a row the paths of different pixels are independent, so nothing waits on the
-    previous pixel. Each path keeps only its last two rows and the current one, in
-    separate arrays rotated every row (reads from the previous rows and writes to this one
-    never alias). A path starts (no previous pixel in the image) with ``L = C``.
+    Rows go in groups of ``_ROW_GROUP``: first the group's paths along the row, the rows
+    interleaved (each pixel waits on its neighbour's result; interleaving independent rows
+    keeps the CPU busy meanwhile), then row by row the paths from earlier rows, whose
+    pixels within a row are independent. The group's rows of ``out`` stay in cache
+    between the two. Each row path keeps its last two rows and the current one in separate
+    arrays rotated every row (reads from the previous rows and writes to this one never
+    alias). A path starts (no previous pixel in the image) with ``L = C``.
     """
-    h, w, n = cost.shape
+    h, w = img.shape
+    n = out.shape[2]
     lut = p2_lut
     p1 = np.int16(p1)  # type: ignore[assignment]
+    zero = np.int16(0)
+    step = 1 if forward else -1
+    cost = np.empty((_ROW_GROUP, w, n), dtype=np.uint8)
+    reversed_right = np.empty(w, dtype=np.uint32)
+    # The path along the row: the previous pixel's values alternate between two buffers
+    # (even and odd steps), so reads and writes never alias.
+    even = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
+    odd = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
+    start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
+    start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
+    along_min = np.zeros(_ROW_GROUP, dtype=np.int16)
+    # The paths from earlier rows. The buffers have _PAD columns of padding on each side:
+    # a path that starts (its previous pixel lies outside the image) reads padding or the
+    # initial rows, L = 0 and min 0, so that the update gives L = C with no branch (a
+    # branch here stops LLVM from vectorising the update: measured 3x slower).
     nk = row_paths.shape[0]
-    # Row buffers have _PAD columns of padding on each side. A path that starts (its
-    # previous pixel lies outside the image) reads padding or the initial rows: L = 0 and
-    # min 0, so that the update gives L = C with no branch (a branch here stops LLVM from
-    # vectorising the update: measured 3x slower).
     wp = w + 2 * _PAD
     cur = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
     prev1 = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
@@ -363,22 +307,49 @@ def aggregate_sweep(
     cur_min = np.zeros((nk, wp), dtype=np.int16)
     min1 = np.zeros((nk, wp), dtype=np.int16)
     min2 = np.zeros((nk, wp), dtype=np.int16)
-    step = 1 if forward else -1
-    for i in range(h):
-        y = i if forward else h - 1 - i
-        for x in range(w):
-            # Paths from one row back, then from two rows back (the 16-path knight moves):
-            # two loops, since one loop choosing its buffer per path does not vectorise.
-            for k in range(nk):
-                if row_paths[k, 0] == 1:
-                    dx = row_paths[k, 1]
-                    _row_path_step(cost, img, y, x, step, k, 1, dx, prev1, min1, cur, cur_min, out, lut, p1)
-            for k in range(nk):
-                if row_paths[k, 0] == 2:
-                    dx = row_paths[k, 1]
-                    _row_path_step(cost, img, y, x, step, k, 2, dx, prev2, min2, cur, cur_min, out, lut, p1)
-        prev2, prev1, cur = prev1, cur, prev2
-        min2, min1, cur_min = min1, cur_min, min2
+    for g0 in range(0, h, _ROW_GROUP):
+        rows = min(_ROW_GROUP, h - g0)
+        for r in range(rows):
+            _census_cost_row(
+                census_left, census_right, g0 + r if forward else h - 1 - g0 - r, cost, r, reversed_right
+            )
+        # The group's paths along the row.
+        x0 = 0 if forward else w - 1
+        for r in range(rows):
+            y = g0 + r if forward else h - 1 - g0 - r
+            along_min[r] = _path_update(cost, r, y, x0, start, 0, 0, even, r, 0, out, zero, zero, zero, p1)
+        for j in range(1, w):
+            x = j if forward else w - 1 - j
+            for r in range(rows):
+                y = g0 + r if forward else h - 1 - g0 - r
+                m = along_min[r]
+                jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
+                if j % 2:
+                    along_min[r] = _path_update(cost, r, y, x, even, r, 0, odd, r, 0, out, zero, m, jump, p1)
+                else:
+                    along_min[r] = _path_update(cost, r, y, x, odd, r, 0, even, r, 0, out, zero, m, jump, p1)
+        # The paths from earlier rows, row by row.
+        for r in range(rows):
+            y = g0 + r if forward else h - 1 - g0 - r
+            for j in range(w):
+                x = j if forward else w - 1 - j
+                # Paths from one row back, then from two rows back (the 16-path knight
+                # moves): two loops, since one loop choosing its buffer per path does not
+                # vectorise.
+                for k in range(nk):
+                    if row_paths[k, 0] == 1:
+                        dx = row_paths[k, 1]
+                        _row_path_step(
+                            cost, r, img, y, x, step, k, 1, dx, prev1, min1, cur, cur_min, out, lut, p1
+                        )
+                for k in range(nk):
+                    if row_paths[k, 0] == 2:
+                        dx = row_paths[k, 1]
+                        _row_path_step(
+                            cost, r, img, y, x, step, k, 2, dx, prev2, min2, cur, cur_min, out, lut, p1
+                        )
+            prev2, prev1, cur = prev1, cur, prev2
+            min2, min1, cur_min = min1, cur_min, min2
 
 
 @njit(cache=True, nogil=True)
@@ -524,25 +495,15 @@ class SGM:
         pool = _sweep_pool()
         halves = ((0, h // 2), (h // 2, h))
         cl, cr = census5x5(left), census5x5(right)
-        cost = np.empty((h, w, n), dtype=np.uint8)
-        for job in [pool.submit(census_cost_rows, cl, cr, y0, y1, cost) for y0, y1 in halves]:
-            job.result()
         paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
-        # Stage 1: the two paths along the rows, in bands of rows. Stage 2: the forward and
-        # the backward sweep add their paths, one to each of stage 1's results.
+        # The forward and the backward sweep, one per core, each with half of the paths.
         forward = np.empty((h, w, n), dtype=np.int16)
         backward = np.empty((h, w, n), dtype=np.int16)
         for job in [
-            pool.submit(aggregate_along_rows, cost, left, y0, y1, lut, c.p1, forward, backward)
-            for y0, y1 in halves
-        ]:
-            job.result()
-        for job in [
-            pool.submit(aggregate_sweep, cost, left, fwd, paths, lut, c.p1, out)
+            pool.submit(aggregate_sweep, cl, cr, left, fwd, paths, lut, c.p1, out)
             for fwd, out in ((True, forward), (False, backward))
         ]:
             job.result()
-        del cost
         disp = np.empty((h, w), dtype=np.float32)
         conf = np.empty((h, w), dtype=np.float32)
         args = (c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px, disp, conf)
