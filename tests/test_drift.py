@@ -275,3 +275,10 @@ def test_right_correction_turns_the_rectified_right_rays(scene_calibration, angl
 @pytest.fixture(scope="module")
 def scene_calibration(scenes):
     return scenes[None].calibration
+
+
+def test_disturbance_of_the_renderer_is_checked_and_off_by_default():
+    spec = default_scene_spec()
+    assert spec.right_disturbance_rotvec_rad == (0.0, 0.0, 0.0)
+    with pytest.raises(InputError, match="right_disturbance_rotvec_rad"):
+        dataclasses.replace(spec, right_disturbance_rotvec_rad=(0.2, 0.0, 0.0))
