@@ -234,7 +234,7 @@ def test_yaws_agree_only_when_views_agree_on_a_large_enough_yaw():
     # The three OAK-D Lite scenes: each view sure of itself, the views disagreeing.
     oakd = [(math.radians(v), math.radians(0.05)) for v in (0.55, 0.54, -0.26)]
     assert not yaws_agree(oakd, cfg)
-    small = [(math.radians(0.09), math.radians(0.005))] * 3  # agreed, but under min_yaw_deg
+    small = [(math.radians(0.04), math.radians(0.005))] * 3  # agreed, but under min_yaw_deg
     assert not yaws_agree(small, cfg)
     assert yaws_agree(small, dataclasses.replace(cfg, min_yaw_deg=0.0))
     noisy = [(math.radians(0.3), math.radians(0.2))] * 3  # not significant
