@@ -28,11 +28,13 @@ How it is made fast on two cores (numbers in ``docs/benchmarks.md``):
   row (the four rows interleaved, so that one pixel's wait on its neighbour overlaps with
   other rows' work), then the paths from earlier rows (no dependence between the pixels
   of a row). The cost volume is never stored whole.
-- The selection runs in two bands of rows and adds the two sweeps' sums a pixel at a
-  time; the full S is never stored.
+- One volume S for both sweeps, filled in two phases: the forward sweep writes the top
+  half while the backward sweep writes the bottom half; then each goes on into the
+  other half, adds its paths, and chooses the disparities of each row it finishes while
+  the row is still in cache.
 
-Memory: the two sweeps' sums (int16), ``4 * H * W * D`` bytes: 157 MB at 640x480x128
-and 79 MB at 64 disparities, plus row buffers (under 2 MB).
+Memory: S (int16), ``2 * H * W * D`` bytes: 79 MB at 640x480x128 and 39 MB at 64
+disparities, plus row buffers (under 2 MB).
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ import cv2
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
-from numba.extending import intrinsic
+from numba.extending import intrinsic, register_jitable
 
 from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
@@ -251,6 +253,24 @@ ROW_PATHS = {
 }
 
 
+def sweep_state(width: int, n_disp: int, paths: int) -> tuple[np.ndarray, ...]:
+    """Fresh row buffers of the paths from earlier rows, for :func:`aggregate_sweep`.
+
+    ``(prev1, prev2, cur, min1, min2, cur_min)``: the last two rows' and the current row's
+    L (int16, (k, W + 2 * _PAD, D + 2)) and their minima over d. They hold zeros where a
+    path starts (first rows, padding columns), so that the update gives ``L = C`` there
+    with no branch, and sentinels at d = -1 and d = D.
+    """
+    nk = len(ROW_PATHS[paths])
+    rows = []
+    for _ in range(3):
+        buf = np.full((nk, width + 2 * _PAD, n_disp + 2), _BIG, dtype=np.int16)
+        buf[:, :, 1 : n_disp + 1] = 0
+        rows.append(buf)
+    mins = [np.zeros((nk, width + 2 * _PAD), dtype=np.int16) for _ in range(3)]
+    return (*rows, *mins)
+
+
 @njit(cache=True, nogil=True)
 def aggregate_sweep(
     census_left: np.ndarray,
@@ -261,28 +281,43 @@ def aggregate_sweep(
     p2_lut: np.ndarray,
     p1: int,
     out: np.ndarray,
-) -> None:  # pragma: no cover - compiled
-    """Half of the paths in one raster sweep, their sum written to ``out`` (int16, (H, W, D)).
+    i0: int,
+    i1: int,
+    add: bool,
+    state: tuple,
+    select: bool,
+    uniqueness: float,
+    lr_max_diff: float,
+    disp: np.ndarray,
+    conf: np.ndarray,
+) -> tuple:  # pragma: no cover - compiled
+    """Half of the paths in one raster sweep, over the sweep's rows ``i0 .. i1 - 1``.
 
-    The forward sweep goes top to bottom and carries the path along the row from the left
-    and every path in ``row_paths``; a path ``(b, c)`` comes from pixel ``(y - b, x - c)``.
-    The backward sweep mirrors them all. ``p2_lut`` is :func:`p2_table`. The matching
-    costs are computed here from the census images, ``_ROW_GROUP`` rows at a time, and
-    never stored whole.
+    The forward sweep goes top to bottom (its row i is image row i) and carries the path
+    along the row from the left and every path in ``row_paths``; a path ``(b, c)`` comes
+    from pixel ``(y - b, x - c)``. The backward sweep (its row i is image row H - 1 - i)
+    mirrors them all. ``p2_lut`` is :func:`p2_table`. The sum of the paths is written to
+    ``out`` (int16, (H, W, D)), or added to what it holds with ``add``. ``state`` is
+    :func:`sweep_state` or what the previous call over the rows before ``i0`` returned;
+    the state after row ``i1 - 1`` is returned. With ``select``, each row of ``out`` is
+    final once this sweep has added to it, and its disparities are chosen there and then
+    (:func:`select_disparity_rows`, into ``disp`` and ``conf``), while it is in cache.
 
-    Rows go in groups of ``_ROW_GROUP``: first the group's paths along the row, the rows
-    interleaved (each pixel waits on its neighbour's result; interleaving independent rows
-    keeps the CPU busy meanwhile), then row by row the paths from earlier rows, whose
-    pixels within a row are independent. The group's rows of ``out`` stay in cache
-    between the two. Each row path keeps its last two rows and the current one in separate
+    The matching costs are computed here from the census images, ``_ROW_GROUP`` rows at a
+    time, and never stored whole. For each group of rows, first the paths along the row,
+    the rows interleaved (each pixel waits on its neighbour's result; interleaving
+    independent rows keeps the CPU busy meanwhile), then row by row the paths from earlier
+    rows, whose pixels within a row are independent. The group's rows of ``out`` stay in
+    cache between the two. The row buffers of the paths from earlier rows are separate
     arrays rotated every row (reads from the previous rows and writes to this one never
-    alias). A path starts (no previous pixel in the image) with ``L = C``.
+    alias).
     """
     h, w = img.shape
     n = out.shape[2]
     lut = p2_lut
     p1 = np.int16(p1)  # type: ignore[assignment]
     zero = np.int16(0)
+    along_keep = np.int16(1 if add else 0)
     step = 1 if forward else -1
     cost = np.empty((_ROW_GROUP, w, n), dtype=np.uint8)
     reversed_right = np.empty(w, dtype=np.uint32)
@@ -293,31 +328,39 @@ def aggregate_sweep(
     start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
     start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
     along_min = np.zeros(_ROW_GROUP, dtype=np.int16)
-    # The paths from earlier rows. The buffers have _PAD columns of padding on each side:
-    # a path that starts (its previous pixel lies outside the image) reads padding or the
-    # initial rows, L = 0 and min 0, so that the update gives L = C with no branch (a
-    # branch here stops LLVM from vectorising the update: measured 3x slower).
+    # The state goes into arrays allocated here: the updates then vectorise (on the
+    # caller's arrays, or on ``state[i].copy()``, LLVM gave up on one of them: 12x slower).
+    work = np.empty((3, w), dtype=np.int32)  # the selection's work rows
     nk = row_paths.shape[0]
-    wp = w + 2 * _PAD
-    cur = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
-    prev1 = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
-    prev2 = np.full((nk, wp, n + 2), _BIG, dtype=np.int16)
-    for buf in (cur, prev1, prev2):
-        buf[:, :, 1 : n + 1] = 0
-    cur_min = np.zeros((nk, wp), dtype=np.int16)
-    min1 = np.zeros((nk, wp), dtype=np.int16)
-    min2 = np.zeros((nk, wp), dtype=np.int16)
-    for g0 in range(0, h, _ROW_GROUP):
-        rows = min(_ROW_GROUP, h - g0)
+    rows_shape, mins_shape = (nk, w + 2 * _PAD, n + 2), (nk, w + 2 * _PAD)
+    prev1, prev2, cur = (
+        np.empty(rows_shape, np.int16),
+        np.empty(rows_shape, np.int16),
+        np.empty(rows_shape, np.int16),
+    )
+    min1, min2, cur_min = (
+        np.empty(mins_shape, np.int16),
+        np.empty(mins_shape, np.int16),
+        np.empty(mins_shape, np.int16),
+    )
+    prev1[:] = state[0]
+    prev2[:] = state[1]
+    cur[:] = state[2]
+    min1[:] = state[3]
+    min2[:] = state[4]
+    cur_min[:] = state[5]
+    for g0 in range(i0, i1, _ROW_GROUP):
+        rows = min(_ROW_GROUP, i1 - g0)
         for r in range(rows):
-            _census_cost_row(
-                census_left, census_right, g0 + r if forward else h - 1 - g0 - r, cost, r, reversed_right
-            )
+            y = g0 + r if forward else h - 1 - g0 - r
+            _census_cost_row(census_left, census_right, y, cost, r, reversed_right)
         # The group's paths along the row.
         x0 = 0 if forward else w - 1
         for r in range(rows):
             y = g0 + r if forward else h - 1 - g0 - r
-            along_min[r] = _path_update(cost, r, y, x0, start, 0, 0, even, r, 0, out, zero, zero, zero, p1)
+            along_min[r] = _path_update(
+                cost, r, y, x0, start, 0, 0, even, r, 0, out, along_keep, zero, zero, p1
+            )
         for j in range(1, w):
             x = j if forward else w - 1 - j
             for r in range(rows):
@@ -325,9 +368,13 @@ def aggregate_sweep(
                 m = along_min[r]
                 jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
                 if j % 2:
-                    along_min[r] = _path_update(cost, r, y, x, even, r, 0, odd, r, 0, out, zero, m, jump, p1)
+                    along_min[r] = _path_update(
+                        cost, r, y, x, even, r, 0, odd, r, 0, out, along_keep, m, jump, p1
+                    )
                 else:
-                    along_min[r] = _path_update(cost, r, y, x, odd, r, 0, even, r, 0, out, zero, m, jump, p1)
+                    along_min[r] = _path_update(
+                        cost, r, y, x, odd, r, 0, even, r, 0, out, along_keep, m, jump, p1
+                    )
         # The paths from earlier rows, row by row.
         for r in range(rows):
             y = g0 + r if forward else h - 1 - g0 - r
@@ -350,12 +397,80 @@ def aggregate_sweep(
                         )
             prev2, prev1, cur = prev1, cur, prev2
             min2, min1, cur_min = min1, cur_min, min2
+            if select:
+                _select_row(out, y, uniqueness, lr_max_diff, disp, conf, work[0], work[1], work[2])
+    return (prev1, prev2, cur, min1, min2, cur_min)
+
+
+@register_jitable
+def subpixel(total, y, x, arg):  # pragma: no cover - compiled
+    """The winner ``arg`` refined by the parabola through S at arg - 1, arg, arg + 1 (where
+    both neighbours exist); float64. Shared by the CPU and the CUDA selection."""
+    n = total.shape[2]
+    sub = float(arg)
+    if 0 < arg < n - 1 and arg + 1 <= x:
+        a = float(total[y, x, arg - 1])
+        b = float(total[y, x, arg])
+        c = float(total[y, x, arg + 1])
+        den = a - 2.0 * b + c
+        if den > 0:
+            sub = arg + 0.5 * (a - c) / den
+    return sub
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _select_row(
+    total, y, uniqueness, lr_max_diff, disp, conf, best_d, right_cost, right_d
+):  # pragma: no cover
+    """:func:`select_disparity_rows` for row y (``best_d``, ``right_cost``, ``right_d``:
+    int32 (W,) work rows)."""
+    w = total.shape[1]
+    n = total.shape[2]
+    never = np.int16(32000)
+    # A pixel with only a few candidate disparities (near the left border, where most of
+    # the search range falls outside the right image) cannot pass a uniqueness test.
+    min_x = max(4, n // 4)
+    right_cost[:] = 1 << 30
+    right_d[:] = -1
+    best_d[:] = -1
+    for x in range(w):
+        disp[y, x] = np.nan
+        conf[y, x] = 0.0
+        if x < min_x:
+            continue
+        m = never
+        for d in range(n):
+            m = min(m, total[y, x, d])
+        # Index comparisons in int16 too, so that these loops vectorise 32 wide.
+        nn = np.int16(n)
+        arg = nn
+        for d in range(n):
+            arg = min(arg, np.int16(d) if total[y, x, d] == m else nn)
+        second = never
+        lo, hi = np.int16(arg - 1), np.int16(arg + 1)
+        for d in range(n):
+            far = (np.int16(d) < lo) | (np.int16(d) > hi)
+            second = min(second, total[y, x, d] if far else never)
+        if arg > x or second >= never:  # no match for the winner, or nothing else
+            continue
+        conf[y, x] = float(second - m) / max(float(second), 1.0)
+        if m * (1.0 + uniqueness) > second:
+            continue
+        xr = x - arg
+        if m < right_cost[xr]:
+            right_cost[xr] = m
+            right_d[xr] = arg
+        best_d[x] = arg
+        disp[y, x] = subpixel(total, y, x, arg)
+    for x in range(min_x, w):
+        arg = best_d[x]
+        if arg >= 0 and abs(right_d[x - arg] - arg) > lr_max_diff:
+            disp[y, x] = np.nan
 
 
 @njit(cache=True, nogil=True)
 def select_disparity_rows(
-    forward: np.ndarray,
-    backward: np.ndarray,
+    total: np.ndarray,
     y0: int,
     y1: int,
     uniqueness: float,
@@ -365,8 +480,7 @@ def select_disparity_rows(
 ) -> None:  # pragma: no cover - compiled
     """WTA + uniqueness + parabola sub-pixel + left-right check for rows ``y0 .. y1 - 1``.
 
-    ``S = forward + backward`` (the two sweeps' sums) is formed here, a pixel at a time, so
-    the full volume is never summed into a third array. Writes ``disp`` (NaN where
+    ``total`` is S, the sum over all paths (int16, (H, W, D)). Writes ``disp`` (NaN where
     rejected) and ``conf`` (``(S_second - S_best) / S_second``, second best outside
     ``d_best +- 1``).
 
@@ -375,60 +489,10 @@ def select_disparity_rows(
     wins there. That needs one pass over the winners instead of a second pass over the
     volume along its diagonals.
     """
-    w = forward.shape[1]
-    n = forward.shape[2]
-    s = np.empty(n, dtype=np.int16)
-    best_d = np.empty(w, dtype=np.int32)
-    right_cost = np.empty(w, dtype=np.int32)
-    right_d = np.empty(w, dtype=np.int32)
-    never = np.int16(32000)
-    # A pixel with only a few candidate disparities (near the left border, where most of
-    # the search range falls outside the right image) cannot pass a uniqueness test.
-    min_x = max(4, n // 4)
+    w = total.shape[1]
+    work = np.empty((3, w), dtype=np.int32)
     for y in range(y0, y1):
-        right_cost[:] = 1 << 30
-        right_d[:] = -1
-        best_d[:] = -1
-        for x in range(w):
-            disp[y, x] = np.nan
-            conf[y, x] = 0.0
-            if x < min_x:
-                continue
-            m = never
-            for d in range(n):
-                v = np.int16(forward[y, x, d] + backward[y, x, d])
-                s[d] = v
-                m = min(m, v)
-            arg = np.int16(n)
-            for d in range(n):
-                arg = min(arg, np.int16(d) if s[d] == m else np.int16(n))
-            second = never
-            for d in range(n):
-                far = (d < arg - 1) | (d > arg + 1)
-                second = min(second, s[d] if far else never)
-            if arg > x or second >= never:  # no match for the winner, or nothing else
-                continue
-            conf[y, x] = float(second - m) / max(float(second), 1.0)
-            if m * (1.0 + uniqueness) > second:
-                continue
-            xr = x - arg
-            if m < right_cost[xr]:
-                right_cost[xr] = m
-                right_d[xr] = arg
-            sub = float(arg)
-            if 0 < arg < n - 1 and arg + 1 <= x:
-                a = float(s[arg - 1])
-                b = float(s[arg])
-                c = float(s[arg + 1])
-                den = a - 2.0 * b + c
-                if den > 0:
-                    sub = arg + 0.5 * (a - c) / den
-            best_d[x] = arg
-            disp[y, x] = sub
-        for x in range(min_x, w):
-            arg = best_d[x]
-            if arg >= 0 and abs(right_d[x - arg] - arg) > lr_max_diff:
-                disp[y, x] = np.nan
+        _select_row(total, y, uniqueness, lr_max_diff, disp, conf, work[0], work[1], work[2])
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -493,22 +557,29 @@ class SGM:
         c = self.config
         h, w = left.shape
         pool = _sweep_pool()
-        halves = ((0, h // 2), (h // 2, h))
         cl, cr = census5x5(left), census5x5(right)
         paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
-        # The forward and the backward sweep, one per core, each with half of the paths.
-        forward = np.empty((h, w, n), dtype=np.int16)
-        backward = np.empty((h, w, n), dtype=np.int16)
-        for job in [
-            pool.submit(aggregate_sweep, cl, cr, left, fwd, paths, lut, c.p1, out)
-            for fwd, out in ((True, forward), (False, backward))
-        ]:
-            job.result()
+        # One volume S and two sweeps, one per core, each with half of the paths, in two
+        # phases: first the forward sweep fills the top half of S and the backward sweep
+        # the bottom half; then each goes on into the other half and adds its paths. A
+        # row of S is then final, and its disparities are chosen right away while the
+        # row is still in cache.
+        total = np.empty((h, w, n), dtype=np.int16)
         disp = np.empty((h, w), dtype=np.float32)
         conf = np.empty((h, w), dtype=np.float32)
-        args = (c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px, disp, conf)
-        for job in [
-            pool.submit(select_disparity_rows, forward, backward, y0, y1, *args) for y0, y1 in halves
-        ]:
-            job.result()
+        top = h // 2
+        states = {fwd: sweep_state(w, n, c.paths) for fwd in (True, False)}
+        uniqueness = c.uniqueness_ratio_pct / 100.0
+
+        def run(fwd: bool, i0: int, i1: int, second_phase: bool) -> tuple:
+            return aggregate_sweep(
+                cl, cr, left, fwd, paths, lut, c.p1, total, i0, i1, second_phase, states[fwd],
+                second_phase, uniqueness, c.lr_max_diff_px, disp, conf,
+            )  # fmt: skip
+
+        for second, phase in enumerate(
+            (((True, 0, top), (False, 0, h - top)), ((True, top, h), (False, h - top, h)))
+        ):
+            jobs = {fwd: pool.submit(run, fwd, i0, i1, bool(second)) for fwd, i0, i1 in phase}
+            states = {fwd: job.result() for fwd, job in jobs.items()}
         return disp, conf

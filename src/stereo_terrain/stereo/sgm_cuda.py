@@ -35,6 +35,7 @@ import numpy as np
 from numba import cuda, int16, int32
 
 from ..errors import ConfigError
+from .sgm import subpixel
 
 MAX_DISPARITIES = 256
 _SHARED = MAX_DISPARITIES  # shared-memory row of one aggregation block
@@ -140,16 +141,8 @@ def select_kernel(total, uniqueness, disp, conf, best, right):  # pragma: no cov
     if m * (1.0 + uniqueness) > second:
         return
     cuda.atomic.min(right, (y, x - arg), (m << 16) | arg)
-    sub = float(arg)
-    if 0 < arg < n - 1 and arg + 1 <= x:
-        a = float(total[y, x, arg - 1])
-        b = float(total[y, x, arg])
-        c = float(total[y, x, arg + 1])
-        den = a - 2.0 * b + c
-        if den > 0:
-            sub = arg + 0.5 * (a - c) / den
     best[y, x] = arg
-    disp[y, x] = sub
+    disp[y, x] = subpixel(total, y, x, arg)
 
 
 @cuda.jit
