@@ -36,6 +36,7 @@ from .cloud import (
     transform_cloud,
     transform_sample,
 )
+from .drift import CorrectionUpdate, DriftConfig, OnlineRectifier
 from .errors import ConfigError, InputError
 from .frames import R_BODY_OPTICAL, Rig, Transform
 from .planes.auto import combine_plane_sets
@@ -69,7 +70,7 @@ class PipelineConfig:
     ----------
     backend : str
         Disparity backend: ``opencv`` (default; StereoSGBM) or ``sgm`` (the project's own
-        engine, work in progress).
+        engine; more accurate on textured real scenes, slower; see the README).
     max_disparity_px : int or None
         Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
     fill : PlanarFillConfig
@@ -80,6 +81,9 @@ class PipelineConfig:
         Plane extraction: ``orientation`` (default; paper 3.2.2), ``contour`` (paper
         3.2.1) or ``auto`` (both; the contour planes are added when that gives more steps,
         and the result's ``plane_stage`` says which was used and why).
+    drift : DriftConfig
+        Online correction of the rectification for a rig that moved since calibration
+        (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
     """
 
     backend: str = "opencv"
@@ -93,6 +97,7 @@ class PipelineConfig:
     contour: ContourConfig = field(default_factory=ContourConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)
+    drift: DriftConfig = field(default_factory=DriftConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -121,6 +126,7 @@ class PipelineConfig:
             "contour": ContourConfig,
             "terrain": TerrainConfig,
             "swing": SwingConfig,
+            "drift": DriftConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -340,6 +346,11 @@ class Pipeline:
         self.calibration = calibration
         self.rig = rig
         self.rectification: Rectification = compute_rectification(calibration)
+        # Online drift correction (opt-in): owns the rectification from here on.
+        self.rectifier: OnlineRectifier | None = (
+            OnlineRectifier(self.rectification, self.config.drift) if self.config.drift.online else None
+        )
+        self.last_correction: CorrectionUpdate | None = None
         if self.config.max_disparity_px is not None:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
         else:
@@ -365,6 +376,11 @@ class Pipeline:
             t = now
 
         pair = rectify(left, right, self.rectification)
+        if self.rectifier is not None:
+            self.last_correction = self.rectifier.update(pair)
+            if self.last_correction.changed:  # re-rectify this frame with the corrected rig
+                self.rectification = self.last_correction.rectification
+                pair = rectify(left, right, self.rectification)
         lap("rectify")
         disp = self.backend.compute(pair, self.max_disparity_px)
         if self.config.fill.enabled:
