@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean lcmtypes
+.PHONY: demo test lint bench bench-open3d clean lcmtypes
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,18 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_pipeline.py
+
+# Open3D only in its own environment, never a dependency of the package.
+O3D_VENV := benchmarks/.venv-open3d
+
+$(O3D_VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(O3D_VENV)
+	$(O3D_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(O3D_VENV)/bin/python -m pip install --quiet open3d libusb-package -e .
+	touch $(O3D_VENV)/.installed
+
+bench-open3d: $(O3D_VENV)/.installed
+	$(O3D_VENV)/bin/python benchmarks/bench_open3d.py
 
 clean:
 	rm -rf $(VENV) demo_out .pytest_cache

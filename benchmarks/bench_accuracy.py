@@ -4,7 +4,7 @@ Scenes come from the renderer's random mix (70% stairs, 20% boxes, 10% empty; 30
 textured) at 640x480, plus 320x240 and 1280x720 sets. Prints one table row per group;
 results are recorded in docs/benchmarks.md.
 
-    .venv/bin/python benchmarks/bench_accuracy.py [--scenes 60]
+    .venv/bin/python benchmarks/bench_accuracy.py [--scenes 60] [--backend opencv|sgm]
 """
 
 from __future__ import annotations
@@ -14,15 +14,15 @@ import argparse
 import numpy as np
 
 from stereo_terrain.evaluation import score_result, summarize
-from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 
 
-def run(specs):
+def run(specs, config):
     scores, weak = [], []
     for spec in specs:
         scene = render_scene(spec)
-        data = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict()
+        data = Pipeline(scene.calibration, scene.rig, config).run(scene.left, scene.right).to_json_dict()
         scores.append(score_result(data, scene.truth))
         weak.append(spec.weak_texture)
     return scores, weak
@@ -43,14 +43,17 @@ def main() -> None:
     ap.add_argument("--scenes", type=int, default=60)
     ap.add_argument("--small", type=int, default=10, help="scenes at 320x240 and at 1280x720 each")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--backend", choices=["opencv", "sgm"], default=PipelineConfig().backend)
     args = ap.parse_args()
+    config = PipelineConfig(backend=args.backend)
     rng = np.random.default_rng(args.seed)
-    mix, weak = run([random_scene_spec(rng) for _ in range(args.scenes)])
+    mix, weak = run([random_scene_spec(rng) for _ in range(args.scenes)], config)
     low, _ = run(
-        [random_scene_spec(rng, image_size=(320, 240), weak_texture=False) for _ in range(args.small)]
+        [random_scene_spec(rng, image_size=(320, 240), weak_texture=False) for _ in range(args.small)], config
     )
     high, _ = run(
-        [random_scene_spec(rng, image_size=(1280, 720), weak_texture=False) for _ in range(args.small)]
+        [random_scene_spec(rng, image_size=(1280, 720), weak_texture=False) for _ in range(args.small)],
+        config,
     )
     print(
         "| scenes | n | detected | false pos. | step count right | rise median cm | rise p90 cm | "

@@ -1,16 +1,25 @@
 """Speed and memory of the own SGM engine against OpenCV StereoSGBM, side by side.
 
-640x480 rendered pair, 64 and 128 disparities, interleaved runs, median ms. Memory is our
-engine's working set (cost volume and the two sweep sums) from its array sizes; OpenCV's
-is allocated inside C++ and not measured here.
+640x480 rendered pair, 64 and 128 disparities. Runs are interleaved (each round calls
+every method once) and the median is reported, as wall time and as CPU time of the whole
+process (both threads of ours, all of OpenCV's). On a shared machine the wall time of a
+two-thread engine suffers more from other load than a one-thread one, so both are shown.
 
-    .venv/bin/python benchmarks/bench_sgm.py [--repeats 5]
+Memory is measured, not estimated: each method runs once in a fresh child process after a
+warm-up on a small image, while a thread samples the resident set every 0.5 ms; the peak
+growth over the resident set before the call is reported.
+
+    .venv/bin/python benchmarks/bench_sgm.py [--repeats 7]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import statistics
+import subprocess
+import sys
 import time
 
 from stereo_terrain.rectify import compute_rectification, rectify
@@ -20,48 +29,102 @@ from stereo_terrain.synthetic import default_scene_spec, render_scene
 METHODS = {
     "sgm (8 paths)": ("sgm", {}),
     "sgm (4 paths)": ("sgm", {"paths": 4}),
+    "sgm (16 paths)": ("sgm", {"paths": 16}),
     "opencv HH (8 paths)": ("opencv", {"mode": "hh"}),
     "opencv SGBM (5 paths)": ("opencv", {"mode": "sgbm"}),
     "opencv 3-way": ("opencv", {"mode": "sgbm_3way"}),
 }
 
+_MEMORY_CHILD = """
+import json, os, sys, threading, time
+from stereo_terrain.rectify import RectifiedPair, compute_rectification, rectify
+from stereo_terrain.stereo import make_backend
+from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+def rss():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+backend, options, n = json.loads(sys.argv[1])
+scene = render_scene(default_scene_spec())
+pair = rectify(scene.left, scene.right, compute_rectification(scene.calibration))
+b = make_backend(backend, **options)
+small = RectifiedPair(pair.left[:64, :320].copy(), pair.right[:64, :320].copy(), pair.rectification)
+b.compute(small, 64)  # compile and warm up on a small image
+del scene
+base = peak = rss()
+done = False
+
+def sample():
+    global peak
+    while not done:
+        peak = max(peak, rss())
+        time.sleep(0.0005)
+
+t = threading.Thread(target=sample)
+t.start()
+b.compute(pair, n)
+done = True
+t.join()
+print((peak - base) / 2**20)
+"""
+
+
+def peak_memory_mb(backend: str, options: dict, n: int) -> float:
+    """Peak growth of the resident set (MB) during one full-size call, in a fresh process."""
+    out = subprocess.run(
+        [sys.executable, "-c", _MEMORY_CHILD, json.dumps([backend, options, n])],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=dict(os.environ),
+    )
+    return float(out.stdout.strip().splitlines()[-1])
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--repeats", type=int, default=7)
     args = ap.parse_args()
     scene = render_scene(default_scene_spec())
     pair = rectify(scene.left, scene.right, compute_rectification(scene.calibration))
     h, w = pair.left.shape
-    print(f"{w}x{h}, median of {args.repeats} interleaved runs, this machine's 2 cores")
-    print("| method | 64 disp ms | 128 disp ms | working set 128 disp MB |")
-    print("| --- | --- | --- | --- |")
     backends = {name: make_backend(b, **o) for name, (b, o) in METHODS.items()}
-    times: dict[tuple[str, int], list[float]] = {}
+    wall: dict[tuple[str, int], list[float]] = {}
+    cpu: dict[tuple[str, int], list[float]] = {}
     for n in (64, 128):
         for b in backends.values():
             b.compute(pair, n)  # warm-up (compilation, buffers)
         for _ in range(args.repeats):
             for name, b in backends.items():
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 b.compute(pair, n)
-                times.setdefault((name, n), []).append((time.perf_counter() - t0) * 1000)
-    for name in METHODS:
-        if name.startswith("sgm"):
-            mem = h * w * 128 * (1 + 2 * 2) / 2**20  # uint8 cost + two uint16 sweep sums
-        else:  # OpenCV allocates inside C++: not measured here
-            mem = float("nan")
-        print(
-            f"| {name} | {statistics.median(times[(name, 64)]):.0f} | "
-            f"{statistics.median(times[(name, 128)]):.0f} | {mem:.0f} |"
-        )
-    ours = statistics.median(times[("sgm (8 paths)", 64)])
-    hh = statistics.median(times[("opencv HH (8 paths)", 64)])
-    three = statistics.median(times[("opencv 3-way", 64)])
+                wall.setdefault((name, n), []).append((time.perf_counter() - t0) * 1000)
+                cpu.setdefault((name, n), []).append((time.process_time() - c0) * 1000)
+    med = {k: statistics.median(v) for k, v in wall.items()}
+    med_cpu = {k: statistics.median(v) for k, v in cpu.items()}
+    print(f"{w}x{h}, median of {args.repeats} interleaved rounds, this machine's 2 cores")
     print(
-        f"\nsgm 8 paths vs HH at 64: {hh / ours:.2f}x faster (target >= 2); "
-        f"vs 3-way: {ours / three:.2f}x its time (target <= 1.5)"
+        "| method | 64 disp wall ms | 64 disp CPU ms | 128 disp wall ms | 128 disp CPU ms "
+        "| peak memory 64 disp MB | peak memory 128 disp MB |"
     )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for name, (b, o) in METHODS.items():
+        mem = [peak_memory_mb(b, o, n) for n in (64, 128)]
+        print(
+            f"| {name} | {med[(name, 64)]:.0f} | {med_cpu[(name, 64)]:.0f} | {med[(name, 128)]:.0f} | "
+            f"{med_cpu[(name, 128)]:.0f} | {mem[0]:.0f} | {mem[1]:.0f} |",
+            flush=True,
+        )
+    print()
+    for n in (64, 128):
+        ours, hh, three = (med[(m, n)] for m in ("sgm (8 paths)", "opencv HH (8 paths)", "opencv 3-way"))
+        c_ours, c_three = med_cpu[("sgm (8 paths)", n)], med_cpu[("opencv 3-way", n)]
+        print(
+            f"{n} disparities: sgm 8 paths is {hh / ours:.2f}x as fast as HH (target >= 2); "
+            f"takes {ours / three:.2f}x the wall time of 3-way (target <= 1.5), "
+            f"{c_ours / c_three:.2f}x its CPU time"
+        )
 
 
 if __name__ == "__main__":

@@ -41,6 +41,18 @@ def test_reconstruct_writes_the_json_contract(scene_dir, tmp_path, capsys):
     assert "obstacle: stairs" in out
 
 
+@pytest.mark.parametrize("method", ["contour", "auto"])
+def test_reconstruct_method_is_reported(scene_dir, capsys, method):
+    code, out, _ = _run(
+        _reconstruct_args(scene_dir, "--rig", scene_dir / "rig.yaml", "--json", "-", "--method", method),
+        capsys,
+    )
+    data = json.loads(out)
+    assert code == 0 and data["plane_stage"]["method_requested"] == method
+    assert data["plane_stage"]["method_used"] in ("orientation", "contour", "combined")
+    assert data["plane_stage"]["reason"] and isinstance(data["plane_stage"]["parameters"], dict)
+
+
 def test_reconstruct_json_to_stdout(scene_dir, capsys):
     code, out, _ = _run(_reconstruct_args(scene_dir, "--rig", scene_dir / "rig.yaml", "--json", "-"), capsys)
     assert code == 0 and json.loads(out)["obstacle"] == "stairs"
@@ -136,6 +148,7 @@ def test_unwritable_output(scene_dir, tmp_path, capsys):
         ["render", "--out", "x", "--count", "0"],
         ["render", "--out", "x", "--size", "big"],
         ["demo", "--bogus"],
+        ["reconstruct", "l.png", "r.png", "--calib", "c.yaml", "--method", "hough"],
     ],
 )
 def test_usage_errors_are_one_line_exit_2(argv, capsys):

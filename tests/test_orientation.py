@@ -95,3 +95,37 @@ def test_classify_and_config_checks():
         OrientationConfig(angle_tol_deg=60)
     with pytest.raises(ConfigError):
         OrientationConfig(min_plane_points=0)
+
+
+def test_confidence_keeps_low_confidence_outliers_out():
+    """Outliers marked with a low disparity confidence seed no hypothesis and barely weigh
+    in the refit; the planes stay as accurate as without outliers."""
+    s = _samples(noise_m=0.002)
+    rng = np.random.default_rng(1)
+    bad = rng.random(len(s)) < 0.3
+    pts = s.points.copy()
+    pts[bad, 2] += rng.uniform(0.05, 0.3, bad.sum()).astype(np.float32)
+    conf = np.where(bad, 0.01, 1.0).astype(np.float32)
+    noisy = GridSample(**{**s.__dict__, "points": pts, "confidence": conf})
+    assert extract_planes_orientation(noisy).parameters["confidence_weighting"] is False  # opt-in
+    ps = extract_planes_orientation(noisy, OrientationConfig(min_confidence=0.2, confidence_weights=True))
+    assert ps.parameters["confidence_weighting"] is True
+    assert ps.parameters["low_confidence_seeds_excluded"] > 0
+    horiz = [g for g in ps.segments if g.kind == HORIZONTAL]
+    ground = max(horiz, key=lambda g: g.count)
+    assert _angle(ground.plane.normal, [0, 0, 1]) < NORMAL_TOL_DEG
+    assert abs(ground.plane.offset) < OFFSET_TOL_M
+
+
+def test_adaptive_hypotheses_are_reported():
+    s = _samples(noise_m=0.003)
+    one = extract_planes_orientation(s).parameters["msac_hypotheses"]
+    more = extract_planes_orientation(s, OrientationConfig(max_hypotheses_per_plane=400)).parameters[
+        "msac_hypotheses"
+    ]
+    assert one["per_round_max"] <= OrientationConfig().hypotheses_per_plane
+    assert more["total"] >= one["total"] * 0.5 and more["per_round_max"] <= 400
+    with pytest.raises(ConfigError):
+        OrientationConfig(max_hypotheses_per_plane=50)
+    with pytest.raises(ConfigError):
+        OrientationConfig(confidence=1.5)

@@ -1,5 +1,5 @@
 """Command line: ``stereo-terrain demo | reconstruct | render | disparity | eval-disparity |
-record | run | replay | simulate``.
+calibrate | check-calib | record | run | replay | simulate``.
 
 Thin: parses arguments, calls the pipeline, maps errors to exit codes (0 success, 2 bad
 input or usage with one line on stderr, 1 internal error).
@@ -81,6 +81,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--config", type=Path, help="pipeline config YAML")
     r.add_argument("--max-disparity", type=_positive_int, help="disparity range (multiple of 16)")
+    r.add_argument(
+        "--method",
+        choices=["orientation", "contour", "auto"],
+        help="plane extraction (default: the config's, else orientation); auto runs both, explains its pick",
+    )
     r.add_argument("--json", type=Path, help="write the terrain result here ('-' for stdout)")
     r.add_argument("--plot", type=Path, help="write a figure (PNG)")
 
@@ -100,8 +105,32 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         action="append",
         choices=sorted(_METHODS),
-        help="repeat to compare (default: sgm, opencv, opencv-hh)",
+        help="repeat to compare (default: sgm and the three OpenCV modes)",
     )
+
+    c = sub.add_parser(
+        "calibrate", help="checkerboard stereo calibration -> calibration YAML + quality report"
+    )
+    c.add_argument("--left", required=True, help="glob of the left images, quoted: 'calib/left*.png'")
+    c.add_argument(
+        "--right", required=True, help="glob of the right images (paired with the left in sorted order)"
+    )
+    c.add_argument("--pattern", required=True, help="inner corners COLSxROWS, e.g. 9x6")
+    c.add_argument("--square", type=float, required=True, help="square side in metres, e.g. 0.025")
+    c.add_argument("--out", type=Path, required=True, help="calibration YAML to write")
+    c.add_argument("--figure", type=Path, help="write a figure of the coverage and per-view errors (PNG)")
+
+    k = sub.add_parser(
+        "check-calib", help="how far a rig has drifted from its calibration (vertical disparity)"
+    )
+    k.add_argument(
+        "images",
+        type=Path,
+        nargs="+",
+        metavar="LEFT RIGHT",
+        help="a raw pair; more pairs (different views) pool their matches and can confirm a yaw",
+    )
+    k.add_argument("--calib", type=Path, required=True)
 
     g = sub.add_parser("render", help="write synthetic stereo scenes with ground truth")
     g.add_argument("--out", type=Path, required=True)
@@ -271,10 +300,12 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     calib = read_calibration(args.calib)
     rig = load_rig(args.rig) if args.rig else None
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
-    if args.max_disparity is not None:
-        import dataclasses
+    import dataclasses
 
+    if args.max_disparity is not None:
         config = dataclasses.replace(config, max_disparity_px=args.max_disparity)
+    if args.method is not None:
+        config = dataclasses.replace(config, method=args.method)
     left = read_image(args.left)
     right = read_image(args.right)
     pipeline = Pipeline(calib, rig, config)
@@ -284,6 +315,8 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         _write_json(data, args.json)
     if str(args.json) != "-":
         print(f"obstacle: {data['obstacle']} ({data['note']}); gravity from {data['gravity_source']}")
+        ps = data["plane_stage"]
+        print(f"planes: {len(data['planes'])} by {ps['method_used']} ({ps['reason']})")
         _print_steps("steps:", data["steps"])
         sw = data["swing"]
         print(
@@ -362,6 +395,102 @@ def _scene_dirs(root: Path) -> list[Path]:
     return dirs
 
 
+def _progress(done: int, total: int, text: str) -> None:
+    """A one-line progress bar on stderr (a newline when done)."""
+    bar = "#" * (20 * done // max(total, 1))
+    sys.stderr.write(f"\r[{bar:<20}] {done}/{total} {text:<60}")
+    if done == total:
+        sys.stderr.write("\n")
+    sys.stderr.flush()
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from .calibrate import BoardConfig, calibrate_from_globs, parse_pattern, quality_report
+    from .calibration import write_opencv_yaml
+
+    cols, rows = parse_pattern(args.pattern)
+    board = BoardConfig(cols, rows, args.square)
+    for target in (args.out, args.figure):  # fail before the detection work, not after it
+        if target is not None and (target.is_dir() or not target.resolve().parent.is_dir()):
+            raise InputError(f"cannot write {target}: it is a folder or its folder does not exist")
+
+    def progress(done: int, total: int, name: str, reason: str | None) -> None:
+        _progress(done, total, f"{name}: {'board found' if reason is None else 'skipped, ' + reason}")
+
+    result = calibrate_from_globs(args.left, args.right, board, progress=progress)
+    write_opencv_yaml(result.calibration, args.out)
+    for line in quality_report(result):
+        print(line)
+    print(f"wrote {args.out}")
+    if args.figure is not None:
+        try:
+            from .viz.calibration import save_calibration_figure
+        except ImportError as exc:
+            raise InputError(
+                f"--figure needs matplotlib ({exc}); install with pip install 'stereo-terrain[viz]'"
+            ) from None
+        try:
+            save_calibration_figure(result, args.figure)
+        except OSError as exc:
+            raise InputError(f"cannot write {args.figure}: {exc.strerror}") from None
+        print(f"wrote {args.figure}")
+    return EXIT_OK
+
+
+def cmd_check_calib(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .calibration import read_calibration
+    from .drift import DriftConfig, check_calibration
+    from .rectify import compute_rectification, read_image, rectify
+
+    if len(args.images) % 2:
+        raise InputError(
+            f"check-calib takes pairs of images (LEFT RIGHT [LEFT RIGHT ...]), got {len(args.images)} files"
+        )
+    calib = read_calibration(args.calib)
+    rect = compute_rectification(calib)
+    pairs = [
+        rectify(read_image(left), read_image(right), rect)
+        for left, right in zip(args.images[::2], args.images[1::2], strict=True)
+    ]
+    cfg = DriftConfig()
+    c = check_calibration(pairs, cfg)
+    print(f"pairs: {c.n_pairs}, matches: {c.n_matches}")
+    if c.n_matches:
+        print(
+            f"vertical disparity y_left - y_right: median {c.median_px:+.3f} px, spread {c.spread_px:.3f} px "
+            f"(1.4826 MAD), |.| 90th percentile {c.p90_abs_px:.3f} px"
+        )
+    if c.rotation is not None:
+        deg, se = np.degrees(c.rotation.rotvec_rad), np.degrees(c.rotation.stderr_rad)
+        parts = ", ".join(
+            f"{a} {d:+.3f}" + (f" (+-{s:.3f})" if np.isfinite(s) else "")
+            for a, d, s in zip("xyz", deg, se, strict=True)
+        )
+        print(f"right camera drift to undo (deg, rectified frame; 0 = not significant): {parts}")
+        if not c.yaw_confirmed:
+            print(
+                f"  yaw (y) held at 0: it needs {cfg.yaw_frames} pairs of different views that agree on it "
+                "(one view cannot tell a yaw from a lens-distortion residual)"
+            )
+        print(
+            f"worst error it causes over the image: vertical {c.vertical_error_px:.2f} px, "
+            f"disparity {c.disparity_error_px:.2f} px"
+        )
+    if c.verdict == "unknown":
+        print(
+            f"verdict: unknown (fewer than {cfg.min_matches} matches; point the cameras at a textured "
+            "scene a metre or more away)"
+        )
+    else:
+        print(
+            f"verdict: {c.verdict} (drift {c.drift_px:.2f} px; ok < {cfg.ok_px} px <= degraded < "
+            f"{cfg.recalibrate_px} px <= recalibrate)"
+        )
+    return EXIT_OK
+
+
 def cmd_eval_disparity(args: argparse.Namespace) -> int:
     import cv2
     import numpy as np
@@ -371,7 +500,7 @@ def cmd_eval_disparity(args: argparse.Namespace) -> int:
     from .rectify import read_image
     from .stereo.io import read_pfm
 
-    methods = args.method or ["sgm", "opencv", "opencv-hh"]
+    methods = args.method or ["sgm", "opencv", "opencv-sgbm", "opencv-hh"]
     scenes = _scene_dirs(args.root)
     rows = []
     total = len(scenes) * len(methods)
@@ -384,15 +513,11 @@ def cmd_eval_disparity(args: argparse.Namespace) -> int:
         if mask_path.is_file():
             nocc = np.asarray(cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE)) == 255
         for j, m in enumerate(methods):
-            k = i * len(methods) + j + 1
-            bar = "#" * (20 * k // total)
-            sys.stderr.write(f"\r[{bar:<20}] {k}/{total} {d.name} {m}        ")
-            sys.stderr.flush()
+            _progress(i * len(methods) + j + 1, total, f"{d.name} {m}")
             dm, ms = _pair_disparity(m, calib, left, right, None)
             e_all = disparity_errors(dm.disparity, truth)
             e_noc = disparity_errors(dm.disparity, truth, nocc) if nocc is not None else e_all
             rows.append((d.name, m, e_noc, e_all, ms))
-    sys.stderr.write("\n")
     print(
         "| scene | method | bad-1 nonocc | bad-2 nonocc | bad-4 nonocc | bad-2 all | avg err px | density "
         "| ms |"
@@ -583,6 +708,8 @@ COMMANDS = {
     "render": cmd_render,
     "disparity": cmd_disparity,
     "eval-disparity": cmd_eval_disparity,
+    "calibrate": cmd_calibrate,
+    "check-calib": cmd_check_calib,
 }
 
 

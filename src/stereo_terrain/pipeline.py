@@ -17,6 +17,7 @@ import dataclasses
 import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,8 +36,11 @@ from .cloud import (
     transform_cloud,
     transform_sample,
 )
+from .drift import CorrectionUpdate, DriftConfig, OnlineRectifier
 from .errors import ConfigError, InputError
 from .frames import R_BODY_OPTICAL, Rig, Transform
+from .planes.auto import combine_plane_sets
+from .planes.contour import ContourConfig, extract_planes_contour
 from .planes.msac import Plane, planes_from_triplets
 from .planes.orientation import (
     OrientationConfig,
@@ -54,6 +58,9 @@ from .terrain import StairModel, TerrainConfig, build_terrain
 
 RESULT_VERSION = 1
 
+#: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
+PLANE_METHODS = ("orientation", "contour", "auto")
+
 
 @dataclass(frozen=True)
 class PipelineConfig:
@@ -63,24 +70,34 @@ class PipelineConfig:
     ----------
     backend : str
         Disparity backend: ``opencv`` (default; StereoSGBM) or ``sgm`` (the project's own
-        engine, work in progress).
+        engine; more accurate on textured real scenes, slower; see the README).
     max_disparity_px : int or None
         Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
     fill : PlanarFillConfig
         Planar fill of texture-poor faces after matching (``fill.enabled``).
     min_depth_m : float
         Closest depth the disparity range must reach when chosen automatically.
+    method : str
+        Plane extraction: ``orientation`` (default; paper 3.2.2), ``contour`` (paper
+        3.2.1) or ``auto`` (both; the contour planes are added when that gives more steps,
+        and the result's ``plane_stage`` says which was used and why).
+    drift : DriftConfig
+        Online correction of the rectification for a rig that moved since calibration
+        (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
     """
 
     backend: str = "opencv"
     max_disparity_px: int | None = None
     min_depth_m: float = 0.7
+    method: str = "orientation"
     sgbm: OpenCVSGBMConfig = field(default_factory=OpenCVSGBMConfig)
     fill: PlanarFillConfig = field(default_factory=PlanarFillConfig)
     cloud: CloudConfig = field(default_factory=CloudConfig)
     orientation: OrientationConfig = field(default_factory=OrientationConfig)
+    contour: ContourConfig = field(default_factory=ContourConfig)
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)
+    drift: DriftConfig = field(default_factory=DriftConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -89,6 +106,8 @@ class PipelineConfig:
             raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
         if self.backend not in ("opencv", "sgm"):
             raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv, sgm")
+        if self.method not in PLANE_METHODS:
+            raise ConfigError(f"unknown method '{self.method}'; choose one of: {', '.join(PLANE_METHODS)}")
         if not self.min_depth_m > 0:
             raise ConfigError(f"min_depth_m must be > 0, got {self.min_depth_m}")
 
@@ -104,8 +123,10 @@ class PipelineConfig:
             "fill": PlanarFillConfig,
             "cloud": CloudConfig,
             "orientation": OrientationConfig,
+            "contour": ContourConfig,
             "terrain": TerrainConfig,
             "swing": SwingConfig,
+            "drift": DriftConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -164,6 +185,9 @@ class TerrainResult:
         ``rig``, ``floor`` (no rig: the floor plane was taken as level) or
         ``assumed-level`` (no rig and no floor in view: a level camera is assumed).
     timing_ms : dict of stage -> milliseconds
+    plane_choice : str
+        Why the planes are those of ``planes.method`` (``auto`` explains its pick).
+    method_requested : str
     """
 
     terrain: StairModel
@@ -175,6 +199,8 @@ class TerrainResult:
     gravity_source: str
     timing_ms: dict[str, float]
     cloud_config: CloudConfig = field(default_factory=CloudConfig, repr=False)
+    plane_choice: str = ""
+    method_requested: str = "orientation"
 
     @functools.cached_property
     def cloud(self) -> PointCloud:
@@ -219,6 +245,13 @@ class TerrainResult:
             "timing_ms": {k: round(v, 2) for k, v in self.timing_ms.items()},
             "gravity_source": self.gravity_source,
             "note": t.note,
+            "plane_stage": {
+                "method_requested": self.method_requested,
+                "method_used": self.planes.method,
+                "reason": self.plane_choice,
+                "stop_reason": self.planes.stop_reason,
+                "parameters": self.planes.parameters,
+            },
         }
 
 
@@ -313,6 +346,11 @@ class Pipeline:
         self.calibration = calibration
         self.rig = rig
         self.rectification: Rectification = compute_rectification(calibration)
+        # Online drift correction (opt-in): owns the rectification from here on.
+        self.rectifier: OnlineRectifier | None = (
+            OnlineRectifier(self.rectification, self.config.drift) if self.config.drift.online else None
+        )
+        self.last_correction: CorrectionUpdate | None = None
         if self.config.max_disparity_px is not None:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
         else:
@@ -343,6 +381,11 @@ class Pipeline:
             t = now
 
         pair = rectify(left, right, self.rectification)
+        if self.rectifier is not None:
+            self.last_correction = self.rectifier.update(pair)
+            if self.last_correction.changed:  # re-rectify this frame with the corrected rig
+                self.rectification = self.last_correction.rectification
+                pair = rectify(left, right, self.rectification)
         lap("rectify")
         disp = self.backend.compute(pair, self.max_disparity_px)
         if self.config.fill.enabled:
@@ -373,10 +416,54 @@ class Pipeline:
                 disp, T, self.config.cloud, target_points=self.config.orientation.target_points
             )
         lap("cloud")
-        planes = extract_planes_orientation(samples, self.config.orientation)
-        lap("planes")
-        terrain = build_terrain(planes, self.config.terrain)
+        planes, terrain, choice = self._planes_and_terrain(samples, pair.left, lap)
         swing = plan_swing(terrain, self.config.swing)
         lap("polytope")
         timing["total"] = (time.perf_counter() - t0) * 1000.0
-        return TerrainResult(terrain, swing, planes, disp, pair, T, source, timing, self.config.cloud)
+        return TerrainResult(
+            terrain,
+            swing,
+            planes,
+            disp,
+            pair,
+            T,
+            source,
+            timing,
+            self.config.cloud,
+            choice,
+            self.config.method,
+        )
+
+    def _planes_and_terrain(
+        self, samples: GridSample, image: np.ndarray, lap: Callable[[str], None]
+    ) -> tuple[PlaneSet, StairModel, str]:
+        """The plane stage by ``config.method`` and the terrain built on it.
+
+        ``auto`` runs both methods; the union (orientation planes plus the contour planes
+        that are new) replaces the orientation planes only when its staircase has more
+        steps, since extra planes can also only add steps.
+        """
+        cfg = self.config
+        if cfg.method == "contour":
+            planes = extract_planes_contour(samples, image, cfg.contour)
+            lap("planes")
+            return planes, build_terrain(planes, cfg.terrain), "contour requested"
+        planes = extract_planes_orientation(samples, cfg.orientation)
+        if cfg.method == "orientation":
+            lap("planes")
+            return planes, build_terrain(planes, cfg.terrain), "orientation requested (the default)"
+        contour = extract_planes_contour(samples, image, cfg.contour)
+        combined, added = combine_plane_sets(planes, contour)
+        lap("planes")
+        terrain = build_terrain(planes, cfg.terrain)
+        if added == 0:
+            why = "orientation: the contour method found no plane the orientation method missed"
+            return planes, terrain, why
+        terrain_c = build_terrain(combined, cfg.terrain)
+        if len(terrain_c.steps) > len(terrain.steps):
+            why = (
+                f"combined: {added} contour plane(s) added {len(terrain_c.steps) - len(terrain.steps)} "
+                f"step(s) to the orientation method's {len(terrain.steps)}"
+            )
+            return combined, terrain_c, why
+        return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"

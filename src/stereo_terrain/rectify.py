@@ -39,6 +39,16 @@ class Rectification:
         Rectified left camera (``camera_rect``) to the raw left camera (``camera``).
     valid_roi : (x, y, w, h)
         Region of the rectified left image where every pixel has a source pixel.
+    maps : 4 arrays or None
+        ``initUndistortRectifyMap`` maps of the left and right cameras (None: pass-through).
+    R1, R2 : (3, 3) float64 or None
+        Rotations raw camera -> rectified camera (``stereoRectify``'s ``R1, R2``; ``R2``
+        includes ``right_correction``). None when the calibration is already rectified.
+    P1, P2 : (3, 4) float64 or None
+        Projection matrices of the rectified cameras.
+    right_correction : (3, 3) float64 or None
+        Rotation applied to the rectified right camera on top of the calibration (online
+        drift correction, :mod:`stereo_terrain.drift`); None for none.
     """
 
     calibration: StereoCalibration
@@ -51,6 +61,11 @@ class Rectification:
     T_camera_rect: Transform = field(repr=False)
     valid_roi: tuple[int, int, int, int]
     maps: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
+    R1: np.ndarray | None = field(default=None, repr=False)
+    R2: np.ndarray | None = field(default=None, repr=False)
+    P1: np.ndarray | None = field(default=None, repr=False)
+    P2: np.ndarray | None = field(default=None, repr=False)
+    right_correction: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def image_size(self) -> tuple[int, int]:
@@ -65,15 +80,28 @@ class Rectification:
         return z
 
 
-def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Rectification:
+def compute_rectification(
+    calib: StereoCalibration, *, alpha: float = 0.0, right_correction: np.ndarray | None = None
+) -> Rectification:
     """Build (and cache the maps of) the rectification for ``calib``.
 
     Parameters
     ----------
     alpha : float
         OpenCV free-scaling parameter: 0 keeps only valid pixels (default), 1 keeps all.
+    right_correction : (3, 3) float64, optional
+        A small rotation applied to the rectified right camera after ``stereoRectify``
+        (``R2 <- right_correction @ R2``): undoes a rotation of the right camera that
+        happened since calibration (:mod:`stereo_terrain.drift`). The left camera, ``Q``
+        and ``T_camera_rect`` do not change, so depth and frames stay those of the
+        calibration.
     """
     w, h = calib.image_size
+    if calib.rectified and right_correction is not None:
+        raise CalibrationError(
+            "a rectification correction needs the raw calibration (K, D, R, T); this one is of "
+            "images that were rectified elsewhere"
+        )
     if calib.rectified:
         K1 = calib.K1
         f = float(K1[0, 0])
@@ -106,6 +134,8 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
             "calibration baseline is not horizontal; this pipeline needs a side-by-side pair "
             "(right camera along +x of the left)"
         )
+    if right_correction is not None:
+        R2 = np.asarray(right_correction, dtype=np.float64).reshape(3, 3) @ R2
     m1x, m1y = cv2.initUndistortRectifyMap(calib.K1, calib.D1, R1, P1, (w, h), cv2.CV_16SC2)
     m2x, m2y = cv2.initUndistortRectifyMap(calib.K2, calib.D2, R2, P2, (w, h), cv2.CV_16SC2)
     f = float(P1[0, 0])
@@ -130,7 +160,42 @@ def compute_rectification(calib: StereoCalibration, *, alpha: float = 0.0) -> Re
         T_camera_rect,
         roi,
         (m1x, m1y, m2x, m2y),  # type: ignore[arg-type]
+        R1,
+        R2,
+        P1,
+        P2,
+        None if right_correction is None else np.asarray(right_correction, dtype=np.float64).reshape(3, 3),
     )
+
+
+def rectify_points(points: np.ndarray, rectification: Rectification, side: str) -> np.ndarray:
+    """Raw pixel positions -> rectified pixel positions (undistorted, rotated, reprojected).
+
+    Parameters
+    ----------
+    points : (N, 2) float, pixels of the raw ``side`` image
+    rectification : Rectification
+    side : ``"left"`` or ``"right"``
+
+    Returns
+    -------
+    (N, 2) float64, pixels of the rectified ``side`` image.
+    """
+    if side not in ("left", "right"):
+        raise InputError(f"side must be 'left' or 'right', got {side!r}")
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 1, 2)
+    calib = rectification.calibration
+    if side == "left":
+        K, D, R, P = calib.K1, calib.D1, rectification.R1, rectification.P1
+    else:
+        K, D, R, P = calib.K2, calib.D2, rectification.R2, rectification.P2
+    if R is None or P is None:  # already rectified: pixels pass through
+        return pts.reshape(-1, 2).copy()
+    # The iterative variant with a tight criterion: the default 5 iterations leave ~0.1 px
+    # at the corners of a wide-angle lens, as large as the errors being measured.
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-10)
+    out = cv2.undistortPoints(pts, K, D, R=R, P=P, criteria=criteria)
+    return np.asarray(out, dtype=np.float64).reshape(-1, 2)
 
 
 @dataclass(frozen=True)

@@ -338,6 +338,11 @@ class SceneSpec:
     right_offset_m : (2,) float
         y and z of the right camera centre in the left camera frame, metres; its x is
         chosen so that the centres are ``baseline_m`` apart.
+    right_disturbance_rotvec_rad : (3,) float
+        Rodrigues vector of a rotation of the right camera about its own centre, in its
+        own (raw, optical) frame, that happened *after* calibration: the images are
+        rendered with it, the calibration written is the undisturbed one. Models a rig
+        knocked out of calibration (issue 5); zero by default. At most 0.1 rad.
     back_wall_m : float or None
         A vertical wall facing the camera on the plane ``u . p = back_wall_m`` (obstacle
         axis; frame x when there is no obstacle); must lie beyond the obstacle.
@@ -375,6 +380,7 @@ class SceneSpec:
     right_camera: CameraIntrinsics | None = None
     right_rotvec_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
     right_offset_m: tuple[float, float] = (0.0, 0.0)
+    right_disturbance_rotvec_rad: tuple[float, float, float] = (0.0, 0.0, 0.0)
     back_wall_m: float | None = None
     ground: SurfaceSpec = field(default_factory=lambda: SurfaceSpec("noise", 1.0, 0.45, 0.2))
     tread: SurfaceSpec = field(default_factory=lambda: SurfaceSpec("wood", 0.8, 0.6, 0.15))
@@ -434,6 +440,10 @@ class SceneSpec:
                 f"({0.5 * self.baseline_m:g} m), got {off}"
             )
         _set(self, "right_offset_m", off)
+        dv = _check_tuple(o, "right_disturbance_rotvec_rad", self.right_disturbance_rotvec_rad, 3)
+        if math.hypot(*dv) > 0.1:
+            raise InputError(f"{o}.right_disturbance_rotvec_rad must be a rotation of <= 0.1 rad, got {dv}")
+        _set(self, "right_disturbance_rotvec_rad", dv)
         if self.back_wall_m is not None:
             wall = _check_positive(o, "back_wall_m", self.back_wall_m, 200.0)
             end = _obstacle_far_end(self.obstacle)
@@ -1119,9 +1129,15 @@ def _sensor(
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
+def _rotation(rotvec: tuple[float, float, float]) -> np.ndarray:
+    """(3, 3) rotation matrix of a Rodrigues vector (radians)."""
+    R, _ = cv2.Rodrigues(np.array(rotvec, dtype=np.float64).reshape(3, 1))
+    return R
+
+
 def _stereo_geometry(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``R, T`` (``X_right = R X_left + T``) and the right centre in the left frame."""
-    R, _ = cv2.Rodrigues(np.array(spec.right_rotvec_rad, dtype=np.float64).reshape(3, 1))
+    R = _rotation(spec.right_rotvec_rad)
     oy, oz = spec.right_offset_m
     b = spec.baseline_m
     centre = np.array([math.sqrt(b * b - oy * oy - oz * oz), oy, oz])
@@ -1271,7 +1287,10 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
     # SceneSpec resolves None cameras in __post_init__.
     left_cam = cast(CameraIntrinsics, spec.left_camera)
     right_cam = cast(CameraIntrinsics, spec.right_camera)
-    R_yaw_right = T_yaw_left.rotation @ R.T
+    # A disturbed rig: the right camera turned about its own centre after calibration.
+    # The images see the disturbed camera; the calibration below keeps R, T.
+    R_seen = _rotation(spec.right_disturbance_rotvec_rad) @ R
+    R_yaw_right = T_yaw_left.rotation @ R_seen.T
     # The two views are independent and numpy releases the GIL on large arrays: render
     # them side by side (deterministic: no shared random state).
     with ThreadPoolExecutor(max_workers=2) as pool:

@@ -1,5 +1,7 @@
 """Stage 4: decomposition of the point cloud into planes (MSAC).
 
-``msac`` (generic and vectorised plane MSAC), ``normals`` (grid subsample + local
-normals), ``orientation`` (the paper's orientation method, 3.2.2).
+``msac`` (generic and vectorised plane MSAC), ``orientation`` (the paper's orientation
+method, 3.2.2), ``contour`` (the contour method, 3.2.1, with the image ordering rules),
+``auto`` (the union of both), ``_kernels`` (compiled inner loops). The grid subsample with
+local normals they work on comes from ``cloud``.
 """

@@ -11,6 +11,38 @@ import numpy as np
 from numba import njit
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _point_cost(
+    nx, ny, nz, d, points, point_normals, inv_threshold, m, agreement_cos, use_normals
+):  # pragma: no cover
+    """MSAC cost of point ``m`` for the plane ``(nx, ny, nz) . x + d = 0``: its truncated
+    squared residual in threshold units, 1 when its normal disagrees (``use_normals``)."""
+    if use_normals:
+        c = nx * point_normals[m, 0] + ny * point_normals[m, 1] + nz * point_normals[m, 2]
+        if abs(c) < agreement_cos:
+            return 1.0
+    r = (nx * points[m, 0] + ny * points[m, 1] + nz * points[m, 2] + d) * inv_threshold[m]
+    r2 = r * r
+    return r2 if r2 < 1.0 else 1.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _plane_through(points, i, j, k):  # pragma: no cover
+    """Unit normal and offset of the plane through points ``i, j, k`` (differences taken in
+    the points' dtype, products in float64); ``valid`` False when they are collinear."""
+    p0 = points[i]
+    a = points[j] - p0
+    b = points[k] - p0
+    nx = float(a[1]) * b[2] - float(a[2]) * b[1]
+    ny = float(a[2]) * b[0] - float(a[0]) * b[2]
+    nz = float(a[0]) * b[1] - float(a[1]) * b[0]
+    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if norm <= 1e-9:
+        return 0.0, 0.0, 0.0, 0.0, False
+    nx, ny, nz = nx / norm, ny / norm, nz / norm
+    return nx, ny, nz, -(nx * p0[0] + ny * p0[1] + nz * p0[2]), True
+
+
 @njit(cache=True, nogil=True)  # no fastmath: same sums on every CPU
 def msac_costs(
     normals: np.ndarray,
@@ -33,13 +65,260 @@ def msac_costs(
         nx, ny, nz, d = normals[k, 0], normals[k, 1], normals[k, 2], offsets[k]
         acc = np.float32(0.0)
         for m in range(m_count):
-            if use_normals:
-                c = nx * point_normals[m, 0] + ny * point_normals[m, 1] + nz * point_normals[m, 2]
-                if abs(c) < agreement_cos:
-                    acc += 1.0
-                    continue
-            r = (nx * points[m, 0] + ny * points[m, 1] + nz * points[m, 2] + d) * inv_threshold[m]
-            r2 = r * r
-            acc += r2 if r2 < 1.0 else 1.0
+            acc += _point_cost(
+                nx, ny, nz, d, points, point_normals, inv_threshold, m, agreement_cos, use_normals
+            )
         costs[k] = acc
     return costs
+
+
+@njit(cache=True, nogil=True)
+def region_msac(
+    points: np.ndarray,
+    normals: np.ndarray,
+    inv_threshold: np.ndarray,
+    grid_lut: np.ndarray,
+    grid_row: np.ndarray,
+    grid_col: np.ndarray,
+    inside: np.ndarray,
+    seeds: np.ndarray,
+    score: np.ndarray,
+    radius: int,
+    batch: int,
+    max_trials: int,
+    confidence: float,
+    agreement_cos: float,
+    uniform: np.ndarray,
+) -> tuple[np.ndarray, float, float, int]:  # pragma: no cover - compiled
+    """Adaptive plane MSAC inside one image region, hypotheses of any orientation.
+
+    Each trial draws a first point from ``seeds`` and two more within ``radius`` grid cells
+    of it that are also ``inside`` the region; the plane through them is scored on the
+    points ``score`` (truncated quadratic, a point whose normal disagrees costs 1). Trials
+    run in batches until ``max_trials``, or until an all-inlier sample has been drawn with
+    probability ``confidence`` given the best hypothesis' inlier ratio (``w**3``).
+
+    ``uniform`` is ``(A, 5)`` floats in [0, 1) from the caller's generator (the randomness
+    stays in one seeded place): one row per attempt; an attempt whose sample is invalid
+    (outside the region, repeated or collinear points) is no trial, and no more than ``A``
+    attempts are made.
+
+    Returns ``(normal (3,), offset, cost, trials)``; cost is inf when no valid sample was
+    drawn.
+    """
+    span = 2 * radius + 1
+    gh, gw = grid_lut.shape
+    best_n = np.zeros(3)
+    best_d = 0.0
+    best_cost = np.inf
+    trials = 0
+    budget = max_trials
+    log_fail = np.log(1.0 - confidence)
+    n_seeds = seeds.shape[0]
+    m_count = score.shape[0]
+    attempts = 0
+    n_attempts = uniform.shape[0]
+    while trials < budget and attempts < n_attempts:
+        for _ in range(batch):
+            if attempts >= n_attempts:
+                break
+            u = uniform[attempts]
+            attempts += 1
+            i0 = seeds[min(int(u[0] * n_seeds), n_seeds - 1)]
+            js = np.empty(2, dtype=np.int64)
+            ok = True
+            for t in range(2):
+                r = min(max(grid_row[i0] + int(u[1 + 2 * t] * span) - radius, 0), gh - 1)
+                c = min(max(grid_col[i0] + int(u[2 + 2 * t] * span) - radius, 0), gw - 1)
+                j = grid_lut[r, c]
+                if j < 0 or not inside[j] or j == i0:
+                    ok = False
+                    break
+                js[t] = j
+            if not ok or js[0] == js[1]:
+                continue
+            nx, ny, nz, d, valid = _plane_through(points, i0, js[0], js[1])
+            if not valid:
+                continue
+            trials += 1
+            cost = 0.0
+            inl = 0
+            for k in range(m_count):
+                c = _point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[k], agreement_cos, True)
+                cost += c
+                if c < 1.0:
+                    inl += 1
+            if cost < best_cost:
+                best_cost = cost
+                best_n[0], best_n[1], best_n[2] = nx, ny, nz
+                best_d = d
+                w = inl / max(m_count, 1)
+                p_good = w * w * w
+                if p_good >= 1.0 - 1e-12:
+                    need = 1
+                elif p_good <= 1e-12:
+                    need = max_trials
+                else:
+                    need = int(np.ceil(log_fail / np.log(1.0 - p_good)))
+                budget = min(max_trials, max(batch, need))
+            if trials >= budget or trials >= max_trials:
+                break
+    return best_n, best_d, best_cost, trials
+
+
+@njit(cache=True, nogil=True)
+def best_oriented_hypothesis(
+    points: np.ndarray,
+    normals: np.ndarray,
+    inv_threshold: np.ndarray,
+    triplets: np.ndarray,
+    score: np.ndarray,
+    up: np.ndarray,
+    cos_tol: float,
+    sin_tol: float,
+    agreement_cos: float,
+) -> tuple[np.ndarray, float, float]:  # pragma: no cover - compiled
+    """The orientation method's MSAC scoring in one pass: the plane through each triplet
+    (``(K, 3)`` indices), kept only when its normal is within the tolerance of horizontal
+    (``|n . up| >= cos_tol``) or vertical (``<= sin_tol``), scored on the points ``score``
+    by the truncated quadratic with the normal-agreement test.
+
+    Returns ``(normal (3,), offset, cost)`` of the cheapest; cost is inf when no triplet
+    gives a valid hypothesis.
+    """
+    best_n = np.zeros(3)
+    best_d = 0.0
+    best_cost = np.inf
+    for k in range(triplets.shape[0]):
+        nx, ny, nz, d, valid = _plane_through(points, triplets[k, 0], triplets[k, 1], triplets[k, 2])
+        if not valid:
+            continue
+        c = abs(nx * up[0] + ny * up[1] + nz * up[2])
+        if not (c >= cos_tol or c <= sin_tol):
+            continue
+        cost = 0.0
+        for m in range(score.shape[0]):
+            cost += _point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos, True)
+        if cost < best_cost:
+            best_cost = cost
+            best_n[0], best_n[1], best_n[2] = nx, ny, nz
+            best_d = d
+    return best_n, best_d, best_cost
+
+
+@njit(cache=True, nogil=True)
+def oriented_inliers(
+    points: np.ndarray,
+    normals: np.ndarray,
+    threshold: np.ndarray,
+    n: np.ndarray,
+    d: float,
+    agreement_cos: float,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """Inlier mask: residual under the point's threshold and local normal agreeing."""
+    out = np.empty(points.shape[0], dtype=np.bool_)
+    for i in range(points.shape[0]):
+        r = abs(n[0] * points[i, 0] + n[1] * points[i, 1] + n[2] * points[i, 2] + d)
+        c = abs(n[0] * normals[i, 0] + n[1] * normals[i, 1] + n[2] * normals[i, 2])
+        out[i] = r < threshold[i] and c >= agreement_cos
+    return out
+
+
+@njit(cache=True, nogil=True)
+def refine_oriented_plane(
+    points: np.ndarray,
+    normals: np.ndarray,
+    threshold: np.ndarray,
+    weights: np.ndarray,
+    n: np.ndarray,
+    d: float,
+    up: np.ndarray,
+    cos_tol: float,
+    sin_tol: float,
+    agreement_cos: float,
+    iterations: int,
+) -> tuple[np.ndarray, float, np.ndarray]:  # pragma: no cover - compiled
+    """IRLS (Tukey weights times ``weights``) on the inliers of ``n . x + d = 0``, keeping
+    the orientation constraint: a refit that leaves it, or a degenerate one, stops the
+    refinement. Returns ``(normal, offset, inlier mask)``."""
+    n = n.copy()
+    inl = oriented_inliers(points, normals, threshold, n, d, agreement_cos)
+    for _ in range(iterations):
+        count = 0
+        sw = 0.0
+        cx = cy = cz = 0.0
+        for i in range(points.shape[0]):
+            if inl[i]:
+                count += 1
+        if count < 3:
+            break
+        w = np.zeros(points.shape[0])
+        for i in range(points.shape[0]):
+            if inl[i]:
+                r = (n[0] * points[i, 0] + n[1] * points[i, 1] + n[2] * points[i, 2] + d) / threshold[i]
+                t = max(1.0 - r * r, 0.0)
+                w[i] = (t * t + 1e-6) * weights[i]
+                sw += w[i]
+                cx += w[i] * points[i, 0]
+                cy += w[i] * points[i, 1]
+                cz += w[i] * points[i, 2]
+        if sw <= 0.0:
+            break
+        cx, cy, cz = cx / sw, cy / sw, cz / sw
+        cov = np.zeros((3, 3))
+        for i in range(points.shape[0]):
+            if inl[i]:
+                q0, q1, q2 = points[i, 0] - cx, points[i, 1] - cy, points[i, 2] - cz
+                cov[0, 0] += w[i] * q0 * q0
+                cov[0, 1] += w[i] * q0 * q1
+                cov[0, 2] += w[i] * q0 * q2
+                cov[1, 1] += w[i] * q1 * q1
+                cov[1, 2] += w[i] * q1 * q2
+                cov[2, 2] += w[i] * q2 * q2
+        cov[1, 0], cov[2, 0], cov[2, 1] = cov[0, 1], cov[0, 2], cov[1, 2]
+        ev, vec = np.linalg.eigh(cov)
+        if ev[1] <= 1e-12 * max(ev[2], 1e-300):
+            break  # (nearly) collinear inliers
+        m = vec[:, 0] / np.sqrt(vec[0, 0] ** 2 + vec[1, 0] ** 2 + vec[2, 0] ** 2)
+        c = abs(m[0] * up[0] + m[1] * up[1] + m[2] * up[2])
+        if not (c >= cos_tol or c <= sin_tol):
+            break
+        n = m
+        d = -(m[0] * cx + m[1] * cy + m[2] * cz)
+        inl = oriented_inliers(points, normals, threshold, n, d, agreement_cos)
+    return n, d, inl
+
+
+@njit(cache=True, nogil=True)
+def triplets_from_draws(
+    grid_lut: np.ndarray,
+    grid_row: np.ndarray,
+    grid_col: np.ndarray,
+    first: np.ndarray,
+    offsets: np.ndarray,
+    remaining: np.ndarray,
+    count: int,
+) -> np.ndarray:  # pragma: no cover - compiled
+    """Index triplets from drawn first points ``(D,)`` and cell offsets ``(D, 2, 2)`` of the
+    two others: kept, in draw order, where both cells hold a remaining sample and the
+    three are distinct; at most ``count``. Returns ``(<= count, 3)`` int64."""
+    gh, gw = grid_lut.shape
+    out = np.empty((min(count, first.shape[0]), 3), dtype=np.int64)
+    n = 0
+    for t in range(first.shape[0]):
+        if n >= count:
+            break
+        i0 = first[t]
+        j = np.empty(2, dtype=np.int64)
+        ok = True
+        for s in range(2):
+            r = min(max(grid_row[i0] + offsets[t, s, 0], 0), gh - 1)
+            c = min(max(grid_col[i0] + offsets[t, s, 1], 0), gw - 1)
+            j[s] = grid_lut[r, c]
+            if j[s] < 0 or not remaining[j[s]] or j[s] == i0:
+                ok = False
+        if not ok or j[0] == j[1]:
+            continue
+        out[n, 0], out[n, 1], out[n, 2] = i0, j[0], j[1]
+        n += 1
+    return out[:n]

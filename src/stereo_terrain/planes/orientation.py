@@ -12,13 +12,14 @@ is too small or the best plane explains too little of it -- not after a fixed co
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..checks import check_fields, check_min
 from ..cloud import GridSample, PointCloud, sample_grid
 from ..errors import ConfigError
-from .msac import Plane, plane_msac
+from .msac import Plane, required_trials
 
 HORIZONTAL, VERTICAL, OTHER = "horizontal", "vertical", "other"
 
@@ -38,7 +39,21 @@ class OrientationConfig:
         Inlier threshold in units of each point's depth sigma, clipped to
         ``[min_threshold_m, max_threshold_m]``.
     hypotheses_per_plane : int
-        Minimal samples drawn for each extracted plane.
+        Minimal samples drawn at once in an MSAC round.
+    max_hypotheses_per_plane : int
+        More batches are drawn, up to this many samples, until a sample wholly on the best
+        plane has been drawn with probability ``confidence``; the chance of such a sample
+        is estimated from the samples drawn so far (iterations chosen from the data).
+        Equal to ``hypotheses_per_plane`` (default): one batch, no adaptation (measured:
+        adapting upward lost a scene of the end-to-end set, see docs/benchmarks.md).
+    confidence : float
+    min_confidence : float
+        Where the disparity backend gives a confidence (``sgm``), samples below it do not
+        seed hypotheses. Default 0: off (measured on 13 ``sgm`` staircases it gained
+        nothing and moved one riser by 7 mm; see docs/benchmarks.md).
+    confidence_weights : bool
+        Multiply each sample's refit weight by its disparity confidence (off by default,
+        same measurement).
     score_points : int
         Points each hypothesis is scored on (a random subset of the rest).
     min_plane_points : int
@@ -68,6 +83,10 @@ class OrientationConfig:
     min_threshold_m: float = 0.012
     max_threshold_m: float = 0.05
     hypotheses_per_plane: int = 100
+    max_hypotheses_per_plane: int = 100
+    confidence: float = 0.99
+    min_confidence: float = 0.0
+    confidence_weights: bool = False
     score_points: int = 800
     min_plane_points: int = 40
     min_inlier_ratio: float = 0.01
@@ -81,7 +100,11 @@ class OrientationConfig:
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "max_rounds")
-        check_min(self, 0, "refine_iterations", "min_inlier_ratio", "threshold_sigmas")
+        check_min(self, 0, "refine_iterations", "min_inlier_ratio", "threshold_sigmas", "min_confidence")
+        if self.max_hypotheses_per_plane < self.hypotheses_per_plane:
+            raise ConfigError("need max_hypotheses_per_plane >= hypotheses_per_plane")
+        if not 0 < self.confidence < 1:
+            raise ConfigError(f"confidence must be in (0, 1), got {self.confidence}")
         if not 0 < self.angle_tol_deg < 45:
             raise ConfigError(f"angle_tol_deg must be in (0, 45), got {self.angle_tol_deg}")
         if not 0 < self.normal_agreement_deg < 90:
@@ -90,6 +113,7 @@ class OrientationConfig:
             raise ConfigError("need 0 < min_threshold_m <= max_threshold_m")
         for name in (
             "hypotheses_per_plane",
+            "max_hypotheses_per_plane",
             "score_points",
             "min_plane_points",
             "max_planes",
@@ -139,6 +163,10 @@ class PlaneSet:
         Gravity-up direction in the cloud's frame.
     stop_reason : str
     method : str
+        ``orientation``, ``contour`` or ``combined`` (``auto``).
+    parameters : dict
+        The parameters the method chose from the data, and counts of what it did (JSON
+        serialisable; reported in the result's ``plane_stage``).
     """
 
     segments: tuple[PlaneSegment, ...]
@@ -147,6 +175,7 @@ class PlaneSet:
     stop_reason: str
     camera_position: np.ndarray = field(repr=False)
     method: str = "orientation"
+    parameters: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
     def frame(self) -> str:
@@ -190,66 +219,74 @@ def local_triplets(
 ) -> np.ndarray:
     """Draw up to ``count`` index triplets: a first point from ``first``, two more within
     ``radius`` grid cells of it (so that most triplets lie on one surface)."""
-    gh, gw = grid_lut.shape
+    from ._kernels import triplets_from_draws
+
     i0 = rng.choice(first, size=count * 2)
     off = rng.integers(-radius, radius + 1, size=(count * 2, 2, 2))
-    r = np.clip(gr[i0, None] + off[:, :, 0], 0, gh - 1)
-    c = np.clip(gc[i0, None] + off[:, :, 1], 0, gw - 1)
-    j = grid_lut[r, c]
-    ok = (j >= 0).all(axis=1)
-    j = np.where(j >= 0, j, 0)
-    ok &= remaining[j].all(axis=1) & (j[:, 0] != i0) & (j[:, 1] != i0) & (j[:, 0] != j[:, 1])
-    trip = np.column_stack([i0, j])[ok]
-    return trip[:count]
+    return triplets_from_draws(grid_lut, gr, gc, i0, off, remaining, count)
 
 
-def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos):
+def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos):
     """One MSAC round: local hypotheses, scored on a subset of the rest, refined by IRLS.
 
-    ``rest_view`` is ``(rest indices, P[rest], N[rest], thr[rest])``. Returns ``(plane,
-    inliers (N,) bool, inlier ratio on the scored subset)`` or None.
+    ``rest_view`` is ``(rest indices, P[rest], N[rest], thr[rest], confidence[rest] or
+    None)``; ``orient`` is ``(up, cos_tol, sin_tol, 1 / thr)``. Scoring, inliers and
+    refinement are compiled (``_kernels``); the sampling stays here, on ``rng``. Returns
+    ``(plane, inliers (N,) bool, inlier ratio on the scored subset, samples drawn)`` or
+    None.
     """
-    rest, Pr, Nr, thr_r = rest_view
-    trip = local_triplets(
-        lut, gr, gc, first, remaining, config.sample_radius_cells, config.hypotheses_per_plane, rng
-    )
+    from ._kernels import best_oriented_hypothesis, oriented_inliers, refine_oriented_plane
+
+    rest, Pr, Nr, thr_r, conf_r = rest_view
+    up, cos_tol, sin_tol, inv_thr = orient
+    radius = config.sample_radius_cells
+
+    batch = config.hypotheses_per_plane
+    trip = local_triplets(lut, gr, gc, first, remaining, radius, batch, rng)
     score = rng.choice(len(rest), size=min(config.score_points, len(rest)), replace=False)
-    res = plane_msac(
-        P,
-        thr,
-        trip,
-        point_normals=N,
-        normal_agreement_cos=agree_cos,
-        hypothesis_ok=orientation_ok,
-        score_subset=rest[score],
-        compute_inliers=False,
-    )
-    if res.model is None:
+    drawn: list[np.ndarray] = []
+    requested = batch  # samples asked for (fewer come back where the grid has holes)
+    best: tuple[np.ndarray, float] | None = None
+    best_cost = np.inf
+    inl_r = np.zeros(len(rest), dtype=bool)
+    scored = rest[score]
+    while True:
+        drawn.append(trip)
+        n, d, cost = best_oriented_hypothesis(P, N, inv_thr, trip, scored, up, cos_tol, sin_tol, agree_cos)
+        if cost < best_cost:
+            best, best_cost = (n, d), cost
+            inl_r = oriented_inliers(Pr, Nr, thr_r, n, d, agree_cos)
+        if requested >= config.max_hypotheses_per_plane or len(trip) == 0:
+            break
+        if best is not None:
+            # Iterations from the data: the fraction of the local samples drawn so far that
+            # lie wholly on the best plane is the chance of a good sample; stop once one has
+            # been drawn with probability ``confidence`` (Fischler & Bolles' rule applied
+            # to the local sampler instead of the global inlier ratio cubed).
+            on_best = np.zeros(len(P), dtype=bool)
+            on_best[rest[inl_r]] = True
+            p_good = float(np.mean(on_best[np.concatenate(drawn)].all(axis=1)))
+            if sum(len(t) for t in drawn) >= required_trials(p_good, 1, config.confidence):
+                break
+        size = min(batch, config.max_hypotheses_per_plane - requested)
+        requested += size
+        trip = local_triplets(lut, gr, gc, first, remaining, radius, size, rng)
+    hypotheses = sum(len(t) for t in drawn)
+    if best is None:
         return None
-    plane: Plane = res.model
-
-    def inliers_of(pl: Plane) -> np.ndarray:
-        return (pl.residuals(Pr) < thr_r) & (np.abs(Nr @ pl.normal.astype(np.float32)) >= agree_cos)
-
-    inl_r = inliers_of(plane)
     # Refine: iteratively reweighted least squares (Tukey weights) on the inliers, so that a
     # hypothesis tilted across two levels settles on the better supported one; the
-    # orientation constraint is kept.
-    for _ in range(config.refine_iterations):
-        if inl_r.sum() < 3:
-            break
-        q = Pr[inl_r]
-        ratio_r = plane.residuals(q) / thr_r[inl_r]
-        weights = np.clip(1.0 - ratio_r**2, 0.0, 1.0) ** 2 + 1e-6
-        refit = Plane.estimate(q, weights)
-        if refit is None or not orientation_ok(refit.normal[None, :])[0]:
-            break
-        plane = refit
-        inl_r = inliers_of(plane)
+    # orientation constraint is kept. Weighted by the disparity confidence if asked.
+    use_conf = conf_r is not None and config.confidence_weights
+    weights = conf_r if use_conf else np.ones(len(rest))
+    n, d, inl_r = refine_oriented_plane(
+        Pr, Nr, thr_r, weights, best[0], best[1], up, cos_tol, sin_tol, agree_cos, config.refine_iterations
+    )
+    plane = Plane(n, d)
     ratio = float(np.mean(inl_r[score])) if len(score) else 0.0
     inl = np.zeros(len(P), dtype=bool)
     inl[rest[inl_r]] = True
-    return plane, inl, ratio
+    return plane, inl, ratio, hypotheses
 
 
 def extract_planes_orientation(
@@ -301,16 +338,25 @@ def extract_planes_orientation(
     nz = np.abs(N @ upf)
     # First sample points: local normal near horizontal or vertical (with some slack).
     slack = np.radians(10.0)
+    conf = None
+    if samples.confidence is not None and (config.min_confidence > 0 or config.confidence_weights):
+        conf = np.clip(np.nan_to_num(samples.confidence, nan=0.0), 1e-3, 1.0).astype(np.float64)
     seedable = (nz >= np.cos(np.radians(config.angle_tol_deg) + slack)) | (
         nz <= np.sin(np.radians(config.angle_tol_deg) + slack)
     )
+    n_low = 0
+    if conf is not None:
+        # Low-confidence disparities (ambiguous matches) do not seed hypotheses; they are
+        # still scored and can be inliers, with a small weight in the refit.
+        low = conf < config.min_confidence
+        n_low = int((low & seedable).sum())
+        seedable &= ~low
 
-    def orientation_ok(normals: np.ndarray) -> np.ndarray:
-        c = np.abs(normals @ up)
-        return (c >= cos_tol) | (c <= sin_tol)
-
+    orient = (up, float(cos_tol), float(sin_tol), (1.0 / thr).astype(np.float32))
     remaining = np.ones(n_pts, dtype=bool)
     segments: list[PlaneSegment] = []
+    rounds_used = 0
+    hypotheses: list[int] = []
     stop = f"reached max_planes={config.max_planes}"
     for _ in range(config.max_planes):
         rest = np.flatnonzero(remaining)
@@ -325,11 +371,14 @@ def extract_planes_orientation(
         # fresh samples (the inlier ratio of the rest can be low when clutter dominates it)
         # before the loop stops; the number of hypotheses thus grows with need.
         found = None
-        rest_view = (rest, P[rest], N[rest], thr[rest])
+        rest_view = (rest, P[rest], N[rest], thr[rest], None if conf is None else conf[rest])
         for _round in range(config.max_rounds):
+            rounds_used += 1
             found = _best_plane(
-                P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orientation_ok, agree_cos
+                P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos
             )
+            if found is not None:
+                hypotheses.append(found[3])
             if (
                 found is not None
                 and found[1].sum() >= config.min_plane_points
@@ -339,7 +388,7 @@ def extract_planes_orientation(
         if found is None:
             stop = "no hypothesis satisfied the orientation constraint"
             break
-        plane, inl, ratio = found
+        plane, inl, ratio, _ = found
         count = int(inl.sum())
         if count < config.min_plane_points:
             stop = f"best plane too small ({count} < {config.min_plane_points} points)"
@@ -353,4 +402,17 @@ def extract_planes_orientation(
         rms = float(np.sqrt(np.mean(plane.residuals(P[idx]) ** 2)))
         segments.append(PlaneSegment(plane, kind, idx, rms))
         remaining &= ~inl
-    return PlaneSet(tuple(segments), samples, up, stop, cam, "orientation")
+    params = {
+        "angle_tol_deg": config.angle_tol_deg,
+        "inlier_threshold_m_median": round(float(np.median(thr)), 4) if n_pts else None,
+        "msac_rounds": rounds_used,
+        "msac_hypotheses": {
+            "total": int(sum(hypotheses)),
+            "per_round_median": float(np.median(hypotheses)) if hypotheses else 0.0,
+            "per_round_max": int(max(hypotheses, default=0)),
+            "confidence": config.confidence,
+        },
+        "confidence_weighting": conf is not None,
+        "low_confidence_seeds_excluded": int(n_low),
+    }
+    return PlaneSet(tuple(segments), samples, up, stop, cam, "orientation", params)

@@ -1,27 +1,40 @@
 """The project's own Semi-Global Matching engine (Hirschmüller 2005), compiled with Numba.
 
-Work in progress toward issue 3. It is correct and tested, but not yet tuned or
-benchmarked against OpenCV, and it is not the pipeline's default.
-
 Stages:
 
 1. **Census cost.** A 5x5 census transform (24 bits) of both images. The matching cost is
-   the Hamming distance between the two bit strings. It depends only on the order of
-   intensities, so a gain or offset between cheap webcams leaves it unchanged.
+   the Hamming distance between the two bit strings (uint8 volume ``C[y, x, d]``). It
+   depends only on the order of intensities, so a gain or offset between cheap webcams
+   leaves it unchanged.
 2. **Aggregation along 4, 8 or 16 directions r**, the paper's recurrence:
    ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d±1) + P1, min_k L_r(p-r, k) + P2')
    - min_k L_r(p-r, k)``.
    P1 penalises 1-px disparity steps. ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p-r)| /
    p2_gradient_scale))`` penalises larger jumps, less so across intensity edges.
-   ``S(p, d) = sum_r L_r(p, d)`` is kept in uint16.
+   ``S(p, d) = sum_r L_r(p, d)``.
 3. **Disparity selection.** Winner-take-all with a uniqueness ratio, parabola sub-pixel
-   refinement, a left-right consistency check (the right image's disparities come from the
-   same aggregated volume), and speckle removal. Invalid pixels become NaN.
+   refinement, a left-right consistency check, and speckle removal. Invalid pixels become
+   NaN.
 4. **Confidence** of each pixel from its cost curve:
    ``(S_second - S_best) / S_second``, with the second best taken outside ``d_best ± 1``.
 
-Memory: the cost volume (uint8) and one aggregate per sweep (uint16), ``5 * H * W * D``
-bytes. That is 197 MB at 640x480x128 and 98 MB at 64 disparities.
+How it is made fast on two cores (numbers in ``docs/benchmarks.md``):
+
+- Every path update is one loop over d in int16 that LLVM vectorises (32 disparities per
+  AVX-512 instruction); see :func:`_path_update` for what keeps it vectorisable.
+- Two raster sweeps, one per core: the forward sweep carries the path from the left and
+  the paths from the rows above, the backward sweep the mirror images. Each computes the
+  matching costs of four rows at a time and, for those rows, first the paths along the
+  row (the four rows interleaved, so that one pixel's wait on its neighbour overlaps with
+  other rows' work), then the paths from earlier rows (no dependence between the pixels
+  of a row). The cost volume is never stored whole.
+- One volume S for both sweeps, filled in two phases: the forward sweep writes the top
+  half while the backward sweep writes the bottom half; then each goes on into the
+  other half, adds its paths, and chooses the disparities of each row it finishes while
+  the row is still in cache.
+
+Memory: S (int16), ``2 * H * W * D`` bytes: 79 MB at 640x480x128 and 39 MB at 64
+disparities, plus row buffers (under 2 MB).
 """
 
 from __future__ import annotations
@@ -31,7 +44,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic, register_jitable
 
 from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
@@ -39,26 +54,9 @@ from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity
 
 _MAX_COST = 24  # 5x5 census: 24 comparisons
-
-# Directions (dy, dx) of the aggregation paths; 4 and 8 paths are prefixes of this list.
-_DIRECTIONS_16 = (
-    (0, 1),
-    (0, -1),
-    (1, 0),
-    (-1, 0),
-    (1, 1),
-    (1, -1),
-    (-1, 1),
-    (-1, -1),
-    (2, 1),
-    (2, -1),
-    (-2, 1),
-    (-2, -1),
-    (1, 2),
-    (1, -2),
-    (-1, 2),
-    (-1, -2),
-)
+_BIG = 16000  # "no value" in the int16 path buffers; + P2 (<= 255) still fits in int16
+_ROW_GROUP = 4  # rows whose paths along the row advance together
+_PAD = 2  # padding columns of the row buffers: row paths step at most 2 columns
 
 
 @dataclass(frozen=True)
@@ -82,16 +80,29 @@ class SGMConfig:
         Left-right consistency tolerance.
     speckle_window_px, speckle_range_px : int
         Speckle filter (OpenCV's filterSpeckles on the result).
+    device : str
+        ``cpu`` (Numba, the default), ``cuda`` (Numba-CUDA, :mod:`.sgm_cuda`; 4 or 8 paths,
+        at most 256 disparities; same result as the CPU) or ``auto`` (CUDA when a device is
+        present, else CPU).
+
+    Notes
+    -----
+    P1 and P2 were chosen by ``benchmarks/tune_sgm.py`` on the eight Middlebury 2014
+    quarter-size scenes (the lowest mean bad-2.0 on a small grid; those scenes are also
+    the evaluation set, as ``docs/benchmarks.md`` says beside them). A uniqueness ratio of
+    2% scores better there (bad-2.0 counts holes as errors) but finds fewer rendered
+    staircases than 5% (``docs/benchmarks.md``), so the default keeps 5%.
     """
 
     paths: int = 8
-    p1: int = 7
-    p2: int = 86
+    p1: int = 14
+    p2: int = 80
     p2_gradient_scale: float = 16.0
     uniqueness_ratio_pct: int = 5
     lr_max_diff_px: float = 1.0
     speckle_window_px: int = 100
     speckle_range_px: int = 2
+    device: str = "cpu"
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -104,6 +115,8 @@ class SGMConfig:
             raise ConfigError("p2_gradient_scale must be > 0")
         if not 0 <= self.uniqueness_ratio_pct < 100:
             raise ConfigError("uniqueness_ratio_pct must be in [0, 100)")
+        if self.device not in ("cpu", "cuda", "auto"):
+            raise ConfigError(f"device must be cpu, cuda or auto, got '{self.device}'")
 
 
 @njit(cache=True, nogil=True)
@@ -128,38 +141,111 @@ def census5x5(img: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True, nogil=True)
-def _popcount(v: np.uint32) -> int:  # pragma: no cover - compiled
-    v = v - ((v >> np.uint32(1)) & np.uint32(0x55555555))
-    v = (v & np.uint32(0x33333333)) + ((v >> np.uint32(2)) & np.uint32(0x33333333))
-    v = (v + (v >> np.uint32(4))) & np.uint32(0x0F0F0F0F)
-    return int((v * np.uint32(0x01010101)) >> np.uint32(24))
+@intrinsic
+def _popcount32(typingctx, value):  # pragma: no cover - compiled
+    """LLVM's ``ctpop`` on a uint32: one POPCNT (VPOPCNTD once vectorised) instead of the
+    dozen shifts and masks of the portable bit trick; Numba has no popcount of its own."""
+    if value != types.uint32:
+        return None
 
+    def codegen(context, builder, signature, args):
+        fn = builder.module.declare_intrinsic("llvm.ctpop", [ir.IntType(32)])
+        return builder.call(fn, [args[0]])
 
-@njit(cache=True, nogil=True)
-def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # pragma: no cover
-    """Hamming distances ``C[y, x, d]`` (uint8); no match (x - d < 0) costs the maximum."""
-    h, w = cl.shape
-    cost = np.empty((h, w, n_disp), dtype=np.uint8)
-    for y in range(h):
-        for x in range(w):
-            a = cl[y, x]
-            for d in range(n_disp):
-                if x - d >= 0:
-                    cost[y, x, d] = _popcount(a ^ cr[y, x - d])
-                else:
-                    cost[y, x, d] = _MAX_COST
-    return cost
+    return types.uint32(types.uint32), codegen
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _adapted_p2(gradient: np.int32, p1: np.int32, p2: int, scale: float) -> np.int32:  # pragma: no cover
-    """Hirschmüller's P2 lowered across intensity edges, never below P1 + 1."""
-    return max(p1 + 1, np.int32(p2 / (1.0 + gradient / scale)))
+def _census_cost_row(cl, cr, y, cost, r, reversed_right):  # pragma: no cover - compiled
+    """Hamming distances of row y into ``cost[r]`` (uint8, (W, D)); no match (x - d < 0)
+    costs the maximum. The right census row is read reversed (into ``reversed_right``) so
+    that the inner loop over d reads memory forward and vectorises."""
+    w = cl.shape[1]
+    n = cost.shape[2]
+    for k in range(w):
+        reversed_right[k] = cr[y, w - 1 - k]
+    for x in range(w):
+        a = cl[y, x]
+        top = min(n, x + 1)
+        # A view, so that the index is d itself: with ``base + d`` Numba's negative-index
+        # handling turns the contiguous reads into gathers (measured 2x slower).
+        candidates = reversed_right[w - 1 - x : w - 1 - x + top]
+        for d in range(top):
+            cost[r, x, d] = np.uint8(_popcount32(np.uint32(a ^ candidates[d])))  # type: ignore[call-arg]
+        for d in range(top, n):
+            cost[r, x, d] = _MAX_COST
 
 
-# Row paths carried by a sweep, as (rows back, columns back) in the sweep's own direction;
-# the path along the row is always carried. 4, 8 and 16 paths in all (two sweeps).
+@njit(cache=True, nogil=True)
+def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # pragma: no cover - compiled
+    """Hamming distances ``C[y, x, d]`` (uint8, (H, W, n_disp)) of two census images."""
+    h, w = cl.shape
+    cost = np.empty((h, w, n_disp), dtype=np.uint8)
+    reversed_right = np.empty(w, dtype=np.uint32)
+    for y in range(h):
+        _census_cost_row(cl, cr, y, cost, y, reversed_right)
+    return cost
+
+
+def p2_table(p1: int, p2: int, p2_scale: float) -> np.ndarray:
+    """Hirschmüller's P2 lowered across intensity edges, for every grey-level step 0-255.
+
+    ``P2' = max(P1 + 1, P2 / (1 + |I(p) - I(p - r)| / p2_scale))``, as int16: one table
+    look-up per pixel and path instead of a division.
+    """
+    g = np.arange(256, dtype=np.float64)
+    return np.maximum(p1 + 1, (p2 / (1.0 + g / p2_scale)).astype(np.int32)).astype(np.int16)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _path_update(cost, cy, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jump, p1):  # pragma: no cover
+    """One step of a path, the paper's recurrence for pixel (y, x) and every disparity:
+
+    ``L(p, d) = C(p, d) + min(L(q, d), L(q, d±1) + P1, min_k L(q, k) + P2') - min_k L(q, k)``
+
+    with q the previous pixel on the path: ``prev[pk, px]`` holds L(q) (with sentinels at
+    d = -1 and d = D, so the loop has no branch), ``pm`` its minimum and ``jump`` = pm + P2'.
+    The costs C(p) are ``cost[cy, x]``. Writes L(p) to ``out[ok, ox]``, sets
+    ``total[y, x] = keep * total[y, x] + L(p)`` and returns min_d L(p).
+
+    Everything stays int16 (L <= 24 + 255) and every intermediate is cast back to int16,
+    so LLVM vectorises the loop 32 disparities to an AVX-512 register. ``keep`` (0 or 1)
+    is a factor, not a branch: a branch inside the loop stops the vectorisation (measured
+    4x slower). With keep = 0, whatever ``total`` held (even uninitialised) is multiplied
+    by zero.
+    """
+    m = np.int16(_BIG)
+    for d in range(cost.shape[2]):
+        a = np.int16(min(prev[pk, px, d], prev[pk, px, d + 2]) + p1)
+        v = min(a, min(prev[pk, px, d + 1], jump))
+        r = np.int16(np.int16(cost[cy, x, d]) + np.int16(v - pm))
+        out[ok, ox, d + 1] = r
+        total[y, x, d] = np.int16(keep * total[y, x, d] + r)
+        m = min(m, r)
+    return m
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _row_path_step(
+    cost, cy, img, y, x, step, k, back, dx, prev, prev_min, cur, cur_min, out, lut, p1
+):  # pragma: no cover
+    """Path k at pixel (y, x), from pixel (y - step * back, x - step * dx) of an earlier row."""
+    h, w = img.shape
+    xq = x - step * dx
+    # Grey level of the previous pixel, clamped into the image (where a path starts, its
+    # buffers hold zeros and P2 does not matter).
+    g = img[min(max(y - step * back, 0), h - 1), min(max(xq, 0), w - 1)]
+    pm = prev_min[k, xq + _PAD]
+    jump = np.int16(pm + lut[abs(np.int32(img[y, x]) - np.int32(g))])
+    cur_min[k, x + _PAD] = _path_update(
+        cost, cy, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, out, np.int16(1), pm, jump, p1
+    )
+
+
+# Paths that come from earlier rows, as (rows back, columns back) in the sweep's own
+# direction: (1, 0) is straight down, (1, +-1) the diagonals, and the 16-path set adds the
+# knight moves (1, +-2), (2, +-1). With the path along the row, each of the two sweeps
+# carries half of the 4, 8 or 16 paths.
 ROW_PATHS = {
     4: ((1, 0),),
     8: ((1, 0), (1, 1), (1, -1)),
@@ -167,161 +253,246 @@ ROW_PATHS = {
 }
 
 
+def sweep_state(width: int, n_disp: int, paths: int) -> tuple[np.ndarray, ...]:
+    """Fresh row buffers of the paths from earlier rows, for :func:`aggregate_sweep`.
+
+    ``(prev1, prev2, cur, min1, min2, cur_min)``: the last two rows' and the current row's
+    L (int16, (k, W + 2 * _PAD, D + 2)) and their minima over d. They hold zeros where a
+    path starts (first rows, padding columns), so that the update gives ``L = C`` there
+    with no branch, and sentinels at d = -1 and d = D.
+    """
+    nk = len(ROW_PATHS[paths])
+    rows = []
+    for _ in range(3):
+        buf = np.full((nk, width + 2 * _PAD, n_disp + 2), _BIG, dtype=np.int16)
+        buf[:, :, 1 : n_disp + 1] = 0
+        rows.append(buf)
+    mins = [np.zeros((nk, width + 2 * _PAD), dtype=np.int16) for _ in range(3)]
+    return (*rows, *mins)
+
+
 @njit(cache=True, nogil=True)
 def aggregate_sweep(
-    cost: np.ndarray, img: np.ndarray, forward: bool, row_paths: np.ndarray, p1: int, p2: int, p2_scale: float
-) -> np.ndarray:  # pragma: no cover - compiled
-    """The paths one raster sweep can carry, summed (uint16).
+    census_left: np.ndarray,
+    census_right: np.ndarray,
+    img: np.ndarray,
+    forward: bool,
+    row_paths: np.ndarray,
+    p2_lut: np.ndarray,
+    p1: int,
+    out: np.ndarray,
+    i0: int,
+    i1: int,
+    add: bool,
+    state: tuple,
+    select: bool,
+    uniqueness: float,
+    lr_max_diff: float,
+    disp: np.ndarray,
+    conf: np.ndarray,
+) -> tuple:  # pragma: no cover - compiled
+    """Half of the paths in one raster sweep, over the sweep's rows ``i0 .. i1 - 1``.
 
-    The forward sweep goes top to bottom and left to right. It carries the path along the
-    row (from the left) and every path in ``row_paths``. A row path ``(b, c)`` comes from
-    pixel ``(y - b, x - c)``: (1, 0) is straight down, (1, +-1) are the diagonals, and the
-    16-path set adds the knight moves (1, +-2) and (2, +-1). The backward sweep mirrors
-    all of them.
+    The forward sweep goes top to bottom (its row i is image row i) and carries the path
+    along the row from the left and every path in ``row_paths``; a path ``(b, c)`` comes
+    from pixel ``(y - b, x - c)``. The backward sweep (its row i is image row H - 1 - i)
+    mirrors them all. ``p2_lut`` is :func:`p2_table`. The sum of the paths is written to
+    ``out`` (int16, (H, W, D)), or added to what it holds with ``add``. ``state`` is
+    :func:`sweep_state` or what the previous call over the rows before ``i0`` returned;
+    the state after row ``i1 - 1`` is returned. With ``select``, each row of ``out`` is
+    final once this sweep has added to it, and its disparities are chosen there and then
+    (:func:`select_disparity_rows`, into ``disp`` and ``conf``), while it is in cache.
 
-    Each path keeps only its last two rows plus the current one, with sentinels at d = -1
-    and d = D, so the inner loop over d has no branches.
+    The matching costs are computed here from the census images, ``_ROW_GROUP`` rows at a
+    time, and never stored whole. For each group of rows, first the paths along the row,
+    the rows interleaved (each pixel waits on its neighbour's result; interleaving
+    independent rows keeps the CPU busy meanwhile), then row by row the paths from earlier
+    rows, whose pixels within a row are independent. The group's rows of ``out`` stay in
+    cache between the two. The row buffers of the paths from earlier rows are separate
+    arrays rotated every row (reads from the previous rows and writes to this one never
+    alias).
     """
-    h, w, n = cost.shape
-    big = np.int32(1 << 14)
-    p1i = np.int32(p1)
-    nk = row_paths.shape[0]
-    total = np.empty((h, w, n), dtype=np.uint16)
-    # The current row and the two before it, as three arrays rotated every row (separate
-    # arrays, so that reads from the previous rows and writes to this one do not alias).
-    cur = np.full((nk, w, n + 2), big, dtype=np.int32)
-    prev1 = np.full((nk, w, n + 2), big, dtype=np.int32)
-    prev2 = np.full((nk, w, n + 2), big, dtype=np.int32)
-    cur_min = np.zeros((nk, w), dtype=np.int32)
-    min1 = np.zeros((nk, w), dtype=np.int32)
-    min2 = np.zeros((nk, w), dtype=np.int32)
-    horiz = np.full(n + 2, big, dtype=np.int32)
-    hnew = np.full(n + 2, big, dtype=np.int32)
-    acc = np.zeros(n, dtype=np.int32)
-    ci = np.zeros(n, dtype=np.int32)
+    h, w = img.shape
+    n = out.shape[2]
+    lut = p2_lut
+    p1 = np.int16(p1)  # type: ignore[assignment]
+    zero = np.int16(0)
+    along_keep = np.int16(1 if add else 0)
     step = 1 if forward else -1
-    hmin = np.int32(0)
-    for i in range(h):
-        y = i if forward else h - 1 - i
-        for j in range(w):
+    cost = np.empty((_ROW_GROUP, w, n), dtype=np.uint8)
+    reversed_right = np.empty(w, dtype=np.uint32)
+    # The path along the row: the previous pixel's values alternate between two buffers
+    # (even and odd steps), so reads and writes never alias.
+    even = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
+    odd = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
+    start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
+    start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
+    along_min = np.zeros(_ROW_GROUP, dtype=np.int16)
+    # The state goes into arrays allocated here: the updates then vectorise (on the
+    # caller's arrays, or on ``state[i].copy()``, LLVM gave up on one of them: 12x slower).
+    work = np.empty((3, w), dtype=np.int32)  # the selection's work rows
+    nk = row_paths.shape[0]
+    rows_shape, mins_shape = (nk, w + 2 * _PAD, n + 2), (nk, w + 2 * _PAD)
+    prev1, prev2, cur = (
+        np.empty(rows_shape, np.int16),
+        np.empty(rows_shape, np.int16),
+        np.empty(rows_shape, np.int16),
+    )
+    min1, min2, cur_min = (
+        np.empty(mins_shape, np.int16),
+        np.empty(mins_shape, np.int16),
+        np.empty(mins_shape, np.int16),
+    )
+    prev1[:] = state[0]
+    prev2[:] = state[1]
+    cur[:] = state[2]
+    min1[:] = state[3]
+    min2[:] = state[4]
+    cur_min[:] = state[5]
+    for g0 in range(i0, i1, _ROW_GROUP):
+        rows = min(_ROW_GROUP, i1 - g0)
+        for r in range(rows):
+            y = g0 + r if forward else h - 1 - g0 - r
+            _census_cost_row(census_left, census_right, y, cost, r, reversed_right)
+        # The group's paths along the row.
+        x0 = 0 if forward else w - 1
+        for r in range(rows):
+            y = g0 + r if forward else h - 1 - g0 - r
+            along_min[r] = _path_update(
+                cost, r, y, x0, start, 0, 0, even, r, 0, out, along_keep, zero, zero, p1
+            )
+        for j in range(1, w):
             x = j if forward else w - 1 - j
-            cmin = big
-            for d in range(n):
-                ci[d] = cost[y, x, d]
-                if ci[d] < cmin:
-                    cmin = ci[d]
-            # Path along the row (from the previous pixel of this sweep).
-            if j == 0:
-                for d in range(n):
-                    hnew[d + 1] = ci[d]
-                    acc[d] = ci[d]
-                m = cmin
-            else:
-                pm = hmin
-                g = abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))
-                p2a = _adapted_p2(g, p1i, p2, p2_scale)
-                jump = pm + p2a
-                m = big
-                for d in range(1, n + 1):
-                    v = min(min(horiz[d], jump), min(horiz[d - 1], horiz[d + 1]) + p1i)
-                    r = ci[d - 1] + v - pm
-                    hnew[d] = r
-                    acc[d - 1] = r
-                    m = min(m, r)
-            hmin = m
-            horiz, hnew = hnew, horiz
-            # Paths from earlier rows.
-            for k in range(nk):
-                back = row_paths[k, 0]
-                xq = x - step * row_paths[k, 1]
-                if i < back or xq < 0 or xq >= w:
-                    for d in range(n):
-                        cur[k, x, d + 1] = ci[d]
-                        acc[d] += ci[d]
-                    cur_min[k, x] = cmin
-                    continue
-                yq = y - step * back
-                pm = min1[k, xq] if back == 1 else min2[k, xq]
-                g = abs(np.int32(img[y, x]) - np.int32(img[yq, xq]))
-                p2a = _adapted_p2(g, p1i, p2, p2_scale)
-                jump = pm + p2a
-                cm = big
-                pr = prev1[k, xq] if back == 1 else prev2[k, xq]
-                for d in range(1, n + 1):
-                    v = min(min(pr[d], jump), min(pr[d - 1], pr[d + 1]) + p1i)
-                    r = ci[d - 1] + v - pm
-                    cur[k, x, d] = r
-                    acc[d - 1] += r
-                    cm = min(cm, r)
-                cur_min[k, x] = cm
-            for d in range(n):
-                total[y, x, d] = acc[d]
-        prev2, prev1, cur = prev1, cur, prev2
-        min2, min1, cur_min = min1, cur_min, min2
-    return total
+            for r in range(rows):
+                y = g0 + r if forward else h - 1 - g0 - r
+                m = along_min[r]
+                jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
+                if j % 2:
+                    along_min[r] = _path_update(
+                        cost, r, y, x, even, r, 0, odd, r, 0, out, along_keep, m, jump, p1
+                    )
+                else:
+                    along_min[r] = _path_update(
+                        cost, r, y, x, odd, r, 0, even, r, 0, out, along_keep, m, jump, p1
+                    )
+        # The paths from earlier rows, row by row.
+        for r in range(rows):
+            y = g0 + r if forward else h - 1 - g0 - r
+            for j in range(w):
+                x = j if forward else w - 1 - j
+                # Paths from one row back, then from two rows back (the 16-path knight
+                # moves): two loops, since one loop choosing its buffer per path does not
+                # vectorise.
+                for k in range(nk):
+                    if row_paths[k, 0] == 1:
+                        dx = row_paths[k, 1]
+                        _row_path_step(
+                            cost, r, img, y, x, step, k, 1, dx, prev1, min1, cur, cur_min, out, lut, p1
+                        )
+                for k in range(nk):
+                    if row_paths[k, 0] == 2:
+                        dx = row_paths[k, 1]
+                        _row_path_step(
+                            cost, r, img, y, x, step, k, 2, dx, prev2, min2, cur, cur_min, out, lut, p1
+                        )
+            prev2, prev1, cur = prev1, cur, prev2
+            min2, min1, cur_min = min1, cur_min, min2
+            if select:
+                _select_row(out, y, uniqueness, lr_max_diff, disp, conf, work[0], work[1], work[2])
+    return (prev1, prev2, cur, min1, min2, cur_min)
 
 
-@njit(cache=True, nogil=True)
-def select_disparity(
-    total: np.ndarray, uniqueness: float, lr_max_diff: float
-) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
-    """WTA + uniqueness + parabola sub-pixel + left-right check; NaN where rejected.
+@register_jitable
+def subpixel(total, y, x, arg):  # pragma: no cover - compiled
+    """The winner ``arg`` refined by the parabola through S at arg - 1, arg, arg + 1 (where
+    both neighbours exist); float64. Shared by the CPU and the CUDA selection."""
+    n = total.shape[2]
+    sub = float(arg)
+    if 0 < arg < n - 1 and arg + 1 <= x:
+        a = float(total[y, x, arg - 1])
+        b = float(total[y, x, arg])
+        c = float(total[y, x, arg + 1])
+        den = a - 2.0 * b + c
+        if den > 0:
+            sub = arg + 0.5 * (a - c) / den
+    return sub
 
-    Returns (disparity float32, confidence float32).
-    """
-    h, w, n = total.shape
-    disp = np.full((h, w), np.nan, dtype=np.float32)
-    conf = np.zeros((h, w), dtype=np.float32)
-    right_best = np.empty(w, dtype=np.int32)
+
+@njit(cache=True, nogil=True, inline="always")
+def _select_row(
+    total, y, uniqueness, lr_max_diff, disp, conf, best_d, right_cost, right_d
+):  # pragma: no cover
+    """:func:`select_disparity_rows` for row y (``best_d``, ``right_cost``, ``right_d``:
+    int32 (W,) work rows)."""
+    w = total.shape[1]
+    n = total.shape[2]
+    never = np.int16(32000)
     # A pixel with only a few candidate disparities (near the left border, where most of
     # the search range falls outside the right image) cannot pass a uniqueness test.
     min_x = max(4, n // 4)
-    best_arg = np.empty(w, dtype=np.int32)
-    best_cost = np.empty(w, dtype=np.int32)
-    right_min = np.empty(w, dtype=np.int32)
-    for y in range(h):
-        # One contiguous pass: each pixel's winner, and the right image's winner at each
-        # column xr = x - d (min over the diagonal of the volume).
-        right_min[:] = 1 << 30
-        right_best[:] = -1
-        for x in range(w):
-            best, arg = 1 << 30, 0
-            top = min(n, x + 1)
-            for d in range(top):
-                v = int(total[y, x, d])
-                if v < best:
-                    best, arg = v, d
-                if v < right_min[x - d]:
-                    right_min[x - d] = v
-                    right_best[x - d] = d
-            best_arg[x] = arg
-            best_cost[x] = best
-        for x in range(min_x, w):
-            arg, best = best_arg[x], best_cost[x]
-            second = 1 << 30
-            for d in range(min(n, x + 1)):
-                if d < arg - 1 or d > arg + 1:
-                    v = int(total[y, x, d])
-                    if v < second:
-                        second = v
-            if second >= (1 << 30):
-                continue
-            conf[y, x] = (second - best) / max(second, 1)
-            if best * (1.0 + uniqueness) > second:
-                continue
-            sub = float(arg)
-            if 0 < arg < n - 1 and arg + 1 <= x:
-                a = float(total[y, x, arg - 1])
-                b = float(total[y, x, arg])
-                cc = float(total[y, x, arg + 1])
-                den = a - 2.0 * b + cc
-                if den > 0:
-                    sub = arg + 0.5 * (a - cc) / den
-            xr = x - arg
-            if right_best[xr] < 0 or abs(right_best[xr] - arg) > lr_max_diff:
-                continue
-            disp[y, x] = sub
-    return disp, conf
+    right_cost[:] = 1 << 30
+    right_d[:] = -1
+    best_d[:] = -1
+    for x in range(w):
+        disp[y, x] = np.nan
+        conf[y, x] = 0.0
+        if x < min_x:
+            continue
+        m = never
+        for d in range(n):
+            m = min(m, total[y, x, d])
+        # Index comparisons in int16 too, so that these loops vectorise 32 wide.
+        nn = np.int16(n)
+        arg = nn
+        for d in range(n):
+            arg = min(arg, np.int16(d) if total[y, x, d] == m else nn)
+        second = never
+        lo, hi = np.int16(arg - 1), np.int16(arg + 1)
+        for d in range(n):
+            far = (np.int16(d) < lo) | (np.int16(d) > hi)
+            second = min(second, total[y, x, d] if far else never)
+        if arg > x or second >= never:  # no match for the winner, or nothing else
+            continue
+        conf[y, x] = float(second - m) / max(float(second), 1.0)
+        if m * (1.0 + uniqueness) > second:
+            continue
+        xr = x - arg
+        if m < right_cost[xr]:
+            right_cost[xr] = m
+            right_d[xr] = arg
+        best_d[x] = arg
+        disp[y, x] = subpixel(total, y, x, arg)
+    for x in range(min_x, w):
+        arg = best_d[x]
+        if arg >= 0 and abs(right_d[x - arg] - arg) > lr_max_diff:
+            disp[y, x] = np.nan
+
+
+@njit(cache=True, nogil=True)
+def select_disparity_rows(
+    total: np.ndarray,
+    y0: int,
+    y1: int,
+    uniqueness: float,
+    lr_max_diff: float,
+    disp: np.ndarray,
+    conf: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """WTA + uniqueness + parabola sub-pixel + left-right check for rows ``y0 .. y1 - 1``.
+
+    ``total`` is S, the sum over all paths (int16, (H, W, D)). Writes ``disp`` (NaN where
+    rejected) and ``conf`` (``(S_second - S_best) / S_second``, second best outside
+    ``d_best +- 1``).
+
+    The left-right check uses the right image's winners as OpenCV's SGBM does: each left
+    winner (x, d) is a candidate for right pixel x - d, and the candidate of lowest cost
+    wins there. That needs one pass over the winners instead of a second pass over the
+    volume along its diagonals.
+    """
+    w = total.shape[1]
+    work = np.empty((3, w), dtype=np.int32)
+    for y in range(y0, y1):
+        _select_row(total, y, uniqueness, lr_max_diff, disp, conf, work[0], work[1], work[2])
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -352,17 +523,63 @@ class SGM:
             )
         n = check_max_disparity(max_disparity_px, left.shape[1])
         c = self.config
-        cost = census_cost(census5x5(left), census5x5(right), n)
-        paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
-        sweeps = [
-            _sweep_pool().submit(aggregate_sweep, cost, left, fwd, paths, c.p1, c.p2, c.p2_gradient_scale)
-            for fwd in (True, False)
-        ]
-        total = sweeps[0].result()
-        total += sweeps[1].result()
-        disp, conf = select_disparity(total, c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px)
+        lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
+        if self._use_cuda():
+            from .sgm_cuda import disparity_cuda
+
+            disp, conf = disparity_cuda(
+                census5x5(left), census5x5(right), left, n, c.paths, lut, c.p1,
+                c.uniqueness_ratio_pct / 100.0, c.lr_max_diff_px,
+            )  # fmt: skip
+        else:
+            disp, conf = self._compute_cpu(left, right, n, lut)
         if c.speckle_window_px > 0:
             fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
             cv2.filterSpeckles(fixed, -16, c.speckle_window_px, c.speckle_range_px * 16)
             disp[fixed == -16] = np.nan
         return DisparityMap(disp, n, pair.rectification, conf, self.name)
+
+    def _use_cuda(self) -> bool:
+        if self.config.device == "cpu":
+            return False
+        from .sgm_cuda import cuda_available
+
+        if cuda_available():
+            return True
+        if self.config.device == "cuda":
+            raise ConfigError("device='cuda' but Numba finds no CUDA device; use device='cpu' or 'auto'")
+        return False
+
+    def _compute_cpu(
+        self, left: np.ndarray, right: np.ndarray, n: int, lut: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Cost, aggregation and selection on the CPU's two cores (before speckle removal)."""
+        c = self.config
+        h, w = left.shape
+        pool = _sweep_pool()
+        cl, cr = census5x5(left), census5x5(right)
+        paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
+        # One volume S and two sweeps, one per core, each with half of the paths, in two
+        # phases: first the forward sweep fills the top half of S and the backward sweep
+        # the bottom half; then each goes on into the other half and adds its paths. A
+        # row of S is then final, and its disparities are chosen right away while the
+        # row is still in cache.
+        total = np.empty((h, w, n), dtype=np.int16)
+        disp = np.empty((h, w), dtype=np.float32)
+        conf = np.empty((h, w), dtype=np.float32)
+        top = h // 2
+        states = {fwd: sweep_state(w, n, c.paths) for fwd in (True, False)}
+        uniqueness = c.uniqueness_ratio_pct / 100.0
+
+        def run(fwd: bool, i0: int, i1: int, second_phase: bool) -> tuple:
+            return aggregate_sweep(
+                cl, cr, left, fwd, paths, lut, c.p1, total, i0, i1, second_phase, states[fwd],
+                second_phase, uniqueness, c.lr_max_diff_px, disp, conf,
+            )  # fmt: skip
+
+        for second, phase in enumerate(
+            (((True, 0, top), (False, 0, h - top)), ((True, top, h), (False, h - top, h)))
+        ):
+            jobs = {fwd: pool.submit(run, fwd, i0, i1, bool(second)) for fwd, i0, i1 in phase}
+            states = {fwd: job.result() for fwd, job in jobs.items()}
+        return disp, conf
