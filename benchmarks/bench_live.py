@@ -110,6 +110,10 @@ def _approach_run(work: Path, seq: Path, cfg, swing, fast: bool) -> dict[str, st
     n = cfg.frame_count
     x_of_frame = {i: cfg.speed_mps * i / cfg.fps for i in range(n)}
     res = evaluate_approach(cfg, swing, got, x_of_frame)
+    if fast:  # the figure of docs/figures/live_approach.png
+        from stereo_terrain.viz.approach import save_approach_figure
+
+        save_approach_figure(res, work / "live_approach.png")
     s = res.summary()
     idx = [m.frame_index for m in got]
     in_order = idx == sorted(set(idx)) and len(idx) == summary["processed"]
