@@ -213,3 +213,10 @@ def test_tiny_images_match_the_two_phase_split(height):
 
 
 _EIGHT = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+def test_pipeline_config_passes_sgm_options():
+    config = PipelineConfig.from_dict({"backend": "sgm", "sgm": {"paths": 4, "device": "cpu"}})
+    assert config.sgm == SGMConfig(paths=4)
+    with pytest.raises(ConfigError, match="sgm"):
+        PipelineConfig.from_dict({"sgm": {"paths": 5}})

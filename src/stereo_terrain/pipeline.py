@@ -53,6 +53,7 @@ from .rectify import Rectification, RectifiedPair, compute_rectification, rectif
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
 from .stereo.fill import PlanarFillConfig, fill_planar_regions
 from .stereo.opencv import OpenCVSGBMConfig
+from .stereo.sgm import SGMConfig
 from .swing import SwingConfig, SwingPlan, plan_swing
 from .terrain import StairModel, TerrainConfig, build_terrain
 
@@ -71,6 +72,9 @@ class PipelineConfig:
     backend : str
         Disparity backend: ``opencv`` (default; StereoSGBM) or ``sgm`` (the project's own
         engine; more accurate on textured real scenes, slower; see the README).
+    sgbm, sgm : OpenCVSGBMConfig, SGMConfig
+        Options of the two backends (only the chosen one's are used); e.g. ``sgm: {device:
+        auto}`` runs our engine on a GPU when one is present.
     max_disparity_px : int or None
         Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
     fill : PlanarFillConfig
@@ -91,6 +95,7 @@ class PipelineConfig:
     min_depth_m: float = 0.7
     method: str = "orientation"
     sgbm: OpenCVSGBMConfig = field(default_factory=OpenCVSGBMConfig)
+    sgm: SGMConfig = field(default_factory=SGMConfig)
     fill: PlanarFillConfig = field(default_factory=PlanarFillConfig)
     cloud: CloudConfig = field(default_factory=CloudConfig)
     orientation: OrientationConfig = field(default_factory=OrientationConfig)
@@ -120,6 +125,7 @@ class PipelineConfig:
         nested = {f.name: f.type for f in dataclasses.fields(cls)}
         sub_types = {
             "sgbm": OpenCVSGBMConfig,
+            "sgm": SGMConfig,
             "fill": PlanarFillConfig,
             "cloud": CloudConfig,
             "orientation": OrientationConfig,
@@ -142,9 +148,7 @@ class PipelineConfig:
                     )
                 try:
                     kwargs[key] = sub(**value)
-                except ConfigError:
-                    raise
-                except (TypeError, ValueError) as exc:
+                except (TypeError, ValueError) as exc:  # ConfigError included: name the section
                     raise ConfigError(f"config '{key}': {exc}") from None
             else:
                 kwargs[key] = value
@@ -356,7 +360,8 @@ class Pipeline:
         else:
             self.max_disparity_px = default_max_disparity(self.rectification, self.config.min_depth_m)
         if backend is None:
-            options = dataclasses.asdict(self.config.sgbm) if self.config.backend == "opencv" else {}
+            chosen = self.config.sgbm if self.config.backend == "opencv" else self.config.sgm
+            options = dataclasses.asdict(chosen)
             backend = make_backend(self.config.backend, **options)
         self.backend = backend
         # Rectified left camera -> yaw frame from the rig (None without one: the floor decides).
