@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench bench-open3d clean
+.PHONY: demo test lint bench bench-open3d clean lcmtypes
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -39,3 +39,10 @@ bench-open3d: $(O3D_VENV)/.installed
 
 clean:
 	rm -rf $(VENV) demo_out .pytest_cache
+
+# Python code of the LCM types (committed); needs lcm-gen from the `lcm` pip package.
+LCMDIR := src/stereo_terrain/runtime/lcmtypes
+lcmtypes: $(STAMP)
+	$(PY) -m pip install --quiet 'lcm>=1.5'
+	rm -rf $(LCMDIR)/stereo_terrain_lcm
+	$(VENV)/bin/lcm-gen -p --ppath $(LCMDIR) $(LCMDIR)/terrain_t.lcm

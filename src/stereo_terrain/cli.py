@@ -1,5 +1,5 @@
 """Command line: ``stereo-terrain demo | reconstruct | render | disparity | eval-disparity |
-calibrate | check-calib``.
+calibrate | check-calib | record | run | replay | simulate``.
 
 Thin: parses arguments, calls the pipeline, maps errors to exit codes (0 success, 2 bad
 input or usage with one line on stderr, 1 internal error).
@@ -8,6 +8,7 @@ input or usage with one line on stderr, 1 internal error).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import sys
@@ -137,7 +138,78 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--size", type=_size, default=(640, 480), help="WIDTHxHEIGHT (default 640x480)")
     g.add_argument("--kind", choices=["stairs", "box", "none"], help="obstacle kind (default: random)")
+    _add_runtime_commands(sub)
     return p
+
+
+def _nonneg_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
+    if not v >= 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
+    return v
+
+
+def _add_runtime_commands(sub: Any) -> None:
+    """record | run | replay | simulate (the live side, ``runtime/``)."""
+
+    def loop_options(q: argparse.ArgumentParser) -> None:
+        q.add_argument("--config", type=Path, help="pipeline config YAML")
+        q.add_argument(
+            "--lcm-url", default=None, help="LCM provider URL (default udpm://239.255.76.67:7667?ttl=0)"
+        )
+        q.add_argument("--channel", default="STEREO_TERRAIN", help="LCM channel of the terrain messages")
+        q.add_argument("--no-lcm", action="store_true", help="do not publish (no LCM needed)")
+        q.add_argument("--max-skew-ms", type=_nonneg_float, default=15.0, help="drop pairs skewed more (ms)")
+        q.add_argument(
+            "--stall-timeout", type=_nonneg_float, default=0.5, help="seconds without a pair = stall"
+        )
+        q.add_argument("--frames", type=_positive_int, help="stop after this many processed pairs")
+        q.add_argument("--duration", type=_nonneg_float, help="stop after this many seconds")
+        q.add_argument("--quiet", action="store_true", help="no live status line")
+        q.add_argument("--summary-json", type=Path, help="write the exit summary as JSON here")
+
+    rec = sub.add_parser("record", help="save synchronized stereo pairs with timestamps for replay")
+    rec.add_argument("--left", required=True, help="camera index, /dev/videoN or a video file")
+    rec.add_argument("--right", required=True, help="camera index, /dev/videoN or a video file")
+    rec.add_argument("--out", type=Path, required=True, help="new folder for pairs.csv and the images")
+    rec.add_argument("--frames", type=_positive_int, help="stop after this many pairs")
+    rec.add_argument("--duration", type=_nonneg_float, help="stop after this many seconds")
+    rec.add_argument("--max-skew-ms", type=_nonneg_float, default=15.0, help="drop pairs skewed more (ms)")
+
+    run = sub.add_parser("run", help="live loop on two cameras: terrain messages over LCM")
+    run.add_argument("--left", required=True, help="camera index, /dev/videoN or a video file")
+    run.add_argument("--right", required=True, help="camera index, /dev/videoN or a video file")
+    run.add_argument("--calib", type=Path, required=True)
+    run.add_argument("--rig", type=Path, help="rig YAML; body attitude from here unless --state-channel")
+    run.add_argument("--state-channel", help="LCM channel of body_state_t (body pose and odometry)")
+    loop_options(run)
+
+    rp = sub.add_parser("replay", help="live loop on a recorded folder of pairs")
+    rp.add_argument("folder", type=Path, help="folder with pairs.csv (from record or simulate --record)")
+    rp.add_argument("--calib", type=Path, help="default: FOLDER/calib.yaml")
+    rp.add_argument("--rig", type=Path, help="default: FOLDER/rig.yaml if present")
+    rp.add_argument("--as-fast", action="store_true", help="every pair, as fast as it goes (no pacing)")
+    rp.add_argument("--speed", type=_nonneg_float, default=1.0, help="playback speed (real time = 1)")
+    rp.add_argument("--loop", action="store_true", help="repeat the recording until stopped")
+    loop_options(rp)
+
+    si = sub.add_parser(
+        "simulate", help="a trotting robot approaches a staircase: trigger and foot clearance"
+    )
+    si.add_argument("--out", type=Path, required=True, help="folder for the plot and summary.json")
+    si.add_argument("--rise", type=_nonneg_float, default=0.21, help="step rise, m (default 0.21)")
+    si.add_argument("--run", dest="run_m", type=_nonneg_float, default=0.28, help="step run, m")
+    si.add_argument("--start", type=_nonneg_float, default=2.2, help="first riser distance at the start, m")
+    si.add_argument("--speed", type=_nonneg_float, default=0.5, help="walking speed, m/s")
+    si.add_argument("--fps", type=_nonneg_float, default=30.0, help="camera frame rate")
+    si.add_argument("--size", type=_size, default=(640, 480), help="WIDTHxHEIGHT (default 640x480)")
+    si.add_argument("--record", type=Path, help="also write the rendered frames here for 'replay'")
+    si.add_argument("--lcm-url", default=None, help="also publish the messages on this LCM URL")
+    si.add_argument("--channel", default="STEREO_TERRAIN")
+    si.add_argument("--no-plot", action="store_true")
 
 
 def _fmt(v: float | None, unit: str = "m") -> str:
@@ -471,7 +543,166 @@ def cmd_eval_disparity(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_record(args: argparse.Namespace) -> int:
+    from .runtime.capture import Capture, open_devices, record_pairs
+
+    capture = Capture(open_devices(args.left, args.right), args.max_skew_ms / 1000.0)
+    try:
+        n = record_pairs(capture, args.out, max_pairs=args.frames or 0, max_duration_s=args.duration or 0.0)
+    finally:
+        capture.close()
+    st = capture.stats
+    print(
+        f"recorded {n} pairs in {args.out}; dropped for skew {st.skew_dropped}, unreadable {st.unreadable}, "
+        f"superseded {st.skipped}"
+    )
+    return EXIT_OK
+
+
+def _pipeline(calib_path: Path, rig_path: Path | None, config_path: Path | None):
+    from .calibration import read_calibration
+    from .frames import load_rig
+    from .pipeline import Pipeline, PipelineConfig
+
+    calib = read_calibration(calib_path)
+    rig = load_rig(rig_path) if rig_path else None
+    config = PipelineConfig.from_yaml(config_path) if config_path else PipelineConfig()
+    return Pipeline(calib, rig, config)
+
+
+def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
+    from .runtime.capture import Capture
+    from .runtime.loop import LiveLoop, LoopConfig
+
+    publish: Any = lambda msg: None  # noqa: E731
+    if not args.no_lcm:
+        from .runtime.lcm_io import DEFAULT_URL, LcmPublisher
+
+        publish = LcmPublisher(args.lcm_url or DEFAULT_URL, args.channel)
+    config = LoopConfig(
+        max_skew_s=args.max_skew_ms / 1000.0,
+        stall_timeout_s=args.stall_timeout,
+        max_frames=args.frames or 0,
+        max_duration_s=args.duration or 0.0,
+    )
+    loop = LiveLoop(
+        Capture(source),
+        pipeline,
+        publish,
+        pose=pose,
+        config=config,
+        status=None if args.quiet else sys.stderr,
+    )
+    loop.warm_up()
+    summary = loop.run()
+    print(summary.format())
+    if args.summary_json is not None:
+        data = {k: v for k, v in dataclasses.asdict(summary).items() if k not in ("latencies_s", "periods_s")}
+        data.update(
+            fps=summary.fps, latency_median_ms=summary.latency_ms(50), latency_p99_ms=summary.latency_ms(99)
+        )
+        _write_json(data, args.summary_json)
+    return EXIT_OK
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .runtime.capture import open_devices
+    from .runtime.loop import rig_pose
+
+    pipeline = _pipeline(args.calib, args.rig, args.config)
+    pose = rig_pose(pipeline.rig)
+    listener = None
+    if args.state_channel:
+        from .runtime.lcm_io import DEFAULT_URL, LcmStateListener
+
+        listener = LcmStateListener(args.lcm_url or DEFAULT_URL, args.state_channel)
+
+        def pose(frame):  # the latest body state; the rig's attitude until one arrives
+            got = listener.latest()
+            return (None, pipeline.rig.body_rpy if pipeline.rig else None) if got is None else got[:2]
+
+    source = open_devices(args.left, args.right)
+    try:
+        return _run_loop(args, source, pipeline, pose)
+    finally:
+        if listener is not None:
+            listener.close()
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from .runtime.capture import FolderPairs, Paced
+
+    folder: Path = args.folder
+    calib = args.calib or folder / "calib.yaml"
+    if args.calib is None and not calib.is_file():
+        raise InputError(f"no --calib given and {calib} does not exist")
+    rig = args.rig or (folder / "rig.yaml" if (folder / "rig.yaml").is_file() else None)
+    if args.speed <= 0:
+        raise InputError("--speed must be > 0")
+    pipeline = _pipeline(calib, rig, args.config)
+    source = Paced(FolderPairs(folder, loop=args.loop), realtime=not args.as_fast, speed=args.speed)
+    return _run_loop(args, source, pipeline)
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from .runtime.simulate import ApproachConfig, simulate_approach
+
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder {args.out}: {exc.strerror}") from None
+    cfg = ApproachConfig(
+        rise_m=args.rise, run_m=args.run_m, start_distance_m=args.start, speed_mps=args.speed, fps=args.fps,
+        image_size=args.size,
+    )  # fmt: skip
+    publish = None
+    if args.lcm_url:
+        from .runtime.lcm_io import LcmPublisher
+
+        publish = LcmPublisher(args.lcm_url, args.channel)
+
+    def progress(k: int, n: int) -> None:
+        sys.stderr.write(f"\rrendering and processing frame {k}/{n}")
+        if k == n:
+            sys.stderr.write("\n")
+
+    result = simulate_approach(cfg, publish=publish, record_to=args.record, progress=progress)
+    summary = result.summary()
+    _write_json(summary, args.out / "summary.json")
+    err = summary["trigger_error_m"]
+    raised = (
+        "swing never raised"
+        if err is None
+        else f"swing raised at {summary['trigger_at_m']:.3f} m ({100 * err:+.1f} cm from d - d_buffer), "
+        f"height {summary['swing_height_m']:.3f} m"
+    )
+    print(
+        f"{summary['frames']} frames, riser at {cfg.riser_x_m:.3f} m, "
+        f"d_buffer {result.swing.buffer_m:.2f} m: {raised}"
+    )
+    if summary["not_traversable_reported"]:
+        print("stairs reported NOT traversable (a step above the leg's reach): the swing stays nominal")
+    for name, key in (("perceived", "edge_clearance_sensed_m"), ("blind", "edge_clearance_blind_m")):
+        legs = ", ".join(f"{k} {100 * v:+.1f} cm" for k, v in sorted(summary[key].items()))
+        print(f"first riser edge clearance, {name} swing: {legs}")
+    if not args.no_plot:
+        try:
+            from .viz.approach import save_approach_figure
+        except ImportError as exc:
+            raise InputError(
+                f"the plot needs matplotlib ({exc}); pip install 'stereo-terrain[viz]'"
+            ) from None
+        save_approach_figure(result, args.out / "approach.png")
+        print(f"wrote {args.out / 'approach.png'}")
+    print(f"wrote {args.out / 'summary.json'}" + (f" and the frames in {args.record}" if args.record else ""))
+    return EXIT_OK
+
+
 COMMANDS = {
+    "record": cmd_record,
+    "run": cmd_run,
+    "replay": cmd_replay,
+    "simulate": cmd_simulate,
     "demo": cmd_demo,
     "reconstruct": cmd_reconstruct,
     "render": cmd_render,

@@ -369,6 +369,11 @@ class Pipeline:
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
         )
 
+    def set_rig(self, rig: Rig) -> None:
+        """Use ``rig`` from the next frame on (e.g. the body attitude from the state estimator)."""
+        self.rig = rig
+        self.T_yaw_camera_rect = rig.T_yaw_camera @ self.rectification.T_camera_rect
+
     def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""
         timing: dict[str, float] = {}

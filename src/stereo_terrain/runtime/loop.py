@@ -1,0 +1,387 @@
+"""The real-time loop: newest pair -> pipeline -> swing trigger -> terrain message.
+
+One pair is processed at a time and it is always the newest one the source has (sources
+skip, never queue). Whatever goes wrong with a frame (no frame for a while, an unreadable
+or corrupt frame, a left/right skew beyond the limit, an error inside the pipeline) is
+counted, flagged in the next message's ``quality`` bits, and the loop goes on. While no
+fresh terrain arrives, the last one is re-sent every ``heartbeat_s`` marked ``stale`` with
+its age, so the controller never acts on old terrain without knowing it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import logging
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TextIO
+
+import numpy as np
+
+from ..checks import check_fields
+from ..errors import ConfigError, StereoTerrainError
+from ..frames import Rig
+from ..pipeline import Pipeline, TerrainResult
+from ..swing import Odometry, SwingTrigger
+from .capture import END, FRAME, NONE, SKEW, UNREADABLE, Capture, Clock, StereoFrame
+from .messages import terrain_message, terrain_t
+
+log = logging.getLogger(__name__)
+
+#: Pairs whose latencies the summary keeps.
+LATENCY_WINDOW = 20_000
+
+#: Pose provider: the body pose for a frame (odometry and roll/pitch/yaw), either may be None.
+PoseProvider = Callable[[StereoFrame | None], tuple[Odometry | None, tuple[float, float, float] | None]]
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    """Live-loop parameters, seconds.
+
+    Attributes
+    ----------
+    max_skew_s : float
+        Pairs whose left and right images are further apart in time are dropped.
+    stall_timeout_s : float
+        No fresh pair for this long counts as a stall; messages are then marked stale.
+    heartbeat_s : float
+        While stalled, the last terrain is re-sent (stale) this often.
+    status_interval_s : float
+        How often the status line is refreshed.
+    poll_s : float
+        Sleep when the source has no new pair.
+    max_frames : int
+        Stop after this many processed pairs (0: no limit).
+    max_duration_s : float
+        Stop after this long (0: no limit).
+    """
+
+    max_skew_s: float = 0.015
+    stall_timeout_s: float = 0.5
+    heartbeat_s: float = 0.1
+    status_interval_s: float = 0.5
+    poll_s: float = 0.002
+    max_frames: int = 0
+    max_duration_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        for name in ("max_skew_s", "stall_timeout_s", "heartbeat_s", "status_interval_s", "poll_s"):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"LoopConfig.{name} must be >= 0 seconds, got {getattr(self, name)}")
+        if self.max_frames < 0 or self.max_duration_s < 0:
+            raise ConfigError("LoopConfig.max_frames and max_duration_s must be >= 0 (0: no limit)")
+
+
+@dataclass
+class LoopSummary:
+    """What the loop did; :meth:`format` gives the report printed at exit."""
+
+    processed: int = 0
+    published: int = 0
+    heartbeats: int = 0
+    skew_dropped: int = 0
+    unreadable: int = 0
+    failed: int = 0
+    skipped: int = 0
+    stalls: int = 0
+    stalled_s: float = 0.0
+    elapsed_s: float = 0.0
+    interrupted: bool = False
+    # Bounded, so that memory stays flat however long the loop runs: the latency quantiles
+    # are over the last LATENCY_WINDOW pairs (about 11 minutes at 30 fps).
+    latencies_s: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCY_WINDOW), repr=False)
+    periods_s: deque[float] = field(default_factory=lambda: deque(maxlen=30), repr=False)
+
+    @property
+    def fps(self) -> float:
+        """Processed pairs per second over the run."""
+        return self.processed / self.elapsed_s if self.elapsed_s > 0 else 0.0
+
+    def latency_ms(self, q: float) -> float:
+        """Capture-to-publish latency quantile ``q`` (0..100) over the last ``LATENCY_WINDOW``
+        pairs, milliseconds (NaN if none)."""
+        return float(np.percentile(self.latencies_s, q)) * 1e3 if self.latencies_s else math.nan
+
+    def format(self) -> str:
+        end = "interrupted" if self.interrupted else "done"
+        return (
+            f"{end}: {self.processed} pairs in {self.elapsed_s:.1f} s ({self.fps:.1f} fps); latency "
+            f"median {self.latency_ms(50):.0f} ms, p99 {self.latency_ms(99):.0f} ms; published "
+            f"{self.published} ({self.heartbeats} stale heartbeats); dropped: skew {self.skew_dropped}, "
+            f"unreadable {self.unreadable}, failed {self.failed}, superseded {self.skipped}; "
+            f"stalls {self.stalls} ({self.stalled_s:.1f} s)"
+        )
+
+
+def rig_pose(rig: Rig | None) -> PoseProvider:
+    """Pose provider from the rig file: its body attitude, no odometry."""
+
+    def pose(frame: StereoFrame | None) -> tuple[Odometry | None, tuple[float, float, float] | None]:
+        if frame is not None and (frame.odometry is not None or frame.body_rpy is not None):
+            return frame.odometry, frame.body_rpy
+        return None, (None if rig is None else rig.body_rpy)
+
+    return pose
+
+
+class LiveLoop:
+    """Runs the pipeline on the newest pairs of a source and publishes terrain messages.
+
+    Parameters
+    ----------
+    capture : Capture
+        The source with its skew limit (``LoopConfig.max_skew_s`` is applied here).
+    pipeline : Pipeline
+    publish : callable(terrain_t)
+        E.g. :class:`~stereo_terrain.runtime.lcm_io.LcmPublisher`, or a list's ``append``.
+    trigger : SwingTrigger, optional
+        Defaults to one with the pipeline's swing config.
+    pose : PoseProvider, optional
+        Body pose per frame: from the recording, an LCM state listener or the rig.
+    config : LoopConfig
+    clock, sleep : callables
+        Injectable for tests (a fake clock makes a 2 s stall instant).
+    status : text stream or None
+        Where the live status line goes (stderr in the CLI).
+    """
+
+    def __init__(
+        self,
+        capture: Capture,
+        pipeline: Pipeline,
+        publish: Callable[[terrain_t], None],
+        *,
+        trigger: SwingTrigger | None = None,
+        pose: PoseProvider | None = None,
+        config: LoopConfig | None = None,
+        clock: Clock = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
+        status: TextIO | None = None,
+        on_result: Callable[[StereoFrame, TerrainResult], None] | None = None,
+    ) -> None:
+        self.config = config or LoopConfig()
+        self.capture = capture
+        self.capture.max_skew_s = self.config.max_skew_s
+        self.pipeline = pipeline
+        self.publish = publish
+        self.trigger = trigger or SwingTrigger(pipeline.config.swing)
+        self.pose = pose or rig_pose(pipeline.rig)
+        self.clock = clock
+        self.sleep = sleep
+        self.status = status
+        self.on_result = on_result
+        self.summary = LoopSummary()
+        self.epoch_offset_s = time.time() - time.monotonic() if clock is time.monotonic else 0.0
+        self._quality = 0
+        self._last_result: TerrainResult | None = None
+        self._last_capture: float | None = None
+        self._last_index = -1
+        self._last_latency = math.nan
+        self._last_fresh: float | None = None
+        self._last_publish = -math.inf
+        self._stalled_since: float | None = None
+        self._last_status = -math.inf
+        self._rpy: tuple[float, float, float] | None = None
+
+    def warm_up(self) -> None:
+        """Run the pipeline once on a rendered staircase of the calibration's size so that the
+        first real pair is not slowed by just-in-time compilation and first-call allocations
+        (about 0.5 s); a noise pair would leave the plane and stair stages cold."""
+        from ..synthetic import SceneSpec, StairSpec, render_scene
+
+        size = self.pipeline.calibration.image_size
+        stairs = StairSpec(n_steps=2, rise_m=0.17, run_m=0.3, width_m=1.2, distance_m=1.2)
+        scene = render_scene(SceneSpec(obstacle=stairs, image_size=size, supersample=1))
+        self.pipeline.run(scene.left, scene.right)
+
+    # ----------------------------------------------------------------- one iteration
+
+    def step(self) -> bool:
+        """One read of the source and what follows; False at the source's end."""
+        now = self.clock()
+        if self._last_fresh is None:
+            self._last_fresh = now
+        ev = self.capture.read()
+        self.summary.skipped += ev.skipped
+        if ev.status == END:
+            return False
+        if ev.status == FRAME and ev.frame is not None:
+            self._process(ev.frame)
+        elif ev.status == SKEW:
+            self.summary.skew_dropped += 1
+            self._quality |= terrain_t.QUALITY_SKEW_DROPPED
+            log.info("pair dropped: %s", ev.detail)
+        elif ev.status == UNREADABLE:
+            self._unreadable(ev.detail)
+        elif ev.status == NONE:
+            self._idle(now)
+        self._show_status()
+        return True
+
+    def _unreadable(self, detail: str) -> None:
+        self.summary.unreadable += 1
+        self._quality |= terrain_t.QUALITY_UNREADABLE
+        log.info("unreadable pair: %s", detail)
+
+    def _process(self, frame: StereoFrame) -> None:
+        size = self.pipeline.calibration.image_size
+        for img in (frame.left, frame.right):
+            if (
+                not isinstance(img, np.ndarray)
+                or img.dtype != np.uint8
+                or img.ndim not in (2, 3)
+                or (img.shape[1], img.shape[0]) != size
+            ):
+                shape = getattr(img, "shape", None)
+                self._unreadable(
+                    f"pair {frame.index}: image {shape} is not a {size[0]}x{size[1]} uint8 frame"
+                )
+                return
+        odo, rpy = self.pose(frame)
+        if rpy is not None and rpy != self._rpy and self.pipeline.rig is not None:
+            # The body attitude from the state estimator (paper eq. 1) for this frame.
+            self.pipeline.set_rig(dataclasses.replace(self.pipeline.rig, body_rpy=rpy))
+            self._rpy = rpy
+        try:
+            result = self.pipeline.run(frame.left, frame.right)
+        except StereoTerrainError as exc:
+            self._unreadable(f"pair {frame.index}: {exc}")
+            return
+        except Exception:  # keep running on the robot; the traceback goes to the log
+            self.summary.failed += 1
+            self._quality |= terrain_t.QUALITY_UNREADABLE
+            log.warning("pipeline failed on pair %d", frame.index, exc_info=True)
+            return
+        trig = self.trigger.update(
+            odo, result.terrain, camera_z_m=float(result.T_yaw_camera_rect.translation[2])
+        )
+        now = self.clock()
+        latency = now - frame.t_capture_s
+        if self._stalled_since is not None:
+            self.summary.stalled_s += now - self._stalled_since
+            self._stalled_since = None
+        quality = self._quality
+        if result.gravity_source != "rig":
+            quality |= terrain_t.QUALITY_GRAVITY_FROM_FLOOR
+        if odo is None:
+            quality |= terrain_t.QUALITY_POSE_MISSING
+        msg = terrain_message(
+            result.terrain,
+            trig,
+            capture_s=frame.t_capture_s,
+            publish_s=now,
+            frame_index=frame.index,
+            latency_s=latency,
+            density=result.disparity.density,
+            quality=quality,
+            stale=latency > self.config.stall_timeout_s,
+            epoch_offset_s=self.epoch_offset_s,
+        )
+        self.publish(msg)
+        self._quality = 0
+        s = self.summary
+        if self._last_capture is not None:
+            s.periods_s.append(frame.t_capture_s - self._last_capture)
+        s.processed += 1
+        s.published += 1
+        s.latencies_s.append(latency)
+        self._last_result, self._last_capture, self._last_index = result, frame.t_capture_s, frame.index
+        self._last_latency = latency
+        self._last_fresh = self._last_publish = now
+        if self.on_result is not None:
+            self.on_result(frame, result)
+
+    def _idle(self, now: float) -> None:
+        assert self._last_fresh is not None
+        cfg = self.config
+        if now - self._last_fresh > cfg.stall_timeout_s:
+            if self._stalled_since is None:
+                self._stalled_since = self._last_fresh
+                self.summary.stalls += 1
+                log.info("no fresh pair for %.2f s", now - self._last_fresh)
+            self._quality |= terrain_t.QUALITY_STALLED
+            if now - self._last_publish >= cfg.heartbeat_s:
+                self._heartbeat(now)
+        self.sleep(cfg.poll_s)
+
+    def _heartbeat(self, now: float) -> None:
+        odo, _ = self.pose(None)
+        trig = self.trigger.update(odo) if odo is not None else self.trigger.state
+        result = self._last_result
+        capture = self._last_capture if self._last_capture is not None else self._last_fresh
+        assert capture is not None
+        msg = terrain_message(
+            None if result is None else result.terrain,
+            trig,
+            capture_s=capture,
+            publish_s=now,
+            frame_index=self._last_index,
+            latency_s=self._last_latency,
+            density=0.0 if result is None else result.disparity.density,
+            quality=self._quality | (terrain_t.QUALITY_POSE_MISSING if odo is None else 0),
+            stale=True,
+            epoch_offset_s=self.epoch_offset_s,
+        )
+        self.publish(msg)
+        self.summary.published += 1
+        self.summary.heartbeats += 1
+        self._last_publish = now
+
+    # ----------------------------------------------------------------- status and run
+
+    def status_line(self) -> str:
+        s = self.summary
+        recent = list(itertools.islice(reversed(s.latencies_s), 30))
+        lat = f"{1e3 * float(np.median(recent)):.0f}" if recent else "-"
+        periods = list(s.periods_s)
+        rate = f"{1.0 / float(np.mean(periods)):.1f}" if periods and np.mean(periods) > 0 else "-"
+        t = self.trigger.state
+        ahead = "-"
+        if self._last_result is not None and self._last_result.terrain.steps:
+            st = self._last_result.terrain.steps[0]
+            ahead = f"{self._last_result.terrain.obstacle} {st.distance_m:.2f}m"
+        stale = " STALE" if self._stalled_since is not None else ""
+        return (
+            f"{s.processed} pairs {rate} fps lat {lat} ms | {ahead} | {t.phase} swing {t.swing_height_m:.2f}"
+            f" | drop skew {s.skew_dropped} bad {s.unreadable + s.failed} stall {s.stalls}{stale}"
+        )
+
+    def _show_status(self) -> None:
+        if self.status is None:
+            return
+        now = self.clock()
+        if now - self._last_status >= self.config.status_interval_s:
+            self.status.write("\r" + self.status_line().ljust(100)[:110])
+            self.status.flush()
+            self._last_status = now
+
+    def run(self) -> LoopSummary:
+        """Loop until the source ends, a limit is reached or Ctrl-C; returns the summary."""
+        cfg = self.config
+        start = self.clock()
+        try:
+            while True:
+                if cfg.max_frames and self.summary.processed >= cfg.max_frames:
+                    break
+                if cfg.max_duration_s and self.clock() - start >= cfg.max_duration_s:
+                    break
+                if not self.step():
+                    break
+        except KeyboardInterrupt:
+            self.summary.interrupted = True
+        finally:
+            self.summary.elapsed_s = self.clock() - start
+            if self._stalled_since is not None:
+                self.summary.stalled_s += self.clock() - self._stalled_since
+                self._stalled_since = None
+            self.capture.close()
+            if self.status is not None:
+                self.status.write("\n")
+                self.status.flush()
+        return self.summary

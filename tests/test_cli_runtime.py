@@ -1,0 +1,115 @@
+"""record | run | replay | simulate on the command line: success paths and one-line errors."""
+
+import json
+
+import pytest
+
+from stereo_terrain.calibration import write_opencv_yaml
+from stereo_terrain.cli import main
+from stereo_terrain.frames import save_rig
+from stereo_terrain.runtime.capture import StereoFrame, write_pairs
+from stereo_terrain.runtime.simulate import ApproachConfig, approach_spec
+from stereo_terrain.synthetic import render_scene
+
+
+def _run(argv, capsys):
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse's usage errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    cfg = ApproachConfig(image_size=(320, 240), supersample=1, start_distance_m=1.2)
+    scene = render_scene(approach_spec(cfg, 0.0, 0.0))
+    folder = tmp_path_factory.mktemp("rec") / "r"
+    write_pairs(folder, [StereoFrame(scene.left, scene.right, i / 30, i / 30, i) for i in range(3)])
+    write_opencv_yaml(scene.calibration, folder / "calib.yaml")
+    save_rig(scene.rig, folder / "rig.yaml")
+    return folder
+
+
+def test_replay_without_lcm(recording, tmp_path, capsys):
+    summary = tmp_path / "s.json"
+    code, out, err = _run(
+        ["replay", recording, "--no-lcm", "--as-fast", "--quiet", "--summary-json", summary], capsys
+    )
+    assert code == 0, err
+    assert out.startswith("done: 3 pairs")
+    data = json.loads(summary.read_text())
+    assert data["processed"] == 3 and data["latency_median_ms"] > 0
+
+
+def test_replay_status_line_goes_to_stderr(recording, capsys):
+    code, out, err = _run(["replay", recording, "--no-lcm", "--as-fast", "--frames", "2"], capsys)
+    assert code == 0 and "\r" in err and "pairs" in err and out.startswith("done: 2 pairs")
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["replay", "{tmp}/nope", "--no-lcm", "--calib", "{rec}/calib.yaml"], "pairs folder not found"),
+        (["replay", "{tmp}", "--no-lcm"], "no --calib given"),
+        (["replay", "{rec}", "--no-lcm", "--speed", "0"], "--speed must be > 0"),
+        (["replay", "{rec}", "--lcm-url", "bogus://x"], "cannot open LCM"),
+        (["run", "--left", "{tmp}/l.avi", "--right", "{tmp}/r.avi", "--calib", "{rec}/calib.yaml",
+          "--no-lcm"], "left video not found"),
+        (["record", "--left", "{tmp}/l.avi", "--right", "{tmp}/r.avi", "--out", "{rec}"], "video not found"),
+        (["simulate", "--out", "{tmp}/sim", "--start", "0.3"], "end_distance_m < start_distance_m"),
+        (["record", "--left", "98", "--right", "99", "--out", "{tmp}/r"], "cannot open left camera/video 98"),
+        (["replay", "{rec}", "--max-skew-ms", "-3"], "expected a finite number >= 0"),
+    ],
+)  # fmt: skip
+def test_mistakes_are_one_line_exit_2(recording, tmp_path, capsys, argv, match):
+    argv = [a.format(tmp=tmp_path, rec=recording) for a in argv]
+    code, out, err = _run(argv, capsys)
+    assert code == 2
+    assert match in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_one_camera_and_one_file_is_refused(recording, tmp_path, capsys):
+    (tmp_path / "l.avi").write_bytes(b"")
+    code, _, err = _run(
+        [
+            "run",
+            "--left",
+            tmp_path / "l.avi",
+            "--right",
+            "0",
+            "--calib",
+            recording / "calib.yaml",
+            "--no-lcm",
+        ],
+        capsys,
+    )
+    assert code == 2 and "not one of each" in err
+
+
+def test_simulate_writes_summary_and_plot(tmp_path, capsys):
+    out = tmp_path / "sim"
+    code, text, err = _run(
+        [
+            "simulate",
+            "--out",
+            out,
+            "--size",
+            "160x120",
+            "--start",
+            "0.65",
+            "--fps",
+            "10",
+            "--record",
+            out / "seq",
+        ],
+        capsys,
+    )
+    assert code == 0, err
+    data = json.loads((out / "summary.json").read_text())
+    assert data["frames"] == 5 and data["messages"] == 5
+    assert set(data["edge_clearance_blind_m"]) == {"FL", "FR", "RL", "RR"}
+    assert (out / "approach.png").stat().st_size > 20_000
+    assert (out / "seq" / "pairs.csv").read_text().count("\n") == 6
+    assert "first riser edge clearance, blind swing" in text

@@ -1,0 +1,292 @@
+"""Capture sources, the live loop and its fault handling (fake clock: no real waiting)."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from stereo_terrain.errors import ConfigError, InputError
+from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.runtime.capture import (
+    END,
+    FRAME,
+    NONE,
+    SKEW,
+    UNREADABLE,
+    Capture,
+    CaptureEvent,
+    FolderPairs,
+    Paced,
+    StereoFrame,
+    read_pairs_index,
+    write_pairs,
+)
+from stereo_terrain.runtime.loop import LiveLoop, LoopConfig
+from stereo_terrain.runtime.messages import terrain_t
+from stereo_terrain.runtime.simulate import ApproachConfig, FrameSource, approach_spec
+from stereo_terrain.swing import Odometry
+from stereo_terrain.synthetic import render_scene
+
+
+class FakeClock:
+    def __init__(self, t=100.0):
+        self.t = t
+
+    def __call__(self):
+        return self.t
+
+    def sleep(self, dt):
+        self.t += dt
+
+
+class ScriptedCamera:
+    """Gives each item once the fake clock reaches its time; nothing (``none``) before."""
+
+    def __init__(self, clock, script):
+        self.clock, self.script, self.closed = clock, list(script), False
+
+    def read(self):
+        if not self.script:
+            return CaptureEvent(END)
+        t, item = self.script[0]
+        if self.clock() < t:
+            return CaptureEvent(NONE)
+        self.script.pop(0)
+        return item if isinstance(item, CaptureEvent) else CaptureEvent(FRAME, item)
+
+    def close(self):
+        self.closed = True
+
+
+@pytest.fixture(scope="module")
+def scene():
+    cfg = ApproachConfig(image_size=(320, 240), supersample=1, start_distance_m=1.2)
+    return render_scene(approach_spec(cfg, 0.0, 0.0))
+
+
+@pytest.fixture(scope="module")
+def pipeline(scene):
+    return Pipeline(scene.calibration, scene.rig)
+
+
+def _frame(scene, t, i, skew=0.0, x=0.0):
+    return StereoFrame(scene.left, scene.right, t, t + skew, i, Odometry((x, 0.0, 0.0)), (0.0, 0.0, 0.0))
+
+
+def test_faults_are_counted_flagged_and_survived(scene, pipeline):
+    clock = FakeClock()
+    t0 = clock()
+    bad_shape = StereoFrame(scene.left[:100], scene.right[:100], t0 + 0.2, t0 + 0.2, 3)
+    script = [
+        (t0, _frame(scene, t0, 0)),
+        (t0 + 0.03, _frame(scene, t0 + 0.03, 1)),
+        (t0 + 0.1, CaptureEvent(UNREADABLE, detail="cannot decode")),  # corrupt image
+        (t0 + 0.2, bad_shape),  # a truncated frame
+        (t0 + 0.25, _frame(scene, t0 + 0.25, 4, skew=0.05)),  # 50 ms apart > 15 ms
+        (t0 + 0.3, _frame(scene, t0 + 0.3, 5)),
+        # ... then the camera gives nothing for 2 s ...
+        (t0 + 2.3, _frame(scene, t0 + 2.3, 6)),
+        (t0 + 2.33, _frame(scene, t0 + 2.33, 7)),
+    ]
+    cam = ScriptedCamera(clock, script)
+    msgs = []
+    loop = LiveLoop(
+        Capture(cam),
+        pipeline,
+        msgs.append,
+        config=LoopConfig(poll_s=0.01, stall_timeout_s=0.5, heartbeat_s=0.1),
+        clock=clock,
+        sleep=clock.sleep,
+    )
+    s = loop.run()
+    assert cam.closed and not s.interrupted
+    assert s.processed == 5 and [m.frame_index for m in msgs if not m.stale] == [0, 1, 5, 6, 7]
+    assert s.unreadable == 2 and s.skew_dropped == 1 and s.stalls == 1
+    assert s.stalled_s == pytest.approx(2.0, abs=0.05)
+    fresh = {m.frame_index: m for m in msgs if not m.stale}
+    assert (
+        fresh[5].quality & terrain_t.QUALITY_UNREADABLE and fresh[5].quality & terrain_t.QUALITY_SKEW_DROPPED
+    )
+    assert fresh[1].quality & (terrain_t.QUALITY_UNREADABLE | terrain_t.QUALITY_STALLED) == 0
+    stale = [m for m in msgs if m.stale]
+    # Heartbeats every 0.1 s from 0.5 s after the last pair to its return: about 15.
+    assert 13 <= s.heartbeats == len(stale) <= 17
+    assert all(m.quality & terrain_t.QUALITY_STALLED and m.frame_index == 5 for m in stale)
+    ages = [m.age_s for m in stale]
+    assert ages == sorted(ages) and ages[0] >= 0.5 and 1.85 <= ages[-1] <= 2.0
+    assert fresh[6].quality & terrain_t.QUALITY_STALLED  # the first pair after the stall says so
+    assert fresh[7].quality & terrain_t.QUALITY_STALLED == 0
+    assert "stalls 1" in s.format() and "skew 1" in s.format()
+
+
+def test_pipeline_errors_are_counted_and_the_loop_goes_on(scene, pipeline, monkeypatch):
+    real_run = pipeline.run
+    calls = {"n": 0}
+
+    def flaky(left, right):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise RuntimeError("boom")
+        return real_run(left, right)
+
+    monkeypatch.setattr(pipeline, "run", flaky)
+    msgs = []
+    frames = [_frame(scene, float(i), i) for i in range(3)]
+    s = LiveLoop(Capture(FrameSource(frames)), pipeline, msgs.append).run()
+    assert s.processed == 2 and s.failed == 1 and [m.frame_index for m in msgs] == [0, 2]
+    assert msgs[1].quality & terrain_t.QUALITY_UNREADABLE
+
+
+def test_ctrl_c_stops_cleanly(scene, pipeline):
+    def items():
+        yield _frame(scene, 0.0, 0)
+        raise KeyboardInterrupt
+
+    src = FrameSource(items())
+    s = LiveLoop(Capture(src), pipeline, lambda m: None).run()
+    assert s.interrupted and s.processed == 1 and src.closed
+    assert s.format().startswith("interrupted: 1 pairs")
+
+
+def test_status_line_and_limits(scene, pipeline):
+    import io
+
+    out = io.StringIO()
+    frames = [_frame(scene, i / 30, i) for i in range(5)]
+    loop = LiveLoop(
+        Capture(FrameSource(frames)),
+        pipeline,
+        lambda m: None,
+        config=LoopConfig(max_frames=3, status_interval_s=0.0),
+        status=out,
+    )
+    s = loop.run()
+    assert s.processed == 3
+    text = out.getvalue()
+    assert text.startswith("\r") and "pairs" in text and "fps" in text and "stairs" in text
+    with pytest.raises(ConfigError, match="stall_timeout_s"):
+        LoopConfig(stall_timeout_s=-1.0)
+
+
+def test_capture_drops_skewed_pairs(scene):
+    frames = [_frame(scene, 0.0, 0, skew=0.010), _frame(scene, 0.1, 1, skew=-0.020)]
+    cap = Capture(FrameSource(frames), max_skew_s=0.015)
+    assert [cap.read().status for _ in range(3)] == [FRAME, SKEW, END]
+    assert cap.stats.skew_dropped == 1 and cap.stats.pairs == 1
+    with pytest.raises(ConfigError):
+        Capture(FrameSource([]), max_skew_s=-1)
+
+
+def _small_recording(tmp_path, n=10, fps=30.0):
+    rng = np.random.default_rng(0)
+    frames = []
+    for i in range(n):
+        img = rng.integers(0, 255, (24, 32), dtype=np.uint8)
+        frames.append(
+            StereoFrame(img, img, i / fps, i / fps + 0.001, i, Odometry((0.01 * i, 0, 0)), (0, 0.1, 0))
+        )
+    write_pairs(tmp_path, frames)
+    return tmp_path
+
+
+def test_recorded_folder_round_trip_and_poses(tmp_path):
+    folder = _small_recording(tmp_path)
+    src = FolderPairs(folder)
+    ev = [src.read() for _ in range(11)]
+    assert [e.status for e in ev] == [FRAME] * 10 + [END]
+    f = ev[4].frame
+    assert f.t_left_s == pytest.approx(4 / 30, abs=1e-5) and f.skew_s == pytest.approx(0.001, abs=1e-5)
+    assert f.odometry.position_m[0] == pytest.approx(0.04) and f.body_rpy == pytest.approx((0, 0.1, 0))
+    looped = FolderPairs(folder, loop=True)
+    times = []
+    for _ in range(25):
+        times.append(looped.read().frame.t_left_s)
+    assert np.all(np.diff(times) > 0)  # repeats keep time going forward
+
+
+def test_paced_replay_gives_the_newest_pair_and_never_queues(tmp_path):
+    folder = _small_recording(tmp_path)
+    clock = FakeClock()
+    paced = Paced(FolderPairs(folder), clock=clock)
+    first = paced.read()
+    assert first.frame.index == 0 and first.frame.t_right_s == pytest.approx(clock())
+    assert paced.read().status == NONE  # the next pair's time has not come
+    clock.sleep(0.11)  # the loop was busy for 110 ms: pairs 1, 2, 3 came meanwhile
+    ev = paced.read()
+    assert ev.frame.index == 3 and ev.skipped == 2
+    assert ev.frame.t_right_s == pytest.approx(100.0 + 3 / 30, abs=1e-5)
+    clock.sleep(10.0)
+    ev = paced.read()
+    assert ev.frame.index == 9 and ev.skipped == 5 and paced.read().status == END
+    with pytest.raises(ConfigError, match="speed"):
+        Paced(FolderPairs(folder), speed=0.0)
+
+
+def test_corrupt_image_in_a_recording_is_unreadable(tmp_path):
+    folder = _small_recording(tmp_path, n=3)
+    (folder / "left_000001.png").write_bytes(b"\x89PNG garbage")
+    src = FolderPairs(folder)
+    assert [src.read().status for _ in range(4)] == [FRAME, UNREADABLE, FRAME, END]
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        (None, "has no pairs.csv"),
+        ("a,b\n1,2\n", "must have the columns"),
+        ("t_left,t_right,left,right\n", "lists no pairs"),
+        ("t_left,t_right,left,right\nx,0,l.png,r.png\n", "line 2: times"),
+        ("t_left,t_right,left,right\n1,1,l.png,r.png\n0,0,l.png,r.png\n", "must not decrease"),
+    ],
+)
+def test_bad_recordings_are_clear_errors(tmp_path, content, match):
+    if content is not None:
+        (tmp_path / "pairs.csv").write_text(content)
+    with pytest.raises(InputError, match=match):
+        read_pairs_index(tmp_path)
+
+
+def test_missing_folder_and_existing_recording(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        read_pairs_index(tmp_path / "nope")
+    folder = _small_recording(tmp_path, n=1)
+    with pytest.raises(InputError, match="already holds a recording"):
+        write_pairs(folder, [])
+
+
+def test_message_round_trip(scene, pipeline):
+    msgs = []
+    LiveLoop(
+        Capture(Paced(FrameSource([_frame(scene, 0.0, 0)]), realtime=False)), pipeline, msgs.append
+    ).run()
+    m = terrain_t.decode(msgs[0].encode())
+    assert m.obstacle == terrain_t.OBSTACLE_STAIRS and m.num_steps == len(m.rise_m) >= 2
+    assert m.distance_m[0] == pytest.approx(1.2, abs=0.03) and m.rise_m[0] == pytest.approx(0.21, abs=0.02)
+    assert math.isnan(m.trigger_distance_m)  # one frame: not yet confirmed
+    assert m.trigger_phase == terrain_t.PHASE_IDLE and not m.stale and 0 < m.disparity_density <= 1
+
+
+def test_videos_record_and_replay(tmp_path, scene):
+    from stereo_terrain.runtime.capture import VideoPair, record_pairs
+
+    paths = []
+    for name, img in (("l.avi", scene.left), ("r.avi", scene.right)):
+        w = cv2.VideoWriter(str(tmp_path / name), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (320, 240))
+        if not w.isOpened():
+            pytest.skip("OpenCV has no MJPG writer here")
+        for _ in range(4):
+            w.write(cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
+        w.release()
+        paths.append(tmp_path / name)
+    n = record_pairs(Capture(VideoPair(*paths)), tmp_path / "rec")
+    assert n == 4
+    rows = read_pairs_index(tmp_path / "rec")
+    assert [r.t_left for r in rows] == pytest.approx([0.0, 0.1, 0.2, 0.3])
+    # Played against a clock, videos also give the newest pair only.
+    clock = FakeClock()
+    paced = Paced(VideoPair(*paths), clock=clock)
+    assert paced.read().frame.index == 0
+    clock.sleep(0.25)
+    ev = paced.read()
+    assert ev.frame.index == 2 and ev.skipped == 1

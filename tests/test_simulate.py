@@ -1,0 +1,66 @@
+"""The kinematic foot model and the controller side of the simulated approach (no rendering)."""
+
+import numpy as np
+import pytest
+
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.runtime.simulate import (
+    ApproachConfig,
+    SwingCommand,
+    commanded_swing,
+    simulate_feet,
+    step_profile,
+    trigger_position,
+)
+
+CFG = ApproachConfig(image_size=(320, 240))
+
+
+def _raised_from(x_trigger, height=0.31):
+    return lambda x_body: height if x_body >= x_trigger else 0.15
+
+
+def test_step_profile():
+    x = np.array([0.0, CFG.riser_x_m - 1e-6, CFG.riser_x_m + 1e-6, CFG.riser_x_m + CFG.run_m + 0.01, 10.0])
+    assert step_profile(CFG, x) == pytest.approx([0.0, 0.0, 0.21, 0.42, 0.63])
+
+
+def test_blind_swing_hits_and_a_timely_raise_clears():
+    blind = simulate_feet(CFG, lambda x: 0.15)
+    crossings = [f for f in blind if f.edge_clearance_m is not None]
+    assert {f.leg for f in crossings} == {"FL", "FR", "RL", "RR"}
+    assert all(f.edge_clearance_m < 0 for f in crossings)  # 0.15 m apex < 0.21 m edge
+    raised = simulate_feet(CFG, _raised_from(CFG.riser_x_m - 0.10))
+    first = {}
+    for f in raised:
+        if f.edge_clearance_m is not None:
+            first.setdefault(f.leg, f.edge_clearance_m)
+    assert all(v > 0 for v in first.values()) and len(first) == 4
+
+
+def test_a_late_trigger_trips_the_front_feet():
+    late = simulate_feet(CFG, _raised_from(CFG.riser_x_m + 0.3))  # after the front feet crossed
+    first = {}
+    for f in late:
+        if f.edge_clearance_m is not None:
+            first.setdefault(f.leg, f.edge_clearance_m)
+    assert first["FL"] < 0 and first["FR"] < 0 and first["RL"] > 0 and first["RR"] > 0
+
+
+def test_controller_applies_eq2_between_messages():
+    # One message at x = 0.5: riser 1.0 ahead, d_buffer 0.1 -> trigger distance 0.9 from p0 = 0.5.
+    cmds = [
+        SwingCommand(x_m=0.5, p0_x_m=0.5, trigger_distance_m=0.9, height_m=0.31, raised=False, approach=True)
+    ]
+    assert commanded_swing(cmds, 1.39, 0.15) == (False, 0.15)
+    assert commanded_swing(cmds, 1.401, 0.15) == (True, 0.31)
+    assert commanded_swing(cmds, 0.4, 0.15) == (False, 0.15)  # before any message
+    assert trigger_position(cmds, 2.0, 0.15) == pytest.approx(1.4, abs=0.0011)
+
+
+def test_approach_config_is_checked():
+    with pytest.raises(ConfigError, match="end_distance_m"):
+        ApproachConfig(start_distance_m=0.3)
+    with pytest.raises(ConfigError, match="rear_hip_m"):
+        ApproachConfig(rear_hip_m=0.0)
+    assert ApproachConfig(start_distance_m=2.2, end_distance_m=0.45, speed_mps=0.5, fps=30).frame_count == 106
