@@ -1,7 +1,8 @@
 """Speed and memory of the own SGM engine against OpenCV StereoSGBM, side by side.
 
 640x480 rendered pair, 64 and 128 disparities. Runs are interleaved (each round calls
-every method once) and the median is reported, as wall time and as CPU time of the whole
+every method once, 0.2 s apart so that no method's idle threads are still spinning when
+the next one starts) and the median is reported, as wall time and as CPU time of the whole
 process (both threads of ours, all of OpenCV's). On a shared machine the wall time of a
 two-thread engine suffers more from other load than a one-thread one, so both are shown.
 
@@ -97,6 +98,10 @@ def main() -> None:
             b.compute(pair, n)  # warm-up (compilation, buffers)
         for _ in range(args.repeats):
             for name, b in backends.items():
+                # Let the previous method's worker threads go idle first: OpenCV's thread
+                # pool spins for a while after a parallel call and would steal a core
+                # from whatever runs next.
+                time.sleep(0.2)
                 t0, c0 = time.perf_counter(), time.process_time()
                 b.compute(pair, n)
                 wall.setdefault((name, n), []).append((time.perf_counter() - t0) * 1000)
