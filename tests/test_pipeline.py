@@ -108,6 +108,20 @@ def test_demo_scene_recovers_the_staircase():
         assert on_riser.sum() >= 4
 
 
+def test_a_step_too_high_to_climb_is_reported_not_traversable():
+    """Safety: a 0.45 m step is above the swing's reach; it must show up as a step that
+    cannot be climbed, not vanish as a wall (with obstacle none and traversable true)."""
+    import dataclasses
+
+    base = default_scene_spec()
+    tall = dataclasses.replace(base.obstacle, rise_m=0.45, n_steps=1, distance_m=1.5)
+    scene = render_scene(dataclasses.replace(base, obstacle=tall))
+    data = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict()
+    assert data["obstacle"] == "stairs", data["note"]
+    assert abs(data["steps"][0]["rise"] - 0.45) < 0.02
+    assert data["swing"]["traversable"] is False
+
+
 def test_no_obstacle_is_a_normal_result():
     scene = render_scene(random_scene_spec(np.random.default_rng(5), kind="none"))
     data = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict()

@@ -174,3 +174,8 @@ def test_parallel_vertical_planes_a_few_cm_apart_do_not_crash():
     )
     model = build_terrain(PlaneSet(tuple(segs) + (ghost,), samples, full.up, "test", CAM))
     assert model.obstacle in (STAIRS, BOX, NONE)
+
+
+def test_obstacle_rise_limit_is_not_below_the_stair_limit():
+    with pytest.raises(ConfigError, match="max_obstacle_rise_m"):
+        TerrainConfig(max_rise_m=0.35, max_obstacle_rise_m=0.30)

@@ -35,6 +35,12 @@ class TerrainConfig:
     min_rise_m, max_rise_m : float
         A riser shorter than ``min_rise_m`` is noise; a vertical plane taller than
         ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step.
+    max_obstacle_rise_m : float
+        Safety net. When no obstacle is found with ``max_rise_m``, the vertical planes up
+        to this height are tried again, so that a step too high to climb (above the
+        swing's reach, ``SwingConfig.max_height_m``) is reported, and planned as not
+        traversable, instead of being taken for a wall and ignored. Only then: raising
+        ``max_rise_m`` itself would merge two noisy risers into one tall step more often.
     min_riser_width_m : float
     min_riser_points : int
         Grid samples a riser needs.
@@ -56,6 +62,7 @@ class TerrainConfig:
 
     min_rise_m: float = 0.04
     max_rise_m: float = 0.30
+    max_obstacle_rise_m: float = 0.50
     edge_margin_m: float = 0.06
     min_riser_width_m: float = 0.15
     min_riser_points: int = 25
@@ -80,8 +87,11 @@ class TerrainConfig:
             "edge_band_m",
             "chain_tolerance_m",
         )
-        if not 0 < self.min_rise_m < self.max_rise_m:
-            raise ConfigError(f"need 0 < min_rise_m < max_rise_m, got {self.min_rise_m}, {self.max_rise_m}")
+        if not 0 < self.min_rise_m < self.max_rise_m <= self.max_obstacle_rise_m:
+            raise ConfigError(
+                "need 0 < min_rise_m < max_rise_m <= max_obstacle_rise_m, got "
+                f"{self.min_rise_m}, {self.max_rise_m}, {self.max_obstacle_rise_m}"
+            )
 
 
 @dataclass(frozen=True)
@@ -232,6 +242,19 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     config = config or TerrainConfig()
     if not np.allclose(planes.up, [0.0, 0.0, 1.0], atol=1e-6):
         raise ConfigError("build_terrain needs planes in a gravity-aligned frame (up = +z)")
+    model = _assemble(planes, config)
+    if model.obstacle != NONE or config.max_obstacle_rise_m <= config.max_rise_m:
+        return model
+    # Safety net: is there a step too tall for a stair, that the robot cannot climb?
+    tall = _assemble(planes, dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m))
+    if tall.obstacle == NONE or max(s.rise_m for s in tall.steps) <= config.max_rise_m:
+        return model
+    note = f"a step taller than a stair rise ({config.max_rise_m:.2f} m): {tall.note}"
+    return dataclasses.replace(tall, note=note)
+
+
+def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
+    """:func:`build_terrain` for one set of limits."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
