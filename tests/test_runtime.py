@@ -237,7 +237,8 @@ def test_corrupt_image_in_a_recording_is_unreadable(tmp_path):
         ("a,b\n1,2\n", "must have the columns"),
         ("t_left,t_right,left,right\n", "lists no pairs"),
         ("t_left,t_right,left,right\nx,0,l.png,r.png\n", "line 2: times"),
-        ("t_left,t_right,left,right\n1,1,l.png,r.png\n0,0,l.png,r.png\n", "must not decrease"),
+        ("t_left,t_right,left,right\n1,1,l.png,r.png\n0,0,l.png,r.png\n", "line 3: pair times must not"),
+        ("t_left,t_right,left,right\n0,nan,l.png,r.png\n", "line 2: times and pose must be finite"),
     ],
 )
 def test_bad_recordings_are_clear_errors(tmp_path, content, match):
@@ -245,6 +246,46 @@ def test_bad_recordings_are_clear_errors(tmp_path, content, match):
         (tmp_path / "pairs.csv").write_text(content)
     with pytest.raises(InputError, match=match):
         read_pairs_index(tmp_path)
+
+
+def test_looped_replay_of_equal_times_goes_forward(tmp_path):
+    import csv
+
+    folder = _small_recording(tmp_path, n=3)
+    with (folder / "pairs.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    with (folder / "pairs.csv").open("w", newline="") as fh:
+        out = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        out.writeheader()
+        out.writerows({**r, "t_left": "0", "t_right": "0"} for r in rows)
+    looped = FolderPairs(folder, loop=True)
+    times = [looped.read().frame.t_left_s for _ in range(7)]
+    assert times[3] > times[0] and times[6] > times[3]  # each repeat later than the last
+
+
+def test_a_bad_body_pose_is_ignored_counted_and_the_loop_goes_on(scene, pipeline):
+    clock = FakeClock()
+    t0 = clock()
+    nan_attitude = StereoFrame(
+        scene.left, scene.right, t0 + 0.03, t0 + 0.03, 1, Odometry((0, 0, 0)), (0, math.nan, 0)
+    )
+    nan_position = StereoFrame(
+        scene.left, scene.right, t0 + 0.06, t0 + 0.06, 2, Odometry((math.inf, 0, 0)), None
+    )
+    script = [(t0, _frame(scene, t0, 0)), (t0 + 0.03, nan_attitude), (t0 + 0.06, nan_position)]
+    script.append((t0 + 0.09, _frame(scene, t0 + 0.09, 3)))
+    msgs = []
+    loop = LiveLoop(
+        Capture(ScriptedCamera(clock, script)), pipeline, msgs.append, clock=clock, sleep=clock.sleep
+    )
+    s = loop.run()
+    assert s.processed == 4 and s.bad_poses == 2 and "bad poses ignored 2" in s.format()
+    fresh = {m.frame_index: m for m in msgs if not m.stale}
+    assert (
+        fresh[1].quality & terrain_t.QUALITY_POSE_MISSING
+        and fresh[2].quality & terrain_t.QUALITY_POSE_MISSING
+    )
+    assert fresh[3].quality & terrain_t.QUALITY_POSE_MISSING == 0
 
 
 def test_missing_folder_and_existing_recording(tmp_path):
@@ -290,3 +331,17 @@ def test_videos_record_and_replay(tmp_path, scene):
     clock.sleep(0.25)
     ev = paced.read()
     assert ev.frame.index == 2 and ev.skipped == 1
+
+
+def test_warm_up_leaves_no_trace_in_the_drift_correction(scene):
+    from stereo_terrain.drift import DriftConfig
+    from stereo_terrain.pipeline import PipelineConfig
+
+    online = Pipeline(
+        scene.calibration, scene.rig, PipelineConfig(drift=DriftConfig(online=True, every_frames=1))
+    )
+    loop = LiveLoop(Capture(ScriptedCamera(FakeClock(), [])), online, lambda m: None)
+    loop.warm_up()
+    assert online.last_correction is None and online.rectifier is not None
+    assert online.rectification is online.rectifier.base
+    assert not online.rectifier.correction_rotvec_rad.any()

@@ -369,6 +369,14 @@ class Pipeline:
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
         )
 
+    def reset_drift(self) -> None:
+        """Forget what the online drift correction has seen and go back to the calibration's
+        rectification (e.g. after a warm-up on a rendered pair)."""
+        if self.rectifier is not None:
+            self.rectifier.reset()
+            self.rectification = self.rectifier.current
+        self.last_correction = None
+
     def set_rig(self, rig: Rig) -> None:
         """Use ``rig`` from the next frame on (e.g. the body attitude from the state estimator)."""
         self.rig = rig

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -375,11 +376,15 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
                 )
             except (TypeError, ValueError):
                 raise InputError(f"{index} line {n}: times and pose must be numbers") from None
+            last = rows[-1]
+            if not all(math.isfinite(v) for v in (last.t_left, last.t_right, *(last.pose or ()))):
+                raise InputError(f"{index} line {n}: times and pose must be finite numbers")
     if not rows:
         raise InputError(f"{index} lists no pairs")
     times = [max(r.t_left, r.t_right) for r in rows]
-    if any(b < a for a, b in zip(times, times[1:], strict=False)):
-        raise InputError(f"{index}: pair times must not decrease")
+    for n, (a, b) in enumerate(zip(times, times[1:], strict=False), start=3):
+        if b < a:
+            raise InputError(f"{index} line {n}: pair times must not decrease ({b} after {a})")
     return rows
 
 
@@ -392,7 +397,8 @@ class FolderPairs:
         self._i = 0
         t = [max(r.t_left, r.t_right) for r in self.rows]
         step = (t[-1] - t[0]) / max(1, len(t) - 1) if len(t) > 1 else 1.0 / 30.0
-        self._period = t[-1] - t[0] + step
+        # Never zero (all times equal): a looped replay would then never get past a pair.
+        self._period = t[-1] - t[0] + max(step, 1.0 / 30.0)
 
     def __len__(self) -> int:
         return len(self.rows)

@@ -8,6 +8,7 @@ default ``udpm://239.255.76.67:7667?ttl=0`` is UDP multicast that stays on this 
 from __future__ import annotations
 
 import logging
+import math
 import select
 import threading
 from typing import Any
@@ -85,7 +86,11 @@ class LcmStateListener:
             self.bad += 1
             return
         rpy = (float(msg.rpy_rad[0]), float(msg.rpy_rad[1]), float(msg.rpy_rad[2]))
-        odo = Odometry(tuple(float(v) for v in msg.position_m), rpy[2])  # type: ignore[arg-type]
+        position = [float(v) for v in msg.position_m]
+        if not all(math.isfinite(v) for v in (*rpy, *position)):
+            self.bad += 1  # a state estimator glitch: keep the last good state
+            return
+        odo = Odometry(tuple(position), rpy[2])  # type: ignore[arg-type]
         with self._lock:
             self._latest = (odo, rpy, int(msg.utime))
             self.received += 1

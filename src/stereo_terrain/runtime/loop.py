@@ -89,6 +89,7 @@ class LoopSummary:
     unreadable: int = 0
     failed: int = 0
     skipped: int = 0
+    bad_poses: int = 0
     stalls: int = 0
     stalled_s: float = 0.0
     elapsed_s: float = 0.0
@@ -115,8 +116,16 @@ class LoopSummary:
             f"median {self.latency_ms(50):.0f} ms, p99 {self.latency_ms(99):.0f} ms; published "
             f"{self.published} ({self.heartbeats} stale heartbeats); dropped: skew {self.skew_dropped}, "
             f"unreadable {self.unreadable}, failed {self.failed}, superseded {self.skipped}; "
-            f"stalls {self.stalls} ({self.stalled_s:.1f} s)"
+            f"bad poses ignored {self.bad_poses}; stalls {self.stalls} ({self.stalled_s:.1f} s)"
         )
+
+
+def _finite_pose(odo: Odometry | None, rpy: tuple[float, float, float] | None) -> bool:
+    """Whether the odometry and attitude that are given hold only finite numbers."""
+    values = list(rpy or ())
+    if odo is not None:
+        values += [*odo.position_m, odo.yaw_rad]
+    return all(math.isfinite(v) for v in values)
 
 
 def rig_pose(rig: Rig | None) -> PoseProvider:
@@ -199,6 +208,7 @@ class LiveLoop:
         stairs = StairSpec(n_steps=2, rise_m=0.17, run_m=0.3, width_m=1.2, distance_m=1.2)
         scene = render_scene(SceneSpec(obstacle=stairs, image_size=size, supersample=1))
         self.pipeline.run(scene.left, scene.right)
+        self.pipeline.reset_drift()  # the rendered pair must not count as evidence of drift
 
     # ----------------------------------------------------------------- one iteration
 
@@ -244,6 +254,12 @@ class LiveLoop:
                 )
                 return
         odo, rpy = self.pose(frame)
+        if not _finite_pose(odo, rpy):
+            # A bad pose from the state estimator or a recording (NaN, inf): ignore it for
+            # this pair (the last good attitude stays; no odometry, flagged), and go on.
+            self.summary.bad_poses += 1
+            log.warning("pair %d: body pose ignored (not finite): %s, %s", frame.index, odo, rpy)
+            odo, rpy = None, None
         if rpy is not None and rpy != self._rpy and self.pipeline.rig is not None:
             # The body attitude from the state estimator (paper eq. 1) for this frame.
             self.pipeline.set_rig(dataclasses.replace(self.pipeline.rig, body_rpy=rpy))
