@@ -294,3 +294,25 @@ def test_rig_error_message_said_once(scene_dir, tmp_path, capsys):
     code, _, err = _run(_reconstruct_args(scene_dir, "--rig", rig), capsys)
     _assert_one_line_error(code, err, "body_rpy")
     assert err.count("rig file") == 1
+
+
+@pytest.mark.parametrize(
+    ("yaml_text", "match"),
+    [
+        ("contour: {seed: -5}", "seed"),
+        ("drift: {lk_window_px: 100000}", "lk_window_px"),
+        ("drift: {lk_window_px: 4}", "lk_window_px"),
+        ("sgm: {speckle_window_px: 100000000000000000000000}", "speckle_window_px"),
+    ],
+)
+def test_out_of_range_config_values_are_one_line_errors(scene_dir, tmp_path, capsys, yaml_text, match):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(yaml_text + "\n")
+    code, _, err = _run(_reconstruct_args(scene_dir, "--config", cfg), capsys)
+    assert code == 2 and match in err and len(err.strip().splitlines()) == 1
+
+
+def test_figure_format_is_checked_before_running(scene_dir, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([str(a) for a in _reconstruct_args(scene_dir, "--plot", tmp_path / "p.txt")])
+    assert exc.value.code == 2 and "a figure must end in one of" in capsys.readouterr().err

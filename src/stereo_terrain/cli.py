@@ -58,6 +58,18 @@ def _positive_int(text: str) -> int:
     return v
 
 
+_FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+def _figure_path(text: str) -> Path:
+    path = Path(text)
+    if path.suffix.lower() not in _FIGURE_SUFFIXES:
+        raise argparse.ArgumentTypeError(
+            f"a figure must end in one of {', '.join(_FIGURE_SUFFIXES)}, got '{text}'"
+        )
+    return path
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="stereo-terrain",
@@ -87,7 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="plane extraction (default: the config's, else orientation); auto runs both, explains its pick",
     )
     r.add_argument("--json", type=Path, help="write the terrain result here ('-' for stdout)")
-    r.add_argument("--plot", type=Path, help="write a figure (PNG)")
+    r.add_argument("--plot", type=_figure_path, help="write a figure (PNG)")
 
     dp = sub.add_parser("disparity", help="stereo pair -> disparity map file")
     dp.add_argument("left", type=Path)
@@ -118,7 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--pattern", required=True, help="inner corners COLSxROWS, e.g. 9x6")
     c.add_argument("--square", type=float, required=True, help="square side in metres, e.g. 0.025")
     c.add_argument("--out", type=Path, required=True, help="calibration YAML to write")
-    c.add_argument("--figure", type=Path, help="write a figure of the coverage and per-view errors (PNG)")
+    c.add_argument(
+        "--figure", type=_figure_path, help="write a figure of the coverage and per-view errors (PNG)"
+    )
 
     k = sub.add_parser(
         "check-calib", help="how far a rig has drifted from its calibration (vertical disparity)"

@@ -142,7 +142,10 @@ class DriftConfig:
         check_fields(self)
         check_min(self, 1, "every_frames", "max_features", "min_matches", "window_frames", "yaw_frames")
         check_min(self, 0.0, "yaw_agreement", "min_yaw_deg")
-        check_min(self, 3, "lk_window_px")
+        if not (3 <= self.lk_window_px <= 101 and self.lk_window_px % 2 == 1):
+            raise ConfigError(
+                f"DriftConfig.lk_window_px must be an odd number from 3 to 101, got {self.lk_window_px}"
+            )
         check_min(self, 0.0, "min_significance", "component_sigma", "update_tolerance_px")
         if not 0.0 < self.ratio <= 1.0:
             raise ConfigError(f"DriftConfig.ratio must be in (0, 1], got {self.ratio}")

@@ -126,6 +126,7 @@ class ContourConfig:
 
     def __post_init__(self) -> None:
         check_fields(self)
+        check_min(self, 0, "seed")
         check_min(
             self,
             1,

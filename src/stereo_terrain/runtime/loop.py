@@ -237,7 +237,10 @@ class LiveLoop:
     def _unreadable(self, detail: str) -> None:
         self.summary.unreadable += 1
         self._quality |= terrain_t.QUALITY_UNREADABLE
-        log.info("unreadable pair: %s", detail)
+        # The first one is said out loud (a wrong calibration size makes every pair
+        # unreadable, and the user must see why); the rest go to the verbose log.
+        level = logging.WARNING if self.summary.unreadable == 1 else logging.INFO
+        log.log(level, "unreadable pair: %s", detail)
 
     def _process(self, frame: StereoFrame) -> None:
         size = self.pipeline.calibration.image_size

@@ -107,6 +107,11 @@ class SGMConfig:
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 0, "lr_max_diff_px", "speckle_window_px", "speckle_range_px")
+        if self.speckle_window_px > 1_000_000 or self.speckle_range_px > 1_000:
+            raise ConfigError(
+                "speckle_window_px must be at most 1000000 and speckle_range_px at most 1000, got "
+                f"{self.speckle_window_px} and {self.speckle_range_px}"
+            )
         if self.paths not in (4, 8, 16):
             raise ConfigError(f"paths must be 4, 8 or 16, got {self.paths}")
         if not 0 < self.p1 < self.p2 <= 255:
