@@ -291,3 +291,26 @@ def test_rendered_boards_give_back_the_true_rig(rendered_boards):
     rot_err_deg = np.degrees(np.linalg.norm(cv2.Rodrigues(c.R @ bv.R_RIGHT.T)[0]))
     assert rot_err_deg < 0.05
     assert q.rms_px < 0.2 and q.epipolar_median_px < 0.15
+
+
+def test_duplicate_views_give_an_unusable_calibration_and_nothing_is_written(board_dir, tmp_path, capsys):
+    """Four copies of one pair calibrate to nonsense (epipolar RMS of ~100 px): refused, and an
+    existing calibration at --out is left as it was."""
+    for i in range(4):
+        shutil.copy(board_dir / "left01.jpg", tmp_path / f"left{i}.jpg")
+        shutil.copy(board_dir / "right01.jpg", tmp_path / f"right{i}.jpg")
+    out = tmp_path / "calib.yaml"
+    out.write_text("previous calibration\n")
+    args = ["--left", str(tmp_path / "left*.jpg"), "--right", str(tmp_path / "right*.jpg")]
+    code = main(["calibrate", *args, "--pattern", "9x6", "--square", "0.025", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "calibration unusable" in err
+    assert out.read_text() == "previous calibration\n"
+
+
+def test_calibrate_refuses_an_output_it_could_not_read_back(board_dir, tmp_path, capsys):
+    args = ["--left", str(board_dir / "left*.jpg"), "--right", str(board_dir / "right*.jpg")]
+    code = main(
+        ["calibrate", *args, "--pattern", "9x6", "--square", "0.025", "--out", str(tmp_path / "c.json")]
+    )
+    assert code == 2 and ".yaml, .yml or .xml" in capsys.readouterr().err

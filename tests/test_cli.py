@@ -303,6 +303,7 @@ def test_rig_error_message_said_once(scene_dir, tmp_path, capsys):
         ("drift: {lk_window_px: 100000}", "lk_window_px"),
         ("drift: {lk_window_px: 4}", "lk_window_px"),
         ("sgm: {speckle_window_px: 100000000000000000000000}", "speckle_window_px"),
+        ("cloud: {max_depth_m: 1e1}", "write it as 1.0e-3"),
     ],
 )
 def test_out_of_range_config_values_are_one_line_errors(scene_dir, tmp_path, capsys, yaml_text, match):

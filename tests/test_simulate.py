@@ -59,8 +59,10 @@ def test_controller_applies_eq2_between_messages():
 
 
 def test_approach_config_is_checked():
-    with pytest.raises(ConfigError, match="end_distance_m"):
+    with pytest.raises(ConfigError, match="must start further than"):
         ApproachConfig(start_distance_m=0.3)
     with pytest.raises(ConfigError, match="rear_hip_m"):
         ApproachConfig(rear_hip_m=0.0)
     assert ApproachConfig(start_distance_m=2.2, end_distance_m=0.45, speed_mps=0.5, fps=30).frame_count == 106
+    with pytest.raises(ConfigError, match="more than 20000"):
+        ApproachConfig(speed_mps=1e-9)

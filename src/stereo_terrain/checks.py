@@ -37,7 +37,15 @@ def check_fields(config: Any) -> None:
         else:
             continue
         if not ok:
-            raise ConfigError(f"{owner}.{f.name} must be {want}, got {value!r}")
+            hint = ""
+            if isinstance(value, str) and want != "a string":
+                try:
+                    float(value)
+                    # PyYAML reads 1e-3 (no dot) as text.
+                    hint = " (YAML reads a number like 1e-3 as text: write it as 1.0e-3)"
+                except ValueError:
+                    pass
+            raise ConfigError(f"{owner}.{f.name} must be {want}, got {value!r}{hint}")
 
 
 def check_min(config: Any, minimum: float, *names: str) -> None:

@@ -58,6 +58,10 @@ def _positive_int(text: str) -> int:
     return v
 
 
+# A calibration whose own board corners, rectified, are further apart vertically than this
+# (RMS) is refused: the reference chessboard set gives well under 0.5 px.
+MAX_CALIBRATION_EPIPOLAR_RMS_PX = 2.0
+
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
@@ -424,6 +428,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     cols, rows = parse_pattern(args.pattern)
     board = BoardConfig(cols, rows, args.square)
+    if args.out.suffix.lower() not in (".yaml", ".yml", ".xml"):
+        raise InputError(f"--out must be a .yaml, .yml or .xml file (OpenCV FileStorage), got {args.out}")
     for target in (args.out, args.figure):  # fail before the detection work, not after it
         if target is not None and (target.is_dir() or not target.resolve().parent.is_dir()):
             raise InputError(f"cannot write {target}: it is a folder or its folder does not exist")
@@ -432,9 +438,16 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         _progress(done, total, f"{name}: {'board found' if reason is None else 'skipped, ' + reason}")
 
     result = calibrate_from_globs(args.left, args.right, board, progress=progress)
-    write_opencv_yaml(result.calibration, args.out)
     for line in quality_report(result):
         print(line)
+    epipolar = result.quality.epipolar_rms_px
+    if not epipolar <= MAX_CALIBRATION_EPIPOLAR_RMS_PX:  # also NaN
+        raise InputError(
+            f"calibration unusable: the rectified corners are {epipolar:.1f} px apart vertically (RMS; "
+            f"good rigs give < {MAX_CALIBRATION_EPIPOLAR_RMS_PX} px), so {args.out} was not written; "
+            "use distinct views of the board moved around the image, paired left/right in the same order"
+        )
+    write_opencv_yaml(result.calibration, args.out)
     print(f"wrote {args.out}")
     if args.figure is not None:
         try:

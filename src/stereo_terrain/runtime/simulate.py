@@ -35,6 +35,8 @@ from ..synthetic import SceneSpec, StairSpec, SurfaceSpec, SyntheticScene, rende
 from .capture import END, FRAME, CaptureEvent, StereoFrame
 from .messages import terrain_t
 
+MAX_FRAMES = 20_000  # about 11 minutes of a 30 fps camera
+
 
 @dataclass(frozen=True)
 class ApproachConfig:
@@ -90,7 +92,10 @@ class ApproachConfig:
     def __post_init__(self) -> None:
         check_fields(self)
         if not 0 < self.end_distance_m < self.start_distance_m:
-            raise ConfigError("need 0 < end_distance_m < start_distance_m")
+            raise ConfigError(
+                f"the approach must start further than {self.end_distance_m} m from the stairs "
+                f"(--start), got {self.start_distance_m} m"
+            )
         for name in ("speed_mps", "fps", "gait_period_s", "rise_m", "run_m", "width_m"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"ApproachConfig.{name} must be > 0, got {getattr(self, name)}")
@@ -98,6 +103,11 @@ class ApproachConfig:
             raise ConfigError("ApproachConfig.rear_hip_m must lie behind front_hip_m")
         if not 0 <= self.lift_fraction < 0.5:
             raise ConfigError("ApproachConfig.lift_fraction must be in [0, 0.5)")
+        if self.frame_count > MAX_FRAMES:
+            raise ConfigError(
+                f"the approach would render {self.frame_count} frames (more than {MAX_FRAMES}); "
+                "lower --fps or raise --speed"
+            )
 
     @property
     def frame_count(self) -> int:
