@@ -304,6 +304,9 @@ def test_rig_error_message_said_once(scene_dir, tmp_path, capsys):
         ("drift: {lk_window_px: 4}", "lk_window_px"),
         ("sgm: {speckle_window_px: 100000000000000000000000}", "speckle_window_px"),
         ("cloud: {max_depth_m: 1e1}", "write it as 1.0e-3"),
+        ("contour: {max_hypotheses: 100000000}", "max_hypotheses"),
+        ("contour: {min_area_frac: 2.0}", "min_area_frac"),
+        ("terrain: {max_facing_angle_deg: 500}", "max_facing_angle_deg"),
     ],
 )
 def test_out_of_range_config_values_are_one_line_errors(scene_dir, tmp_path, capsys, yaml_text, match):

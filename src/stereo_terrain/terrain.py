@@ -87,6 +87,9 @@ class TerrainConfig:
             "edge_band_m",
             "chain_tolerance_m",
         )
+        for name in ("max_facing_angle_deg", "axis_spread_deg"):
+            if not 0 < getattr(self, name) <= 90:
+                raise ConfigError(f"TerrainConfig.{name} must be in (0, 90] deg, got {getattr(self, name)}")
         if not 0 < self.min_rise_m < self.max_rise_m <= self.max_obstacle_rise_m:
             raise ConfigError(
                 "need 0 < min_rise_m < max_rise_m <= max_obstacle_rise_m, got "

@@ -155,6 +155,12 @@ class ContourConfig:
         if self.min_hypotheses > self.max_hypotheses:
             raise ConfigError("need min_hypotheses <= max_hypotheses")
         check_min(self, 0, "merge_angle_deg", "merge_distance_m")
+        # Upper bounds that keep one frame's plane stage within seconds, not hours.
+        for name, top in (("max_hypotheses", 10_000), ("levels", 255), ("blur_sigma_px", 50.0)):
+            if getattr(self, name) > top:
+                raise ConfigError(f"ContourConfig.{name} must be at most {top}, got {getattr(self, name)}")
+        if not 0 < self.min_area_frac < 1:
+            raise ConfigError(f"ContourConfig.min_area_frac must be in (0, 1), got {self.min_area_frac}")
 
 
 @dataclass(frozen=True)
