@@ -345,3 +345,14 @@ def test_warm_up_leaves_no_trace_in_the_drift_correction(scene):
     assert online.last_correction is None and online.rectifier is not None
     assert online.rectification is online.rectifier.base
     assert not online.rectifier.correction_rotvec_rad.any()
+
+
+def test_one_video_and_a_missing_one_says_which(tmp_path):
+    from stereo_terrain.runtime.capture import open_devices
+
+    video = tmp_path / "left.avi"
+    video.write_bytes(b"")
+    with pytest.raises(InputError, match="right video .* does not exist"):
+        open_devices(str(video), str(tmp_path / "missing.avi"))
+    with pytest.raises(InputError, match="left video .* is a folder"):
+        open_devices(str(tmp_path), str(video))

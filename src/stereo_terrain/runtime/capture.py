@@ -523,6 +523,10 @@ def open_devices(left: str, right: str, *, clock: Clock = time.monotonic) -> Pai
     if all(files):
         return Paced(VideoPair(str(dl), str(dr)), clock=clock)
     if any(files):
+        side, other = ("right", dr) if files[0] else ("left", dl)
+        if isinstance(other, str) and not other.startswith("/dev/"):
+            what = "is a folder" if Path(other).is_dir() else "does not exist"
+            raise InputError(f"{side} video {other} {what}; give two video files or two cameras")
         raise InputError("give two cameras or two video files, not one of each")
     return CameraPair(dl, dr, clock=clock)
 
