@@ -54,6 +54,7 @@ from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity
 
 _MAX_COST = 24  # 5x5 census: 24 comparisons
+MAX_DISPARITIES = 4096  # the selection packs a disparity index into 12 bits
 _BIG = 16000  # "no value" in the int16 path buffers; + P2 (<= 255) still fits in int16
 _ROW_GROUP = 4  # rows whose paths along the row advance together
 _PAD = 2  # padding columns of the row buffers: row paths step at most 2 columns
@@ -443,14 +444,14 @@ def _select_row(
         conf[y, x] = 0.0
         if x < min_x:
             continue
-        m = never
+        # One pass for the best cost and its first index: S and d packed in one int32
+        # (S < 2**15, d < 2**12), whose minimum gives both.
+        key = np.int32(1 << 30)
         for d in range(n):
-            m = min(m, total[y, x, d])
-        # Index comparisons in int16 too, so that these loops vectorise 32 wide.
-        nn = np.int16(n)
-        arg = nn
-        for d in range(n):
-            arg = min(arg, np.int16(d) if total[y, x, d] == m else nn)
+            key = min(key, (np.int32(total[y, x, d]) << 12) | np.int32(d))
+        m = np.int16(key >> 12)
+        arg = np.int16(key & 4095)
+        # Index comparisons in int16 too, so that this loop vectorises 32 wide.
         second = never
         lo, hi = np.int16(arg - 1), np.int16(arg + 1)
         for d in range(n):
@@ -527,6 +528,8 @@ class SGM:
                 f"{right.shape} {right.dtype}"
             )
         n = check_max_disparity(max_disparity_px, left.shape[1])
+        if n > MAX_DISPARITIES:
+            raise InputError(f"the SGM engine handles at most {MAX_DISPARITIES} disparities, got {n}")
         c = self.config
         lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
         if self._use_cuda():
