@@ -196,6 +196,7 @@ def test_disparity_and_eval_commands(shared_data, tmp_path, capsys):
 def test_tiny_images_match_the_two_phase_split(height):
     """The two sweeps split the rows in halves; with one or two rows a half is empty."""
     from stereo_terrain.stereo.sgm import census_cost, p2_table, select_disparity_rows
+    from stereo_terrain.stereo.sgm_cuda import DIRECTIONS  # the 8 directions
 
     rng = np.random.default_rng(9)
     left = rng.integers(0, 255, (height, 40)).astype(np.uint8)
@@ -205,14 +206,13 @@ def test_tiny_images_match_the_two_phase_split(height):
     lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
     got, _ = engine._compute_cpu(left, right, 16, lut)
     cost = census_cost(census5x5(left), census5x5(right), 16).astype(int)
-    total = sum(_paper_recurrence(cost, left, dy, dx, c.p1, c.p2, c.p2_gradient_scale) for dy, dx in _EIGHT)
+    total = sum(
+        _paper_recurrence(cost, left, dy, dx, c.p1, c.p2, c.p2_gradient_scale) for dy, dx in DIRECTIONS
+    )
     want = np.empty(left.shape, np.float32)
     select_disparity_rows(total.astype(np.int16), 0, height, 0.0, c.lr_max_diff_px, want, want.copy())
     assert np.array_equal(got, want, equal_nan=True)
     assert np.isfinite(got).any()
-
-
-_EIGHT = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
 def test_pipeline_config_passes_sgm_options():

@@ -258,6 +258,11 @@ def detect_board_views(
     )
 
 
+# A calibration whose own board corners, rectified, are further apart vertically than this
+# (RMS) is unusable: the reference chessboard set gives 0.26 px.
+MAX_EPIPOLAR_RMS_PX = 2.0
+
+
 @dataclass(frozen=True)
 class CalibrationQuality:
     """How good a checkerboard calibration is.
@@ -296,6 +301,12 @@ class CalibrationQuality:
     epipolar_rms_px: float
     epipolar_max_px: float
     per_view_epipolar_px: np.ndarray = field(repr=False)
+
+    @property
+    def usable(self) -> bool:
+        """Whether the rectified corners line up (RMS of ``|y_left - y_right|`` within
+        :data:`MAX_EPIPOLAR_RMS_PX`); duplicate or too similar views give hundreds of px."""
+        return bool(self.epipolar_rms_px <= MAX_EPIPOLAR_RMS_PX)  # NaN: not usable
 
 
 @dataclass(frozen=True)

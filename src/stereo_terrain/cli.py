@@ -58,10 +58,6 @@ def _positive_int(text: str) -> int:
     return v
 
 
-# A calibration whose own board corners, rectified, are further apart vertically than this
-# (RMS) is refused: the reference chessboard set gives well under 0.5 px.
-MAX_CALIBRATION_EPIPOLAR_RMS_PX = 2.0
-
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
@@ -423,7 +419,13 @@ def _progress(done: int, total: int, text: str) -> None:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from .calibrate import BoardConfig, calibrate_from_globs, parse_pattern, quality_report
+    from .calibrate import (
+        MAX_EPIPOLAR_RMS_PX,
+        BoardConfig,
+        calibrate_from_globs,
+        parse_pattern,
+        quality_report,
+    )
     from .calibration import write_opencv_yaml
 
     cols, rows = parse_pattern(args.pattern)
@@ -440,11 +442,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     result = calibrate_from_globs(args.left, args.right, board, progress=progress)
     for line in quality_report(result):
         print(line)
-    epipolar = result.quality.epipolar_rms_px
-    if not epipolar <= MAX_CALIBRATION_EPIPOLAR_RMS_PX:  # also NaN
+    if not result.quality.usable:
         raise InputError(
-            f"calibration unusable: the rectified corners are {epipolar:.1f} px apart vertically (RMS; "
-            f"good rigs give < {MAX_CALIBRATION_EPIPOLAR_RMS_PX} px), so {args.out} was not written; "
+            f"calibration unusable: the rectified corners are {result.quality.epipolar_rms_px:.1f} px "
+            f"apart vertically (RMS; good rigs give < {MAX_EPIPOLAR_RMS_PX} px), "
+            f"so {args.out} was not written; "
             "use distinct views of the board moved around the image, paired left/right in the same order"
         )
     write_opencv_yaml(result.calibration, args.out)

@@ -232,6 +232,12 @@ def _path_update(cost, cy, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jum
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _in_sweep_order(i: int, size: int, forward: bool) -> int:  # pragma: no cover - compiled
+    """The i-th row (or column) a sweep visits: i forward, size - 1 - i backward."""
+    return i if forward else size - 1 - i
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _row_path_step(
     cost, cy, img, y, x, step, k, back, dx, prev, prev_min, cur, cur_min, out, lut, p1
 ):  # pragma: no cover
@@ -358,19 +364,19 @@ def aggregate_sweep(
     for g0 in range(i0, i1, _ROW_GROUP):
         rows = min(_ROW_GROUP, i1 - g0)
         for r in range(rows):
-            y = g0 + r if forward else h - 1 - g0 - r
+            y = _in_sweep_order(g0 + r, h, forward)
             _census_cost_row(census_left, census_right, y, cost, r, reversed_right)
         # The group's paths along the row.
-        x0 = 0 if forward else w - 1
+        x0 = _in_sweep_order(0, w, forward)
         for r in range(rows):
-            y = g0 + r if forward else h - 1 - g0 - r
+            y = _in_sweep_order(g0 + r, h, forward)
             along_min[r] = _path_update(
                 cost, r, y, x0, start, 0, 0, even, r, 0, out, along_keep, zero, zero, p1
             )
         for j in range(1, w):
-            x = j if forward else w - 1 - j
+            x = _in_sweep_order(j, w, forward)
             for r in range(rows):
-                y = g0 + r if forward else h - 1 - g0 - r
+                y = _in_sweep_order(g0 + r, h, forward)
                 m = along_min[r]
                 jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
                 if j % 2:
@@ -383,9 +389,9 @@ def aggregate_sweep(
                     )
         # The paths from earlier rows, row by row.
         for r in range(rows):
-            y = g0 + r if forward else h - 1 - g0 - r
+            y = _in_sweep_order(g0 + r, h, forward)
             for j in range(w):
-                x = j if forward else w - 1 - j
+                x = _in_sweep_order(j, w, forward)
                 # Paths from one row back, then from two rows back (the 16-path knight
                 # moves): two loops, since one loop choosing its buffer per path does not
                 # vectorise.
