@@ -1,5 +1,7 @@
 """The project's own SGM engine: accuracy on known shifts, robustness to gain, bad input."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -220,3 +222,38 @@ def test_pipeline_config_passes_sgm_options():
     assert config.sgm == SGMConfig(paths=4)
     with pytest.raises(ConfigError, match="sgm"):
         PipelineConfig.from_dict({"sgm": {"paths": 5}})
+
+
+def test_engine_reuses_its_volume_across_frames_and_sizes(shifted):
+    """S is kept between calls; a call of another size or range must not see stale sums."""
+    engine = SGM()
+    small = RectifiedPair(
+        shifted.left[:40, :120].copy(), shifted.right[:40, :120].copy(), shifted.rectification
+    )
+    first = engine.compute(shifted, 32).disparity
+    for pair, n in ((small, 16), (shifted, 48), (shifted, 32)):
+        got = engine.compute(pair, n).disparity
+        assert np.array_equal(got, SGM().compute(pair, n).disparity, equal_nan=True)
+    assert np.array_equal(got, first, equal_nan=True)
+
+
+def test_noalias_flag_reaches_llvm():
+    """The engine's speed depends on Numba honouring ``noalias`` (see _allow_noalias_option);
+    a Numba upgrade that drops it gives the same disparities, 3x slower: fail loudly here."""
+    from numba import njit
+
+    from stereo_terrain.stereo.sgm import NOALIAS
+
+    assert NOALIAS
+
+    def add_into(a, b):
+        for i in range(a.size):
+            a[i] += b[i]
+
+    def data_pointer_is_noalias(**flags) -> bool:
+        f = njit(**flags)(add_into)
+        f(np.zeros(4), np.ones(4))
+        # Numba passes an array as its fields; the fifth (".4") is the data pointer.
+        return re.search(r"ptr noalias [^%,]*%arg\.a\.4", f.inspect_llvm(f.signatures[0])) is not None
+
+    assert data_pointer_is_noalias(noalias=True) and not data_pointer_is_noalias()
