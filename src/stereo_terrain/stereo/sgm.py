@@ -384,7 +384,8 @@ def aggregate_sweep(
     along_min = np.zeros(_ROW_GROUP, dtype=np.int16)
     # The state goes into arrays allocated here: the updates then vectorise (on the
     # caller's arrays, or on ``state[i].copy()``, LLVM gave up on one of them: 12x slower).
-    work = np.empty((3, w), dtype=np.int32)  # the selection's work rows
+    work = np.empty((4, w), dtype=np.int32)  # the selection's work rows
+    sub = np.empty(w, dtype=np.float32)
     nk = row_paths.shape[0]
     two_back = False  # any knight move (2, +-1): then three row buffers rotate, else two
     for k in range(nk):
@@ -453,52 +454,44 @@ def aggregate_sweep(
                 prev1, cur = cur, prev1
                 min1, cur_min = cur_min, min1
             if select:
-                _select_row(out, y, uniqueness, lr_max_diff, disp, conf, work[0], work[1], work[2])
+                _select_row(out, y, uniqueness, lr_max_diff, disp, conf, work, sub)
     return (prev1, prev2, cur, min1, min2, cur_min)
 
 
 @register_jitable
-def subpixel(total, y, x, arg):  # pragma: no cover - compiled
-    """The winner ``arg`` refined by the parabola through S at arg - 1, arg, arg + 1 (where
-    both neighbours exist); float64. Shared by the CPU and the CUDA selection."""
-    n = total.shape[2]
-    sub = float(arg)
-    if 0 < arg < n - 1 and arg + 1 <= x:
-        a = float(total[y, x, arg - 1])
-        b = float(total[y, x, arg])
-        c = float(total[y, x, arg + 1])
-        den = a - 2.0 * b + c
-        if den > 0:
-            sub = arg + 0.5 * (a - c) / den
-    return sub
+def parabola_peak(arg, a, b, c):  # pragma: no cover - compiled
+    """The winner ``arg`` refined by the parabola through its cost ``b`` and its
+    neighbours' ``a`` (arg - 1) and ``c`` (arg + 1); float64. Shared by the CPU and the
+    CUDA selection. Scalars, not the volume: a jitted call with an array argument counts
+    references, measured as a third of the selection's time."""
+    den = float(a) - 2.0 * float(b) + float(c)
+    if den > 0:
+        return arg + 0.5 * (float(a) - float(c)) / den
+    return float(arg)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _select_row(
-    total, y, uniqueness, lr_max_diff, disp, conf, best_d, right_cost, right_d
-):  # pragma: no cover
-    """:func:`select_disparity_rows` for row y (``best_d``, ``right_cost``, ``right_d``:
-    int32 (W,) work rows)."""
+def _select_row(total, y, uniqueness, lr_max_diff, disp, conf, work, sub):  # pragma: no cover
+    """:func:`select_disparity_rows` for row y. ``work``: int32 (4, W) and ``sub``:
+    float32 (W,) work rows.
+
+    Everything that reads S is done in one pass per pixel, while its costs are in L1:
+    read again later from the row (82 KB at 64 disparities, out of L1 by then), the three
+    costs of the sub-pixel parabola took as long as the rest of the selection.
+    """
     w = total.shape[1]
     n = total.shape[2]
     never = np.int16(32000)
+    key_row, second_row, right_cost, right_d = work[0], work[1], work[2], work[3]
     # A pixel with only a few candidate disparities (near the left border, where most of
     # the search range falls outside the right image) cannot pass a uniqueness test.
     min_x = max(4, n // 4)
-    right_cost[:] = 1 << 30
-    right_d[:] = -1
-    best_d[:] = -1
     for x in range(w):
-        disp[y, x] = np.nan
-        conf[y, x] = 0.0
-        if x < min_x:
-            continue
-        # One pass for the best cost and its first index: S and d packed in one int32
+        # The best cost and its first index in one pass: S and d packed in one int32
         # (S < 2**15, d < 2**12), whose minimum gives both.
         key = np.int32(1 << 30)
         for d in range(n):
             key = min(key, (np.int32(total[y, x, d]) << 12) | np.int32(d))
-        m = np.int16(key >> 12)
         arg = np.int16(key & 4095)
         # Index comparisons in int16 too, so that this loop vectorises 32 wide.
         second = never
@@ -506,21 +499,34 @@ def _select_row(
         for d in range(n):
             far = (np.int16(d) < lo) | (np.int16(d) > hi)
             second = min(second, total[y, x, d] if far else never)
-        if arg > x or second >= never:  # no match for the winner, or nothing else
-            continue
-        conf[y, x] = float(second - m) / max(float(second), 1.0)
-        if m * (1.0 + uniqueness) > second:
-            continue
-        xr = x - arg
-        if m < right_cost[xr]:
-            right_cost[xr] = m
-            right_d[xr] = arg
-        best_d[x] = arg
-        disp[y, x] = subpixel(total, y, x, arg)
-    for x in range(min_x, w):
-        arg = best_d[x]
-        if arg >= 0 and abs(right_d[x - arg] - arg) > lr_max_diff:
-            disp[y, x] = np.nan
+        key_row[x] = key
+        second_row[x] = second
+        sub[x] = arg
+        if 0 < arg < n - 1 and arg + 1 <= x:  # both neighbours exist
+            sub[x] = parabola_peak(arg, total[y, x, arg - 1], total[y, x, arg], total[y, x, arg + 1])
+    # Confidence and uniqueness, without branches; key_row becomes the winner or -1.
+    for x in range(w):
+        m = key_row[x] >> 12
+        arg = key_row[x] & 4095
+        second = second_row[x]
+        # Not the winner: no match for it (arg > x), nothing else, or too few candidates.
+        ok = (x >= min_x) & (arg <= x) & (second < never)
+        conf[y, x] = float(second - m) / max(float(second), 1.0) if ok else 0.0
+        key_row[x] = arg if ok & (m * (1.0 + uniqueness) <= second) else -1
+        second_row[x] = m
+        right_cost[x] = 1 << 30
+        right_d[x] = -1
+    # The right image's winners: each left winner (x, d) is a candidate for right pixel
+    # x - d, and the candidate of lowest cost wins there.
+    for x in range(w):
+        arg = key_row[x]
+        if arg >= 0 and second_row[x] < right_cost[x - arg]:
+            right_cost[x - arg] = second_row[x]
+            right_d[x - arg] = arg
+    for x in range(w):
+        arg = key_row[x]
+        ok = arg >= 0 and abs(right_d[x - arg] - arg) <= lr_max_diff
+        disp[y, x] = sub[x] if ok else np.nan
 
 
 @njit(cache=True, nogil=True)
@@ -545,9 +551,10 @@ def select_disparity_rows(
     volume along its diagonals.
     """
     w = total.shape[1]
-    work = np.empty((3, w), dtype=np.int32)
+    work = np.empty((4, w), dtype=np.int32)
+    sub = np.empty(w, dtype=np.float32)
     for y in range(y0, y1):
-        _select_row(total, y, uniqueness, lr_max_diff, disp, conf, work[0], work[1], work[2])
+        _select_row(total, y, uniqueness, lr_max_diff, disp, conf, work, sub)
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -619,7 +626,8 @@ class SGM:
         c = self.config
         h, w = left.shape
         pool = _sweep_pool()
-        cl, cr = census5x5(left), census5x5(right)
+        census = [pool.submit(census5x5, image) for image in (left, right)]
+        cl, cr = (job.result() for job in census)
         paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
         # One volume S and two sweeps, one per core, each with half of the paths, in two
         # phases: first the forward sweep fills the top half of S and the backward sweep

@@ -35,7 +35,7 @@ import numpy as np
 from numba import cuda, int16, int32
 
 from ..errors import ConfigError
-from .sgm import subpixel
+from .sgm import parabola_peak
 
 MAX_DISPARITIES = 256
 _SHARED = MAX_DISPARITIES  # shared-memory row of one aggregation block
@@ -142,7 +142,9 @@ def select_kernel(total, uniqueness, disp, conf, best, right):  # pragma: no cov
         return
     cuda.atomic.min(right, (y, x - arg), (m << 16) | arg)
     best[y, x] = arg
-    disp[y, x] = subpixel(total, y, x, arg)
+    disp[y, x] = arg
+    if 0 < arg < total.shape[2] - 1 and arg + 1 <= x:  # both neighbours exist
+        disp[y, x] = parabola_peak(arg, total[y, x, arg - 1], total[y, x, arg], total[y, x, arg + 1])
 
 
 @cuda.jit
