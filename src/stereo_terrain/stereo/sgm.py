@@ -21,13 +21,14 @@ Stages:
 How it is made fast on two cores (numbers in ``docs/benchmarks.md``):
 
 - Every path update is one loop over d in int16 that LLVM vectorises (32 disparities per
-  AVX-512 instruction); see :func:`_path_update` for what keeps it vectorisable.
+  AVX-512 instruction); see :func:`_path_update` for what keeps it vectorisable, and
+  :func:`_allow_noalias_option` for what keeps it free of per-pixel overlap checks.
 - Two raster sweeps, one per core: the forward sweep carries the path from the left and
   the paths from the rows above, the backward sweep the mirror images. Each computes the
-  matching costs of four rows at a time and, for those rows, first the paths along the
-  row (the four rows interleaved, so that one pixel's wait on its neighbour overlaps with
-  other rows' work), then the paths from earlier rows (no dependence between the pixels
-  of a row). The cost volume is never stored whole.
+  matching costs of four rows at a time and, for those rows, first the paths from
+  earlier rows (no dependence between the pixels of a row, visited left to right), then
+  the paths along the row (the four rows interleaved, so that one pixel's wait on its
+  neighbour overlaps with other rows' work). The cost volume is never stored whole.
 - One volume S for both sweeps, filled in two phases: the forward sweep writes the top
   half while the backward sweep writes the bottom half; then each goes on into the
   other half, adds its paths, and chooses the disparities of each row it finishes while
@@ -273,7 +274,7 @@ def _in_sweep_order(i: int, size: int, forward: bool) -> int:  # pragma: no cove
 
 @_njit_no_overlap
 def _row_path_row(
-    cost, cy, img, y, forward, k, back, dx, prev, prev_min, cur, cur_min, total, lut, p1
+    cost, cy, img, y, forward, k, back, dx, prev, prev_min, cur, cur_min, total, keep, lut, p1
 ):  # pragma: no cover
     """Path k over row y (``cost[cy]``), each pixel (y, x) from pixel (y - back * s,
     x - dx * s) of an earlier row, s = 1 forward and -1 backward: reads that row's L from
@@ -285,14 +286,15 @@ def _row_path_row(
     # Grey level of the previous pixel, clamped into the image (where a path starts, its
     # buffers hold zeros and P2 does not matter).
     yq = min(max(y - step * back, 0), h - 1)
-    for j in range(w):
-        x = _in_sweep_order(j, w, forward)
+    # The pixels of the row are independent: visited left to right in both sweeps
+    # (ascending addresses; the backward sweep was slower going right to left).
+    for x in range(w):
         xq = x - step * dx
         g = img[yq, min(max(xq, 0), w - 1)]
         pm = prev_min[k, xq + _PAD]
         jump = np.int16(pm + lut[abs(np.int32(img[y, x]) - np.int32(g))])
         cur_min[k, x + _PAD] = _path_update(
-            cost, cy, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, total, np.int16(1), pm, jump, p1
+            cost, cy, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, total, keep, pm, jump, p1
         )
 
 
@@ -358,10 +360,10 @@ def aggregate_sweep(
     (:func:`select_disparity_rows`, into ``disp`` and ``conf``), while it is in cache.
 
     The matching costs are computed here from the census images, ``_ROW_GROUP`` rows at a
-    time, and never stored whole. For each group of rows, first the paths along the row,
+    time, and never stored whole. For each group of rows, first row by row the paths from
+    earlier rows, whose pixels within a row are independent, then the paths along the row,
     the rows interleaved (each pixel waits on its neighbour's result; interleaving
-    independent rows keeps the CPU busy meanwhile), then row by row the paths from earlier
-    rows, whose pixels within a row are independent. The group's rows of ``out`` stay in
+    independent rows keeps the CPU busy meanwhile). The group's rows of ``out`` stay in
     cache between the two. The row buffers of the paths from earlier rows are separate
     arrays rotated every row (reads from the previous rows and writes to this one never
     alias).
@@ -371,7 +373,7 @@ def aggregate_sweep(
     lut = p2_lut
     p1 = np.int16(p1)  # type: ignore[assignment]
     zero = np.int16(0)
-    along_keep = np.int16(1 if add else 0)
+    one = np.int16(1)
     step = 1 if forward else -1
     cost = np.empty((_ROW_GROUP, w, n), dtype=np.uint8)
     reversed_right = np.empty(w, dtype=np.uint32)
@@ -412,40 +414,21 @@ def aggregate_sweep(
         for r in range(rows):
             y = _in_sweep_order(g0 + r, h, forward)
             _census_cost_row(census_left, census_right, y, cost, r, reversed_right)
-        # The group's paths along the row.
-        x0 = _in_sweep_order(0, w, forward)
-        for r in range(rows):
-            y = _in_sweep_order(g0 + r, h, forward)
-            along_min[r] = _path_update(
-                cost, r, y, x0, start, 0, 0, even, r, 0, out, along_keep, zero, zero, p1
-            )
-        for j in range(1, w):
-            x = _in_sweep_order(j, w, forward)
-            for r in range(rows):
-                y = _in_sweep_order(g0 + r, h, forward)
-                m = along_min[r]
-                jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
-                if j % 2:
-                    along_min[r] = _path_update(
-                        cost, r, y, x, even, r, 0, odd, r, 0, out, along_keep, m, jump, p1
-                    )
-                else:
-                    along_min[r] = _path_update(
-                        cost, r, y, x, odd, r, 0, even, r, 0, out, along_keep, m, jump, p1
-                    )
-        # The paths from earlier rows, row by row, path by path.
+        # The paths from earlier rows, row by row, path by path (the first one of the
+        # first phase writes S, the others add to it).
         for r in range(rows):
             y = _in_sweep_order(g0 + r, h, forward)
             for k in range(nk):
+                keep = np.int16(1) if add or k > 0 else zero
                 if row_paths[k, 0] == 1:
                     _row_path_row(
                         cost, r, img, y, forward, k, 1, row_paths[k, 1], prev1, min1, cur, cur_min, out,
-                        lut, p1,
+                        keep, lut, p1,
                     )  # fmt: skip
                 else:
                     _row_path_row(
                         cost, r, img, y, forward, k, 2, row_paths[k, 1], prev2, min2, cur, cur_min, out,
-                        lut, p1,
+                        keep, lut, p1,
                     )  # fmt: skip
             if two_back:
                 prev2, prev1, cur = prev1, cur, prev2
@@ -453,7 +436,26 @@ def aggregate_sweep(
             else:
                 prev1, cur = cur, prev1
                 min1, cur_min = cur_min, min1
-            if select:
+        # The group's paths along the row, last: the backward sweep visits the row from
+        # right to left, and its S rows are then already in cache (written first in that
+        # order, they took 40% longer).
+        x0 = _in_sweep_order(0, w, forward)
+        for r in range(rows):
+            y = _in_sweep_order(g0 + r, h, forward)
+            along_min[r] = _path_update(cost, r, y, x0, start, 0, 0, even, r, 0, out, one, zero, zero, p1)
+        for j in range(1, w):
+            x = _in_sweep_order(j, w, forward)
+            for r in range(rows):
+                y = _in_sweep_order(g0 + r, h, forward)
+                m = along_min[r]
+                jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
+                if j % 2:
+                    along_min[r] = _path_update(cost, r, y, x, even, r, 0, odd, r, 0, out, one, m, jump, p1)
+                else:
+                    along_min[r] = _path_update(cost, r, y, x, odd, r, 0, even, r, 0, out, one, m, jump, p1)
+        if select:
+            for r in range(rows):
+                y = _in_sweep_order(g0 + r, h, forward)
                 _select_row(out, y, uniqueness, lr_max_diff, disp, conf, work, sub)
     return (prev1, prev2, cur, min1, min2, cur_min)
 
