@@ -10,7 +10,7 @@ Memory is measured, not estimated: each method runs once in a fresh child proces
 warm-up on a small image, while a thread samples the resident set every 0.5 ms; the peak
 growth over the resident set before the call is reported.
 
-    .venv/bin/python benchmarks/bench_sgm.py [--repeats 7]
+    .venv/bin/python benchmarks/bench_sgm.py [--repeats 15]
 """
 
 from __future__ import annotations
@@ -85,7 +85,7 @@ def peak_memory_mb(backend: str, options: dict, n: int) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--repeats", type=int, default=15)
     args = ap.parse_args()
     scene = render_scene(default_scene_spec())
     pair = rectify(scene.left, scene.right, compute_rectification(scene.calibration))
@@ -130,6 +130,16 @@ def main() -> None:
             f"takes {ours / three:.2f}x the wall time of 3-way (target <= 1.5), "
             f"{c_ours / c_three:.2f}x its CPU time"
         )
+        # The same ratios round by round (each round runs the methods back to back, so
+        # a burst of load from other users of the machine tends to hit both): their
+        # median and quartiles say how much the ratios above can be trusted.
+        for label, num, den in (
+            ("HH / sgm", "opencv HH (8 paths)", "sgm (8 paths)"),
+            ("sgm / 3-way", "sgm (8 paths)", "opencv 3-way"),
+        ):
+            ratios = [a / b for a, b in zip(wall[(num, n)], wall[(den, n)], strict=True)]
+            q1, q2, q3 = statistics.quantiles(ratios, n=4)
+            print(f"  per round, {label}: median {q2:.2f}, quartiles {q1:.2f}-{q3:.2f}")
 
 
 if __name__ == "__main__":

@@ -559,6 +559,30 @@ def select_disparity_rows(
         _select_row(total, y, uniqueness, lr_max_diff, disp, conf, work, sub)
 
 
+_INVALID_FIXED = -16  # "no disparity" in OpenCV's 4-bit fixed point
+
+
+@njit(cache=True, nogil=True)
+def _to_fixed_point(disp: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """Disparities in OpenCV's fixed point (int16, 1/16 px) for ``filterSpeckles``, NaN
+    as ``_INVALID_FIXED`` (one compiled pass; NumPy's where/astype took 0.6 ms)."""
+    fixed = np.empty(disp.shape, dtype=np.int16)
+    for i in range(disp.shape[0]):
+        for j in range(disp.shape[1]):
+            v = disp[i, j]
+            fixed[i, j] = np.int16(v * 16.0) if np.isfinite(v) else _INVALID_FIXED
+    return fixed
+
+
+@njit(cache=True, nogil=True)
+def _invalidate_where(disp: np.ndarray, fixed: np.ndarray) -> None:  # pragma: no cover - compiled
+    """NaN wherever the speckle filter marked ``fixed`` invalid."""
+    for i in range(disp.shape[0]):
+        for j in range(disp.shape[1]):
+            if fixed[i, j] == _INVALID_FIXED:
+                disp[i, j] = np.nan
+
+
 _POOL: ThreadPoolExecutor | None = None
 
 
@@ -605,9 +629,9 @@ class SGM:
             with self._volume_lock:  # one call at a time per engine: they share S
                 disp, conf = self._compute_cpu(left, right, n, lut)
         if c.speckle_window_px > 0:
-            fixed = np.where(np.isfinite(disp), disp * 16.0, -16.0).astype(np.int16)
-            cv2.filterSpeckles(fixed, -16, c.speckle_window_px, c.speckle_range_px * 16)
-            disp[fixed == -16] = np.nan
+            fixed = _to_fixed_point(disp)
+            cv2.filterSpeckles(fixed, _INVALID_FIXED, c.speckle_window_px, c.speckle_range_px * 16)
+            _invalidate_where(disp, fixed)
         return DisparityMap(disp, n, pair.rectification, conf, self.name)
 
     def _use_cuda(self) -> bool:
