@@ -1,10 +1,18 @@
 """Speed and memory of the own SGM engine against OpenCV StereoSGBM, side by side.
 
-640x480 rendered pair, 64 and 128 disparities. Runs are interleaved (each round calls
-every method once, 0.2 s apart so that no method's idle threads are still spinning when
-the next one starts) and the median is reported, as wall time and as CPU time of the whole
-process (both threads of ours, all of OpenCV's). On a shared machine the wall time of a
-two-thread engine suffers more from other load than a one-thread one, so both are shown.
+640x480 rendered pair, 64 and 128 disparities, in two regimes:
+
+- **Single calls**: interleaved rounds, each calling every method once, 0.2 s apart (each
+  call starts on an idle machine). The median is reported, as wall time and as CPU time
+  of the whole process (both threads of ours, all of OpenCV's), with the per-round ratios'
+  quartiles.
+- **At 30 frames per second**: each method gets a run of calls started 1/30 s apart, as
+  the live loop calls it (a method slower than that runs back to back); rounds rotate
+  the methods. The median per call is reported.
+
+On this shared virtual machine a call after an idle spell is slower and more variable
+than one in a steady stream (the second core has to be woken), and more so for two
+threads than for one, so both regimes are shown.
 
 Memory is measured, not estimated: each method runs once in a fresh child process after a
 warm-up on a small image, while a thread samples the resident set every 0.5 ms; the peak
@@ -83,9 +91,23 @@ def peak_memory_mb(backend: str, options: dict, n: int) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
+def paced_calls_ms(backend, pair, n: int, calls: int, fps: float = 30.0) -> list[float]:
+    """Wall times (ms) of ``calls`` calls started 1/fps apart (back to back when slower),
+    the first (after an idle spell) left out."""
+    times = []
+    start = time.perf_counter()
+    for i in range(calls):
+        time.sleep(max(0.0, start + i / fps - time.perf_counter()))
+        t0 = time.perf_counter()
+        backend.compute(pair, n)
+        times.append((time.perf_counter() - t0) * 1000)
+    return times[1:]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=15)
+    ap.add_argument("--paced-calls", type=int, default=16, help="calls per run at 30 fps (3 runs)")
     args = ap.parse_args()
     scene = render_scene(default_scene_spec())
     pair = rectify(scene.left, scene.right, compute_rectification(scene.calibration))
@@ -98,29 +120,36 @@ def main() -> None:
             b.compute(pair, n)  # warm-up (compilation, buffers)
         for _ in range(args.repeats):
             for name, b in backends.items():
-                # Let the previous method's worker threads go idle first: OpenCV's thread
-                # pool spins for a while after a parallel call and would steal a core
-                # from whatever runs next.
+                # Every call starts on an idle machine (no method's threads still busy).
                 time.sleep(0.2)
                 t0, c0 = time.perf_counter(), time.process_time()
                 b.compute(pair, n)
                 wall.setdefault((name, n), []).append((time.perf_counter() - t0) * 1000)
                 cpu.setdefault((name, n), []).append((time.process_time() - c0) * 1000)
+    paced: dict[tuple[str, int], list[float]] = {}
+    for n in (64, 128):
+        for _ in range(3):
+            for name, b in backends.items():
+                time.sleep(0.2)
+                paced.setdefault((name, n), []).extend(paced_calls_ms(b, pair, n, args.paced_calls))
     med = {k: statistics.median(v) for k, v in wall.items()}
+    med_paced = {k: statistics.median(v) for k, v in paced.items()}
     med_cpu = {k: statistics.median(v) for k, v in cpu.items()}
-    print(f"{w}x{h}, median of {args.repeats} interleaved rounds, this machine's 2 cores")
     print(
-        "| method | 64 disp wall ms | 64 disp CPU ms | 128 disp wall ms | 128 disp CPU ms "
-        "| peak memory 64 disp MB | peak memory 128 disp MB |"
+        f"{w}x{h}, this machine's 2 cores; single calls: median of {args.repeats} interleaved rounds; "
+        f"30 fps: median of 3 runs of {args.paced_calls - 1} calls"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "| method | 64 disp wall ms | 64 disp CPU ms | 64 disp at 30 fps ms | 128 disp wall ms "
+        "| 128 disp CPU ms | 128 disp at 30 fps ms | peak memory 64 disp MB | peak memory 128 disp MB |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for name, (b, o) in METHODS.items():
         mem = [peak_memory_mb(b, o, n) for n in (64, 128)]
-        print(
-            f"| {name} | {med[(name, 64)]:.0f} | {med_cpu[(name, 64)]:.0f} | {med[(name, 128)]:.0f} | "
-            f"{med_cpu[(name, 128)]:.0f} | {mem[0]:.0f} | {mem[1]:.0f} |",
-            flush=True,
-        )
+        cells = [
+            f"{med[(name, n)]:.0f} | {med_cpu[(name, n)]:.0f} | {med_paced[(name, n)]:.0f}" for n in (64, 128)
+        ]
+        print(f"| {name} | {cells[0]} | {cells[1]} | {mem[0]:.0f} | {mem[1]:.0f} |", flush=True)
     print()
     for n in (64, 128):
         ours, hh, three = (med[(m, n)] for m in ("sgm (8 paths)", "opencv HH (8 paths)", "opencv 3-way"))
@@ -140,6 +169,13 @@ def main() -> None:
             ratios = [a / b for a, b in zip(wall[(num, n)], wall[(den, n)], strict=True)]
             q1, q2, q3 = statistics.quantiles(ratios, n=4)
             print(f"  per round, {label}: median {q2:.2f}, quartiles {q1:.2f}-{q3:.2f}")
+        ours, hh, three = (
+            med_paced[(m, n)] for m in ("sgm (8 paths)", "opencv HH (8 paths)", "opencv 3-way")
+        )
+        print(
+            f"  at 30 fps: sgm 8 paths is {hh / ours:.2f}x as fast as HH, "
+            f"takes {ours / three:.2f}x the wall time of 3-way"
+        )
 
 
 if __name__ == "__main__":
