@@ -114,3 +114,45 @@ def test_simulate_writes_summary_and_plot(tmp_path, capsys):
     assert (out / "approach.png").stat().st_size > 20_000
     assert (out / "seq" / "pairs.csv").read_text().count("\n") == 6
     assert "first riser edge clearance, blind swing" in text
+
+
+def _write_video(path, frames):
+    import cv2
+
+    h, w = frames[0].shape[:2] if frames else (240, 320)
+    out = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (w, h))
+    if not out.isOpened():
+        pytest.skip("OpenCV has no MJPG writer here")
+    for f in frames:
+        out.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
+    out.release()
+
+
+def test_record_of_unusable_sources_is_an_error_and_leaves_nothing(tmp_path, capsys):
+    import numpy as np
+
+    img = np.random.default_rng(0).integers(0, 255, (240, 320), dtype=np.uint8)
+    _write_video(tmp_path / "l.avi", [img] * 3)
+    _write_video(tmp_path / "small.avi", [img[:120, :160].copy()] * 3)
+    code, out, err = _run(
+        [
+            "record",
+            "--left",
+            tmp_path / "l.avi",
+            "--right",
+            tmp_path / "small.avi",
+            "--out",
+            tmp_path / "rec",
+        ],
+        capsys,
+    )
+    assert code == 2 and err.count("\n") == 1, err
+    assert "recorded no pairs" in err and "left image 320x240 and right image 160x120 differ in size" in err
+    assert not (tmp_path / "rec").exists()  # nothing left that a second try would refuse
+    # Same sizes: recorded.
+    _write_video(tmp_path / "r.avi", [img] * 3)
+    code, out, err = _run(
+        ["record", "--left", tmp_path / "l.avi", "--right", tmp_path / "r.avi", "--out", tmp_path / "rec"],
+        capsys,
+    )
+    assert code == 0 and "recorded 3 pairs" in out

@@ -581,6 +581,14 @@ def cmd_record(args: argparse.Namespace) -> int:
     finally:
         capture.close()
     st = capture.stats
+    if n == 0:
+        why = (
+            f"every pair was dropped ({st.unreadable} unreadable, {st.skew_dropped} for skew; the first: "
+            f"{st.first_problem}); check the sources (same size, --max-skew-ms)"
+            if st.first_problem
+            else "the sources gave no frame (empty or unreadable videos, or cameras that deliver nothing)"
+        )
+        raise InputError(f"recorded no pairs in {args.out}: {why}")
     print(
         f"recorded {n} pairs in {args.out}; dropped for skew {st.skew_dropped}, unreadable {st.unreadable}, "
         f"superseded {st.skipped}"

@@ -114,13 +114,14 @@ class PairSource(Protocol):
 
 @dataclass
 class CaptureStats:
-    """Counts kept by :class:`Capture`."""
+    """Counts kept by :class:`Capture`, and why the first pair was dropped (if one was)."""
 
     pairs: int = 0
     skew_dropped: int = 0
     unreadable: int = 0
     skipped: int = 0
     empty_polls: int = 0
+    first_problem: str = ""
 
 
 class Capture:
@@ -143,17 +144,25 @@ class Capture:
     def read(self) -> CaptureEvent:
         ev = self.source.read()
         self.stats.skipped += ev.skipped
-        if ev.status == FRAME and ev.frame is not None:
-            if ev.frame.skew_s > self.max_skew_s:
+        frame = ev.frame
+        if ev.status == FRAME and frame is not None:
+            left, right = frame.left.shape, frame.right.shape
+            if left[:2] != right[:2]:
+                ev = CaptureEvent(
+                    UNREADABLE, None, ev.skipped,
+                    f"left image {left[1]}x{left[0]} and right image {right[1]}x{right[0]} differ in size",
+                )  # fmt: skip
+            elif frame.skew_s > self.max_skew_s:
+                ev = CaptureEvent(SKEW, frame, ev.skipped, f"left/right skew {frame.skew_s * 1e3:.1f} ms")
                 self.stats.skew_dropped += 1
-                return CaptureEvent(
-                    SKEW, ev.frame, ev.skipped, f"left/right skew {ev.frame.skew_s * 1e3:.1f} ms"
-                )
-            self.stats.pairs += 1
-        elif ev.status == UNREADABLE:
+            else:
+                self.stats.pairs += 1
+        if ev.status == UNREADABLE:
             self.stats.unreadable += 1
         elif ev.status == NONE:
             self.stats.empty_polls += 1
+        if ev.status in (UNREADABLE, SKEW) and not self.stats.first_problem:
+            self.stats.first_problem = ev.detail
         return ev
 
     def close(self) -> None:
@@ -537,11 +546,14 @@ def open_devices(left: str, right: str, *, clock: Clock = time.monotonic) -> Pai
 class PairWriter:
     """Writes pairs into a recorded-pairs folder (``pairs.csv`` + PNGs); a context manager.
 
-    The pose columns are written when the first frame has odometry and attitude.
+    The pose columns are written when the first frame has odometry and attitude. A writer
+    closed with no pair written leaves nothing behind (no empty recording that a second
+    try would then refuse).
     """
 
     def __init__(self, out_dir: str | Path) -> None:
         self.out = Path(out_dir)
+        self._created = not self.out.exists()
         try:
             self.out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -574,6 +586,10 @@ class PairWriter:
 
     def close(self) -> None:
         self._fh.close()
+        if self.count == 0:
+            (self.out / PAIRS_FILE).unlink(missing_ok=True)
+            if self._created and not any(self.out.iterdir()):
+                self.out.rmdir()
 
     def __enter__(self) -> PairWriter:
         return self
