@@ -60,6 +60,8 @@ def test_replay_status_line_goes_to_stderr(recording, capsys):
         (["record", "--left", "{tmp}/l.avi", "--right", "{tmp}/r.avi", "--out", "{rec}"], "video not found"),
         (["simulate", "--out", "{tmp}/sim", "--start", "0.3"], "must start further than"),
         (["simulate", "--out", "{tmp}/sim", "--fps", "1e9"], "lower --fps"),
+        (["simulate", "--out", "{tmp}/sim", "--rise", "5"], "--rise must be <= 1 m"),
+        (["simulate", "--out", "{tmp}/sim", "--fps", "0"], "--fps must be > 0"),
         (["record", "--left", "98", "--right", "99", "--out", "{tmp}/r"], "cannot open left camera/video 98"),
         (["replay", "{rec}", "--max-skew-ms", "-3"], "expected a finite number >= 0"),
     ],

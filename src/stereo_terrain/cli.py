@@ -681,17 +681,41 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return _run_loop(args, source, pipeline)
 
 
-def cmd_simulate(args: argparse.Namespace) -> int:
-    from .runtime.simulate import ApproachConfig, simulate_approach
+# The simulate options behind the configuration fields that check them, so that an error
+# names the option the user typed.
+_SIMULATE_OPTIONS = {
+    "ApproachConfig.rise_m": "--rise",
+    "StairSpec.rise_m": "--rise",
+    "ApproachConfig.run_m": "--run",
+    "StairSpec.run_m": "--run",
+    "ApproachConfig.start_distance_m": "--start",
+    "ApproachConfig.speed_mps": "--speed",
+    "ApproachConfig.fps": "--fps",
+}
 
+
+def _in_option_names(exc: InputError) -> InputError:
+    message = str(exc)
+    for field_name, option in _SIMULATE_OPTIONS.items():
+        message = message.replace(field_name, option)
+    return type(exc)(message)
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from .runtime.simulate import ApproachConfig, approach_spec, simulate_approach
+
+    try:
+        cfg = ApproachConfig(
+            rise_m=args.rise, run_m=args.run_m, start_distance_m=args.start, speed_mps=args.speed,
+            fps=args.fps, image_size=args.size,
+        )  # fmt: skip
+        approach_spec(cfg, 0.0, 0.0)  # the stairs' own checks, before any work
+    except InputError as exc:
+        raise _in_option_names(exc) from None
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"cannot create output folder {args.out}: {exc.strerror}") from None
-    cfg = ApproachConfig(
-        rise_m=args.rise, run_m=args.run_m, start_distance_m=args.start, speed_mps=args.speed, fps=args.fps,
-        image_size=args.size,
-    )  # fmt: skip
     publish = None
     if args.lcm_url:
         from .runtime.lcm_io import LcmPublisher
