@@ -7,8 +7,8 @@
   of the whole process (both threads of ours, all of OpenCV's), with the per-round ratios'
   quartiles.
 - **At 30 frames per second**: each method gets a run of calls started 1/30 s apart, as
-  the live loop calls it (a method slower than that runs back to back); rounds rotate
-  the methods. The median per call is reported.
+  the live loop calls it (a method slower than that runs back to back); the methods'
+  runs are interleaved. The median per call is reported.
 
 On this shared virtual machine a call after an idle spell is slower and more variable
 than one in a steady stream (the second core has to be woken), and more so for two

@@ -206,7 +206,7 @@ def test_tiny_images_match_the_two_phase_split(height):
     engine = SGM(SGMConfig(uniqueness_ratio_pct=0))
     c = engine.config
     lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
-    got, _ = engine._compute_cpu(left, right, 16, lut)
+    got, _ = engine._compute_cpu(left, left, right, 16, lut)
     cost = census_cost(census5x5(left), census5x5(right), 16).astype(int)
     total = sum(
         _paper_recurrence(cost, left, dy, dx, c.p1, c.p2, c.p2_gradient_scale) for dy, dx in DIRECTIONS
@@ -254,6 +254,19 @@ def test_noalias_flag_reaches_llvm():
         f = njit(**flags)(add_into)
         f(np.zeros(4), np.ones(4))
         # Numba passes an array as its fields; the fifth (".4") is the data pointer.
-        return re.search(r"ptr noalias [^%,]*%arg\.a\.4", f.inspect_llvm(f.signatures[0])) is not None
+        # ("ptr noalias ..." with LLVM's opaque pointers, "double* noalias ..." before them)
+        return re.search(r"noalias [^%,]*%arg\.a\.4", f.inspect_llvm(f.signatures[0])) is not None
 
     assert data_pointer_is_noalias(noalias=True) and not data_pointer_is_noalias()
+
+
+def test_census_blur_option(shifted):
+    """The blur changes what the census sees (not the known shift), and bad values are refused."""
+    sharp = SGM().compute(shifted, 32).disparity
+    blurred = SGM(SGMConfig(census_blur_sigma_px=1.0)).compute(shifted, 32).disparity
+    assert not np.array_equal(sharp, blurred, equal_nan=True)
+    inner = blurred[40:-40, 80:-40]
+    assert np.nanmedian(np.abs(inner - 12.5)) < SUBPIXEL_TOL_PX and np.isfinite(inner).mean() > 0.9
+    for bad in (-1.0, 11.0):
+        with pytest.raises(ConfigError, match="census_blur_sigma_px"):
+            SGMConfig(census_blur_sigma_px=bad)

@@ -32,7 +32,7 @@ _SIMULATED = textwrap.dedent(
     engine = SGM()
     c = engine.config
     lut = p2_table(c.p1, c.p2, c.p2_gradient_scale)
-    want = engine._compute_cpu(left, right, 16, lut)
+    want = engine._compute_cpu(left, left, right, 16, lut)
     got = disparity_cuda(census5x5(left), census5x5(right), left, 16, 8, lut, c.p1,
                          c.uniqueness_ratio_pct / 100, c.lr_max_diff_px)
     assert np.isfinite(want[0]).sum() >= 20, "too few matches to compare"

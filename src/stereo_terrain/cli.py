@@ -586,7 +586,8 @@ def cmd_record(args: argparse.Namespace) -> int:
             f"every pair was dropped ({st.unreadable} unreadable, {st.skew_dropped} for skew; the first: "
             f"{st.first_problem}); check the sources (same size, --max-skew-ms)"
             if st.first_problem
-            else "the sources gave no frame (empty or unreadable videos, or cameras that deliver nothing)"
+            else "no pair arrived before the recording stopped (empty or unreadable videos, cameras that "
+            "deliver nothing, or a stop before the first frame)"
         )
         raise InputError(f"recorded no pairs in {args.out}: {why}")
     print(

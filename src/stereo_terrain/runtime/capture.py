@@ -146,11 +146,12 @@ class Capture:
         self.stats.skipped += ev.skipped
         frame = ev.frame
         if ev.status == FRAME and frame is not None:
-            left, right = frame.left.shape, frame.right.shape
-            if left[:2] != right[:2]:
+            left, right = np.shape(frame.left), np.shape(frame.right)
+            if len(left) >= 2 and len(right) >= 2 and left[:2] != right[:2]:
                 ev = CaptureEvent(
                     UNREADABLE, None, ev.skipped,
-                    f"left image {left[1]}x{left[0]} and right image {right[1]}x{right[0]} differ in size",
+                    f"pair {frame.index}: left image {left[1]}x{left[0]} and right image "
+                    f"{right[1]}x{right[0]} differ in size",
                 )  # fmt: skip
             elif frame.skew_s > self.max_skew_s:
                 ev = CaptureEvent(SKEW, frame, ev.skipped, f"left/right skew {frame.skew_s * 1e3:.1f} ms")
@@ -585,6 +586,8 @@ class PairWriter:
         self.count += 1
 
     def close(self) -> None:
+        if self._fh.closed:
+            return
         self._fh.close()
         if self.count == 0:
             (self.out / PAIRS_FILE).unlink(missing_ok=True)

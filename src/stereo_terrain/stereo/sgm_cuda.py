@@ -143,7 +143,7 @@ def select_kernel(total, uniqueness, disp, conf, best, right):  # pragma: no cov
     cuda.atomic.min(right, (y, x - arg), (m << 16) | arg)
     best[y, x] = arg
     disp[y, x] = arg
-    if 0 < arg < total.shape[2] - 1 and arg + 1 <= x:  # both neighbours exist
+    if 0 < arg < n - 1 and arg + 1 <= x:  # both neighbours exist
         disp[y, x] = parabola_peak(arg, total[y, x, arg - 1], total[y, x, arg], total[y, x, arg + 1])
 
 
