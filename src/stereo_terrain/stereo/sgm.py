@@ -422,7 +422,8 @@ def aggregate_sweep(
     mirrors them all. ``p2_lut`` is :func:`p2_table`. The sum of the paths is written to
     ``out`` (int16, (H, W, D)), or added to what it holds with ``add``. ``state`` is
     :func:`sweep_state` or what the previous call over the rows before ``i0`` returned;
-    the state after row ``i1 - 1`` is returned. With ``select``, each row of ``out`` is
+    its arrays serve as the row buffers (they are overwritten), and the state after row
+    ``i1 - 1`` is returned. With ``select``, each row of ``out`` is
     final once this sweep has added to it, and its disparities are chosen there and then
     (:func:`select_disparity_rows`, into ``disp`` and ``conf``), while it is in cache.
 
@@ -451,8 +452,6 @@ def aggregate_sweep(
     start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
     start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
     along_min = np.zeros(_ROW_GROUP, dtype=np.int16)
-    # The state goes into arrays allocated here: the updates then vectorise (on the
-    # caller's arrays, or on ``state[i].copy()``, LLVM gave up on one of them: 12x slower).
     work = np.empty((4, w), dtype=np.int32)  # the selection's work rows
     sub = np.empty(w, dtype=np.float32)
     nk = row_paths.shape[0]
@@ -461,23 +460,7 @@ def aggregate_sweep(
         two_back = two_back or row_paths[k, 0] == 2
     # The first three paths from the row before go through one loop (8 and 16 paths).
     three_first = nk >= 3 and row_paths[0, 0] == 1 and row_paths[1, 0] == 1 and row_paths[2, 0] == 1
-    rows_shape, mins_shape = (nk, w + 2 * _PAD, n + 2), (nk, w + 2 * _PAD)
-    prev1, prev2, cur = (
-        np.empty(rows_shape, np.int16),
-        np.empty(rows_shape, np.int16),
-        np.empty(rows_shape, np.int16),
-    )
-    min1, min2, cur_min = (
-        np.empty(mins_shape, np.int16),
-        np.empty(mins_shape, np.int16),
-        np.empty(mins_shape, np.int16),
-    )
-    prev1[:] = state[0]
-    prev2[:] = state[1]
-    cur[:] = state[2]
-    min1[:] = state[3]
-    min2[:] = state[4]
-    cur_min[:] = state[5]
+    prev1, prev2, cur, min1, min2, cur_min = state
     for g0 in range(i0, i1, _ROW_GROUP):
         rows = min(_ROW_GROUP, i1 - g0)
         for r in range(rows):
