@@ -100,15 +100,16 @@ def stair_faces(sigma: float, count: int) -> None:
     print()
 
 
-def pipeline(sigma: float) -> None:
+def pipeline(sigma: float, sizes: tuple[int, int, int]) -> None:
     def specs(seed: int, count: int, **kw) -> list:
         rng = np.random.default_rng(seed)
         return [random_scene_spec(rng, **kw) for _ in range(count)]
 
+    weak, textured, small = sizes
     sets = {
-        "weakly textured": specs(21, 24, weak_texture=True),
-        "textured": specs(22, 24, weak_texture=False),
-        "320x240 textured": specs(23, 16, image_size=(320, 240), weak_texture=False),
+        "weakly textured": specs(21, weak, weak_texture=True),
+        "textured": specs(22, textured, weak_texture=False),
+        "320x240 textured": specs(23, small, image_size=(320, 240), weak_texture=False),
     }
     configs = {
         "opencv": PipelineConfig(),
@@ -140,10 +141,16 @@ def main() -> None:
     ap.add_argument("--sigma", type=float, default=1.0)
     ap.add_argument("--middlebury", type=Path, default=DEFAULT_MIDDLEBURY)
     ap.add_argument("--faces", type=int, default=14, help="weakly textured staircases for the face table")
+    ap.add_argument(
+        "--scenes", type=int, nargs=3, default=(24, 24, 16), metavar=("WEAK", "TEXTURED", "SMALL"),
+        help="rendered scenes per pipeline set (a scene more or less is 2-6 points on these sizes)",
+    )  # fmt: skip
+    ap.add_argument("--pipeline-only", action="store_true")
     args = ap.parse_args()
-    middlebury(args.middlebury, args.sigma)
-    stair_faces(args.sigma, args.faces)
-    pipeline(args.sigma)
+    if not args.pipeline_only:
+        middlebury(args.middlebury, args.sigma)
+        stair_faces(args.sigma, args.faces)
+    pipeline(args.sigma, tuple(args.scenes))
 
 
 if __name__ == "__main__":
