@@ -86,7 +86,9 @@ def peak_memory_mb(backend: str, options: dict, n: int) -> float:
         capture_output=True,
         text=True,
         check=True,
-        env=dict(os.environ),
+        # Large blocks straight from the system and back: otherwise a buffer can land in
+        # heap memory the scene's rendering left resident, and no growth shows.
+        env=dict(os.environ, MALLOC_MMAP_THRESHOLD_="131072"),
     )
     return float(out.stdout.strip().splitlines()[-1])
 

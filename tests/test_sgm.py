@@ -270,3 +270,26 @@ def test_census_blur_option(shifted):
     for bad in (-1.0, 11.0):
         with pytest.raises(ConfigError, match="census_blur_sigma_px"):
             SGMConfig(census_blur_sigma_px=bad)
+
+
+def test_sweep_threads_keep_to_their_own_cpus():
+    """Each of the two sweep threads keeps to its own half of the CPUs (where there are two)."""
+    import os
+
+    from stereo_terrain.stereo.sgm import _sweep_pool, cpu_halves
+
+    halves = cpu_halves()
+    if not halves:
+        pytest.skip("fewer than two CPUs, or no CPU affinity on this system")
+    assert not (halves[0] & halves[1]) and halves[0] | halves[1] == os.sched_getaffinity(0)
+    pool = _sweep_pool()
+    import threading
+
+    barrier = threading.Barrier(2)  # both threads busy at once: one job each
+
+    def where() -> frozenset[int]:
+        barrier.wait(timeout=10)
+        return frozenset(os.sched_getaffinity(0))
+
+    seen = {job.result() for job in [pool.submit(where) for _ in range(2)]}
+    assert seen == {frozenset(h) for h in halves}
