@@ -244,13 +244,21 @@ def read_image(path: str | Path) -> np.ndarray:
     return to_grey(img, name=str(path))
 
 
-def check_pair(left: np.ndarray, right: np.ndarray, calib: StereoCalibration) -> None:
-    """Raise :class:`InputError` unless both images match each other and the calibration."""
-    if left.shape != right.shape:
+def check_same_size(left: np.ndarray, right: np.ndarray) -> None:
+    """Raise :class:`InputError` unless the two images have the same width and height (what
+    has fewer than two dimensions is left to the checks that read the images)."""
+    ls, rs = np.shape(left), np.shape(right)
+    if len(ls) >= 2 and len(rs) >= 2 and ls[:2] != rs[:2]:
         raise InputError(
-            f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} vs "
-            f"{right.shape[1]}x{right.shape[0]}; give a pair from the same rig"
+            f"left image {ls[1]}x{ls[0]} and right image {rs[1]}x{rs[0]} differ in size; "
+            "give a pair from the same rig"
         )
+
+
+def check_pair(left: np.ndarray, right: np.ndarray, calib: StereoCalibration) -> None:
+    """Raise :class:`InputError` unless both (grey) images match each other and the
+    calibration."""
+    check_same_size(left, right)
     h, w = left.shape[:2]
     if (w, h) != calib.image_size:
         raise InputError(

@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from ..errors import ConfigError, InputError
+from ..rectify import check_same_size
 from ..swing import Odometry
 
 log = logging.getLogger(__name__)
@@ -146,18 +147,16 @@ class Capture:
         self.stats.skipped += ev.skipped
         frame = ev.frame
         if ev.status == FRAME and frame is not None:
-            left, right = np.shape(frame.left), np.shape(frame.right)
-            if len(left) >= 2 and len(right) >= 2 and left[:2] != right[:2]:
-                ev = CaptureEvent(
-                    UNREADABLE, None, ev.skipped,
-                    f"pair {frame.index}: left image {left[1]}x{left[0]} and right image "
-                    f"{right[1]}x{right[0]} differ in size",
-                )  # fmt: skip
-            elif frame.skew_s > self.max_skew_s:
-                ev = CaptureEvent(SKEW, frame, ev.skipped, f"left/right skew {frame.skew_s * 1e3:.1f} ms")
-                self.stats.skew_dropped += 1
+            try:
+                check_same_size(frame.left, frame.right)
+            except InputError as exc:
+                ev = CaptureEvent(UNREADABLE, None, ev.skipped, f"pair {frame.index}: {exc}")
             else:
-                self.stats.pairs += 1
+                if frame.skew_s > self.max_skew_s:
+                    ev = CaptureEvent(SKEW, frame, ev.skipped, f"left/right skew {frame.skew_s * 1e3:.1f} ms")
+                    self.stats.skew_dropped += 1
+                else:
+                    self.stats.pairs += 1
         if ev.status == UNREADABLE:
             self.stats.unreadable += 1
         elif ev.status == NONE:
