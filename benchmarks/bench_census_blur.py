@@ -14,12 +14,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from stereo_terrain.calibration import read_calibration
-from stereo_terrain.evaluation import disparity_errors, score_result, summarize
+from stereo_terrain.evaluation import (
+    disparity_errors,
+    middlebury_scene_dirs,
+    read_middlebury_scene,
+    score_result,
+    summarize,
+)
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
-from stereo_terrain.rectify import Rectification, compute_rectification, read_image, rectify
-from stereo_terrain.stereo import make_backend
-from stereo_terrain.stereo.io import read_pfm
+from stereo_terrain.rectify import Rectification, compute_rectification, rectify
+from stereo_terrain.stereo import default_max_disparity, make_backend
 from stereo_terrain.stereo.sgm import SGM, SGMConfig
 from stereo_terrain.synthetic import SyntheticScene, random_scene_spec, render_scene
 
@@ -44,22 +48,23 @@ def middlebury(root: Path, sigma: float) -> None:
     print(f"| scene | sgm | sgm, census_blur_sigma_px {sigma:g} | OpenCV's best mode |")
     print("| --- | --- | --- | --- |")
     rows = []
-    for d in sorted(p for p in root.iterdir() if (p / "disp0GT.pfm").is_file()):
-        calib = read_calibration(d / "calib.txt")
-        pair = rectify(read_image(d / "im0.png"), read_image(d / "im1.png"), compute_rectification(calib))
-        truth = read_pfm(d / "disp0GT.pfm")
-        nocc = cv2.imread(str(d / "mask0nocc.png"), cv2.IMREAD_GRAYSCALE) == 255
-        n = ((calib.ndisp or 64) + 15) // 16 * 16
+    for d in middlebury_scene_dirs(root):
+        scene = read_middlebury_scene(d)
+        rect = compute_rectification(scene.calibration)
+        pair = rectify(scene.left, scene.right, rect)
+        n = default_max_disparity(rect, PipelineConfig().min_depth_m)  # as eval-disparity
 
-        def bad2(backend, truth=truth, nocc=nocc, pair=pair, n=n) -> float:
-            return disparity_errors(backend.compute(pair, n).disparity, truth, nocc)["bad2"]
+        def bad2(backend, scene=scene, pair=pair, n=n) -> float:
+            return disparity_errors(backend.compute(pair, n).disparity, scene.truth, scene.nonoccluded)[
+                "bad2"
+            ]
 
         ours = bad2(SGM())
         blurred = bad2(SGM(SGMConfig(census_blur_sigma_px=sigma)))
         opencv = {m: bad2(make_backend("opencv", mode=m)) for m in ("sgbm_3way", "sgbm", "hh")}
         best = min(opencv, key=opencv.__getitem__)
         rows.append((ours, blurred, opencv[best]))
-        print(f"| {d.name} | {ours:.1%} | {blurred:.1%} | {opencv[best]:.1%} ({best}) |", flush=True)
+        print(f"| {scene.name} | {ours:.1%} | {blurred:.1%} | {opencv[best]:.1%} ({best}) |", flush=True)
     mean = np.mean(rows, axis=0)
     print(f"| mean | {mean[0]:.1%} | {mean[1]:.1%} | {mean[2]:.1%} |\n")
 

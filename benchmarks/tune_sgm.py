@@ -15,12 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from stereo_terrain.calibration import read_calibration
-from stereo_terrain.evaluation import disparity_errors
+from stereo_terrain.evaluation import disparity_errors, middlebury_scene_dirs, read_middlebury_scene
 from stereo_terrain.pipeline import PipelineConfig
-from stereo_terrain.rectify import compute_rectification, read_image, rectify
+from stereo_terrain.rectify import compute_rectification, rectify
 from stereo_terrain.stereo import default_max_disparity, make_backend
-from stereo_terrain.stereo.io import read_pfm
 
 OPENCV_MODES = ("sgbm_3way", "sgbm", "hh")
 
@@ -32,15 +30,13 @@ def main() -> None:
     ap.add_argument("--p2", type=int, nargs="+", default=[64, 80, 96])
     ap.add_argument("--uniqueness", type=int, nargs="+", default=[2, 5])
     args = ap.parse_args()
-    import cv2
-
     scenes = []
-    for d in sorted(p for p in args.root.iterdir() if (p / "disp0GT.pfm").is_file()):
-        rect = compute_rectification(read_calibration(d / "calib.txt"))
-        pair = rectify(read_image(d / "im0.png"), read_image(d / "im1.png"), rect)
-        nocc = np.asarray(cv2.imread(str(d / "mask0nocc.png"), cv2.IMREAD_GRAYSCALE)) == 255
+    for d in middlebury_scene_dirs(args.root):
+        s = read_middlebury_scene(d)
+        rect = compute_rectification(s.calibration)
+        pair = rectify(s.left, s.right, rect)
         n = default_max_disparity(rect, PipelineConfig().min_depth_m)
-        scenes.append((d.name, pair, n, read_pfm(d / "disp0GT.pfm"), nocc))
+        scenes.append((s.name, pair, n, s.truth, s.nonoccluded))
 
     def bad2(backend, pair, n, truth, nocc) -> float:
         return disparity_errors(backend.compute(pair, n).disparity, truth, nocc)["bad2"]

@@ -395,20 +395,6 @@ def cmd_disparity(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _scene_dirs(root: Path) -> list[Path]:
-    need = ("im0.png", "im1.png", "calib.txt", "disp0GT.pfm")
-    if all((root / n).is_file() for n in need):
-        return [root]
-    dirs = (
-        sorted(d for d in root.iterdir() if d.is_dir() and all((d / n).is_file() for n in need))
-        if root.is_dir()
-        else []
-    )
-    if not dirs:
-        raise InputError(f"no Middlebury scene (im0.png, im1.png, calib.txt, disp0GT.pfm) in {root}")
-    return dirs
-
-
 def _progress(done: int, total: int, text: str) -> None:
     """A one-line progress bar on stderr (a newline when done)."""
     bar = "#" * (20 * done // max(total, 1))
@@ -521,32 +507,26 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
 
 
 def cmd_eval_disparity(args: argparse.Namespace) -> int:
-    import cv2
     import numpy as np
 
-    from .calibration import read_calibration
-    from .evaluation import disparity_errors
-    from .rectify import read_image
-    from .stereo.io import read_pfm
+    from .evaluation import disparity_errors, middlebury_scene_dirs, read_middlebury_scene
 
     methods = args.method or ["sgm", "opencv", "opencv-sgbm", "opencv-hh"]
-    scenes = _scene_dirs(args.root)
+    dirs = middlebury_scene_dirs(args.root)
     rows = []
-    total = len(scenes) * len(methods)
-    for i, d in enumerate(scenes):
-        calib = read_calibration(d / "calib.txt")
-        left, right = read_image(d / "im0.png"), read_image(d / "im1.png")
-        truth = read_pfm(d / "disp0GT.pfm")
-        mask_path = d / "mask0nocc.png"
-        nocc: np.ndarray | None = None
-        if mask_path.is_file():
-            nocc = np.asarray(cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE)) == 255
+    total = len(dirs) * len(methods)
+    for i, d in enumerate(dirs):
+        scene = read_middlebury_scene(d)
         for j, m in enumerate(methods):
-            _progress(i * len(methods) + j + 1, total, f"{d.name} {m}")
-            dm, ms = _pair_disparity(m, calib, left, right, None)
-            e_all = disparity_errors(dm.disparity, truth)
-            e_noc = disparity_errors(dm.disparity, truth, nocc) if nocc is not None else e_all
-            rows.append((d.name, m, e_noc, e_all, ms))
+            _progress(i * len(methods) + j + 1, total, f"{scene.name} {m}")
+            dm, ms = _pair_disparity(m, scene.calibration, scene.left, scene.right, None)
+            e_all = disparity_errors(dm.disparity, scene.truth)
+            e_noc = (
+                e_all
+                if scene.nonoccluded is None
+                else disparity_errors(dm.disparity, scene.truth, scene.nonoccluded)
+            )
+            rows.append((scene.name, m, e_noc, e_all, ms))
     print(
         "| scene | method | bad-1 nonocc | bad-2 nonocc | bad-4 nonocc | bad-2 all | avg err px | density "
         "| ms |"

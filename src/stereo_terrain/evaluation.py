@@ -1,16 +1,26 @@
-"""Scoring terrain results against ground truth (used by tests and benchmarks).
+"""Scoring terrain results and disparity maps against ground truth (used by tests,
+benchmarks and ``eval-disparity``).
 
-Both sides are the JSON contract of CONVENTIONS.md (the renderer's truth has the same
-keys). Recovered steps are matched to true steps by riser distance.
+Terrain: both sides are the JSON contract of CONVENTIONS.md (the renderer's truth has the
+same keys); recovered steps are matched to true steps by riser distance. Disparity:
+Middlebury 2014 folders (:func:`middlebury_scene_dirs`, :func:`read_middlebury_scene`)
+and :func:`disparity_errors`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
+
+from .calibration import StereoCalibration, read_calibration
+from .errors import InputError
+from .rectify import read_image
+from .stereo.io import read_pfm
 
 
 @dataclass(frozen=True)
@@ -127,3 +137,62 @@ def disparity_errors(
         "avgerr": float(np.mean(err[have])) if have.any() else float("nan"),
         "density": float(have.mean()) if len(have) else 0.0,
     }
+
+
+MIDDLEBURY_FILES = ("im0.png", "im1.png", "calib.txt", "disp0GT.pfm")
+
+
+def middlebury_scene_dirs(root: str | Path) -> list[Path]:
+    """``root`` itself when it is a Middlebury 2014 scene folder (``MIDDLEBURY_FILES``), else
+    its sub-folders that are, sorted; :class:`InputError` when there is none."""
+    root = Path(root)
+    if all((root / n).is_file() for n in MIDDLEBURY_FILES):
+        return [root]
+    dirs = (
+        sorted(d for d in root.iterdir() if d.is_dir() and all((d / n).is_file() for n in MIDDLEBURY_FILES))
+        if root.is_dir()
+        else []
+    )
+    if not dirs:
+        raise InputError(f"no Middlebury scene ({', '.join(MIDDLEBURY_FILES)}) in {root}")
+    return dirs
+
+
+@dataclass(frozen=True)
+class MiddleburyScene:
+    """One Middlebury 2014 scene: its pair, calibration and ground truth.
+
+    Attributes
+    ----------
+    name : str
+    calibration : StereoCalibration
+    left, right : (H, W) uint8
+    truth : (H, W) float32
+        ``disp0GT.pfm`` (inf where unknown).
+    nonoccluded : (H, W) bool or None
+        ``mask0nocc.png == 255``; None when the folder has no mask.
+    """
+
+    name: str
+    calibration: StereoCalibration = field(repr=False)
+    left: np.ndarray = field(repr=False)
+    right: np.ndarray = field(repr=False)
+    truth: np.ndarray = field(repr=False)
+    nonoccluded: np.ndarray | None = field(repr=False)
+
+
+def read_middlebury_scene(folder: str | Path) -> MiddleburyScene:
+    """Read a scene folder of :func:`middlebury_scene_dirs`."""
+    folder = Path(folder)
+    mask_path = folder / "mask0nocc.png"
+    nonoccluded = None
+    if mask_path.is_file():
+        nonoccluded = np.asarray(cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE)) == 255
+    return MiddleburyScene(
+        folder.name,
+        read_calibration(folder / "calib.txt"),
+        read_image(folder / "im0.png"),
+        read_image(folder / "im1.png"),
+        read_pfm(folder / "disp0GT.pfm"),
+        nonoccluded,
+    )
