@@ -291,6 +291,21 @@ def _path_update(cost, cy, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jum
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _jump(lut, pm, grey, grey_before):  # pragma: no cover - compiled
+    """``pm + P2'`` for a path stepping from a pixel of grey level ``grey_before`` to one
+    of ``grey`` (``lut`` is :func:`p2_table`); int16."""
+    return np.int16(pm + lut[abs(np.int32(grey) - np.int32(grey_before))])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _grey_clamped(img, y, x):  # pragma: no cover - compiled
+    """Grey level of pixel (y, x) clamped into the image: where a path starts outside,
+    its buffers hold zeros and P2 does not matter."""
+    h, w = img.shape
+    return img[min(max(y, 0), h - 1), min(max(x, 0), w - 1)]
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _in_sweep_order(i: int, size: int, forward: bool) -> int:  # pragma: no cover - compiled
     """The i-th row (or column) a sweep visits: i forward, size - 1 - i backward."""
     return i if forward else size - 1 - i
@@ -305,18 +320,15 @@ def _row_path_row(
     ``prev`` / ``prev_min``, writes row y's to ``cur`` / ``cur_min`` and adds it to
     ``total``. A function of its own, with ``noalias``, so that the loop over d needs no
     overlap checks (the buffers are separate arrays)."""
-    h, w = img.shape
+    w = img.shape[1]
     step = 1 if forward else -1
-    # Grey level of the previous pixel, clamped into the image (where a path starts, its
-    # buffers hold zeros and P2 does not matter).
-    yq = min(max(y - step * back, 0), h - 1)
+    yq = y - step * back
     # The pixels of the row are independent: visited left to right in both sweeps
     # (ascending addresses; the backward sweep was slower going right to left).
     for x in range(w):
         xq = x - step * dx
-        g = img[yq, min(max(xq, 0), w - 1)]
         pm = prev_min[k, xq + _PAD]
-        jump = np.int16(pm + lut[abs(np.int32(img[y, x]) - np.int32(g))])
+        jump = _jump(lut, pm, img[y, x], _grey_clamped(img, yq, xq))
         cur_min[k, x + _PAD] = _path_update(
             cost, cy, y, x, prev, k, xq + _PAD, cur, k, x + _PAD, total, keep, pm, jump, p1
         )
@@ -330,17 +342,17 @@ def _three_paths_row(
     :func:`_row_path_row` three times in one loop over d, which loads the costs and
     loads and stores S once for the three (the loop is bound by loads and stores: a
     sweep takes about 10% less time). ``keep`` as in :func:`_path_update`."""
-    h, w = img.shape
+    w = img.shape[1]
     step = 1 if forward else -1
-    yq = min(max(y - step, 0), h - 1)
+    yq = y - step
     dxa, dxb, dxc = dx[0], dx[1], dx[2]
     for x in range(w):
-        iv = np.int32(img[y, x])
+        grey = img[y, x]
         xa, xb, xc = x - step * dxa, x - step * dxb, x - step * dxc
         pa, pb, pc = prev_min[0, xa + _PAD], prev_min[1, xb + _PAD], prev_min[2, xc + _PAD]
-        ja = np.int16(pa + lut[abs(iv - np.int32(img[yq, min(max(xa, 0), w - 1)]))])
-        jb = np.int16(pb + lut[abs(iv - np.int32(img[yq, min(max(xb, 0), w - 1)]))])
-        jc = np.int16(pc + lut[abs(iv - np.int32(img[yq, min(max(xc, 0), w - 1)]))])
+        ja = _jump(lut, pa, grey, _grey_clamped(img, yq, xa))
+        jb = _jump(lut, pb, grey, _grey_clamped(img, yq, xb))
+        jc = _jump(lut, pc, grey, _grey_clamped(img, yq, xc))
         xa, xb, xc = xa + _PAD, xb + _PAD, xc + _PAD
         xo = x + _PAD
         ma = np.int16(_BIG)
@@ -510,7 +522,7 @@ def aggregate_sweep(
             for r in range(rows):
                 y = _in_sweep_order(g0 + r, h, forward)
                 m = along_min[r]
-                jump = np.int16(m + lut[abs(np.int32(img[y, x]) - np.int32(img[y, x - step]))])
+                jump = _jump(lut, m, img[y, x], img[y, x - step])
                 if j % 2:
                     along_min[r] = _path_update(cost, r, y, x, even, r, 0, odd, r, 0, out, one, m, jump, p1)
                 else:
