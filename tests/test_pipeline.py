@@ -137,10 +137,10 @@ def test_result_is_deterministic():
     assert a == b
 
 
-def test_without_rig_the_floor_levels_the_cloud():
+def test_without_rig_the_scene_levels_the_cloud():
     scene = render_scene(default_scene_spec())
     data = Pipeline(scene.calibration).run(scene.left, scene.right).to_json_dict()
-    assert data["gravity_source"] == "floor"
+    assert data["gravity_source"] == "scene"
     assert data["obstacle"] == "stairs"
     assert abs(data["steps"][0]["rise"] - scene.truth["steps"][0]["rise"]) < 0.02
 
@@ -171,7 +171,7 @@ def test_real_oakd_scenes_find_the_floor(shared_data, scene_name):
     result = Pipeline(calib).run(read_image(d / "left.png"), read_image(d / "right.png"))
     # The corridor shows little floor within the 4 m depth range: the levelling may fall
     # back to a level camera there.
-    assert result.gravity_source == "floor" or scene_name == "corridor"
+    assert result.gravity_source == "scene" or scene_name == "corridor"
     assert result.disparity.density > 0.4
     # The floor levels the frame: in the rooms a large horizontal plane is found, in the
     # corridor (little floor in view) its two walls come out vertical.
@@ -189,7 +189,7 @@ def test_real_middlebury_classroom_runs(shared_data):
     pipeline = Pipeline(read_calibration(d / "calib.txt"))
     assert pipeline.max_disparity_px == 160  # from ndisp=153
     result = pipeline.run(read_image(d / "im0.png"), read_image(d / "im1.png"))
-    assert result.gravity_source == "floor" and len(result.planes.segments) >= 3
+    assert result.gravity_source == "scene" and len(result.planes.segments) >= 3
 
 
 def test_rig_pitch_is_used():

@@ -7,15 +7,16 @@
       --swing--> SwingPlan
 
 The gravity-aligned frame comes from the rig (``T_body_camera`` and body roll/pitch, the
-paper's eq. 1). Without a rig the floor is found in the cloud and taken as level
-(``gravity_source == "floor"``).
+paper's eq. 1). Without a rig "up" is found in the scene's plane families
+(``gravity_source == "scene"``, :mod:`stereo_terrain.gravity`): the direction parallel to
+the normals of its horizontal surfaces and orthogonal to those of its vertical ones. With
+a rig the same estimate checks the rig.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -39,15 +40,24 @@ from .cloud import (
 from .drift import CorrectionUpdate, DriftConfig, OnlineRectifier
 from .errors import ConfigError, InputError
 from .frames import R_BODY_OPTICAL, Rig, Transform
+from .gravity import (
+    GravityConfig,
+    GravityEstimate,
+    GravityReport,
+    angle_deg,
+    estimate_up,
+    refine_up_from_planes,
+    rotation_between,
+    yaw_frame_from_up,
+)
 from .planes.auto import combine_plane_sets
 from .planes.contour import ContourConfig, extract_planes_contour
-from .planes.msac import Plane, planes_from_triplets
 from .planes.orientation import (
+    HORIZONTAL,
     OrientationConfig,
     PlaneSet,
     extract_planes_orientation,
-    grid_lookup,
-    local_triplets,
+    transform_planes,
 )
 from .rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
@@ -85,6 +95,9 @@ class PipelineConfig:
         Plane extraction: ``orientation`` (default; paper 3.2.2), ``contour`` (paper
         3.2.1) or ``auto`` (both; the contour planes are added when that gives more steps,
         and the result's ``plane_stage`` says which was used and why).
+    gravity : GravityConfig
+        Gravity from the scene's plane families without a rig, and the check of a rig
+        against the scene (:mod:`stereo_terrain.gravity`).
     drift : DriftConfig
         Online correction of the rectification for a rig that moved since calibration
         (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
@@ -103,6 +116,7 @@ class PipelineConfig:
     terrain: TerrainConfig = field(default_factory=TerrainConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)
     drift: DriftConfig = field(default_factory=DriftConfig)
+    gravity: GravityConfig = field(default_factory=GravityConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -133,6 +147,7 @@ class PipelineConfig:
             "terrain": TerrainConfig,
             "swing": SwingConfig,
             "drift": DriftConfig,
+            "gravity": GravityConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -186,8 +201,10 @@ class TerrainResult:
     rectified : RectifiedPair
     T_yaw_camera_rect : Transform
     gravity_source : str
-        ``rig``, ``floor`` (no rig: the floor plane was taken as level) or
-        ``assumed-level`` (no rig and no floor in view: a level camera is assumed).
+        ``rig``, ``scene`` (no rig: up from the scene's plane families) or
+        ``assumed-level`` (no rig and nothing in view fixes up: a level camera is assumed).
+    gravity : GravityReport
+        Its uncertainty, and with a rig how far the scene's own estimate is from it.
     timing_ms : dict of stage -> milliseconds
     plane_choice : str
         Why the planes are those of ``planes.method`` (``auto`` explains its pick).
@@ -202,6 +219,7 @@ class TerrainResult:
     T_yaw_camera_rect: Transform = field(repr=False)
     gravity_source: str
     timing_ms: dict[str, float]
+    gravity: GravityReport | None = field(default=None, repr=False)
     cloud_config: CloudConfig = field(default_factory=CloudConfig, repr=False)
     plane_choice: str = ""
     method_requested: str = "orientation"
@@ -248,6 +266,7 @@ class TerrainResult:
             },
             "timing_ms": {k: round(v, 2) for k, v in self.timing_ms.items()},
             "gravity_source": self.gravity_source,
+            "gravity": None if self.gravity is None else self.gravity.to_json_dict(),
             "note": t.note,
             "plane_stage": {
                 "method_requested": self.method_requested,
@@ -257,66 +276,6 @@ class TerrainResult:
                 "parameters": self.planes.parameters,
             },
         }
-
-
-def level_from_floor(
-    samples: GridSample,
-    *,
-    max_tilt_deg: float = 45.0,
-    min_height_m: float = 0.1,
-    hypotheses: int = 400,
-    rng: np.random.Generator | int = 0,
-) -> Transform | None:
-    """``T_yaw_<sample frame>`` from the floor seen in a camera-frame grid sample, or None.
-
-    The floor is the plane with most inliers among those below the camera (by at least
-    ``min_height_m``) whose normal is within ``max_tilt_deg`` of the camera's up (-y). The
-    yaw frame's origin is put on it below the camera, x along the optical axis projected on
-    the floor.
-    """
-    if len(samples) < 50:
-        return None
-    rng = np.random.default_rng(rng)
-    lut, gr, gc = grid_lookup(samples)
-    everyone = np.ones(len(samples), dtype=bool)
-    trip = local_triplets(lut, gr, gc, np.arange(len(samples)), everyone, 5, hypotheses, rng)
-    pts = samples.points.astype(np.float64)
-    normals, offsets, ok = planes_from_triplets(pts[trip[:, 0]], pts[trip[:, 1]], pts[trip[:, 2]])
-    up_cam = np.array([0.0, -1.0, 0.0])
-    flip = normals @ up_cam < 0
-    normals[flip] *= -1.0
-    offsets[flip] *= -1.0
-    cam = samples.camera_position
-    height = normals @ cam + offsets
-    ok &= (normals @ up_cam >= math.cos(math.radians(max_tilt_deg))) & (height > min_height_m)
-    if not ok.any():
-        return None
-    normals, offsets = normals[ok], offsets[ok]
-    sub = rng.choice(len(pts), size=min(2000, len(pts)), replace=False)
-    thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
-    resid = np.abs(normals @ pts[sub].T + offsets[:, None])
-    agree = np.abs(normals @ samples.normals[sub].T.astype(np.float64)) >= 0.9
-    score = ((resid < thr[sub]) & agree).sum(axis=1)
-    best = int(np.argmax(score))
-    plane = Plane(normals[best], offsets[best])
-    inl = (plane.residuals(pts) < thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
-    if inl.sum() < 30:
-        return None
-    plane = Plane.estimate(pts[inl]) or plane
-    if plane.normal @ up_cam < 0:
-        plane = Plane(-plane.normal, -plane.offset)
-    height_m = float(plane.signed_distance(cam))
-    if height_m <= min_height_m:
-        return None
-    z = plane.normal
-    x = np.array([0.0, 0.0, 1.0]) - z * z[2]
-    if np.linalg.norm(x) < 1e-6:
-        return None
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.vstack([x, y, z])
-    t = np.array([0.0, 0.0, height_m]) - R @ cam
-    return Transform.from_rt(R, t, "yaw", samples.frame)
 
 
 class Pipeline:
@@ -408,28 +367,40 @@ class Pipeline:
             )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
-        T = self.T_yaw_camera_rect
-        source = "rig"
-        if T is None:
-            cam_sample = sample_disparity(
-                disp,
-                Transform.identity("camera_rect"),
-                self.config.cloud,
-                target_points=self.config.orientation.target_points,
-            )
-            T = level_from_floor(cam_sample)
-            source = "floor"
-            if T is None:
-                # No floor in view: assume a level camera at the origin.
-                T = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect")
-                source = "assumed-level"
-            samples = transform_sample(cam_sample, T)
-        else:
-            samples = sample_disparity(
-                disp, T, self.config.cloud, target_points=self.config.orientation.target_points
-            )
+        cfg = self.config
+        cam_sample = sample_disparity(
+            disp, Transform.identity("camera_rect"), cfg.cloud, target_points=cfg.orientation.target_points
+        )
+        rig_T = self.T_yaw_camera_rect
+        prior = None if rig_T is None else rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+        coarse = estimate_up(cam_sample, cfg.gravity, prior_up=prior)
+        if rig_T is not None:
+            T, source = rig_T, "rig"
+        elif coarse.ok:
+            T, source = yaw_frame_from_up(coarse.up, "camera_rect"), "scene"
+        else:  # nothing in view fixes gravity: assume a level camera at the origin
+            T, source = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect"), "assumed-level"
+        samples = transform_sample(cam_sample, T)
         lap("cloud")
-        planes, terrain, choice = self._planes_and_terrain(samples, pair.left, lap)
+        planes = self._extract_planes(samples, pair.left)
+        fine = refine_up_from_planes(planes, cfg.gravity)
+        if source == "scene" and fine.ok:
+            # Level on the planes (more exact than the local normals); a correction larger
+            # than the orientation method's slack may have cost planes: extract again.
+            level = rotation_between(fine.up, [0.0, 0.0, 1.0])
+            correction = Transform.from_rt(level, np.zeros(3), "yaw", "yaw")
+            T = correction @ T
+            if angle_deg(fine.up, [0.0, 0.0, 1.0]) > cfg.gravity.reextract_deg:
+                samples = transform_sample(cam_sample, T)
+                planes = self._extract_planes(samples, pair.left)
+                fine2 = refine_up_from_planes(planes, cfg.gravity)
+                fine = fine2 if fine2.ok else fine
+            else:
+                planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
+        if source != "rig":
+            planes, T = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
+        gravity = _gravity_report(source, T, coarse, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
+        planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap)
         swing = plan_swing(terrain, self.config.swing)
         lap("polytope")
         timing["total"] = (time.perf_counter() - t0) * 1000.0
@@ -442,30 +413,36 @@ class Pipeline:
             T,
             source,
             timing,
+            gravity,
             self.config.cloud,
             choice,
             self.config.method,
         )
 
-    def _planes_and_terrain(
-        self, samples: GridSample, image: np.ndarray, lap: Callable[[str], None]
-    ) -> tuple[PlaneSet, StairModel, str]:
-        """The plane stage by ``config.method`` and the terrain built on it.
+    def _extract_planes(self, samples: GridSample, image: np.ndarray) -> PlaneSet:
+        """The primary plane set: the contour method's when asked for, else the
+        orientation method's (``auto`` adds contour planes later, on the final frame)."""
+        if self.config.method == "contour":
+            return extract_planes_contour(samples, image, self.config.contour)
+        return extract_planes_orientation(samples, self.config.orientation)
 
-        ``auto`` runs both methods; the union (orientation planes plus the contour planes
-        that are new) replaces the orientation planes only when its staircase has more
-        steps, since extra planes can also only add steps.
+    def _planes_and_terrain(
+        self, planes: PlaneSet, image: np.ndarray, lap: Callable[[str], None]
+    ) -> tuple[PlaneSet, StairModel, str]:
+        """The terrain built on ``planes`` (from :meth:`_extract_planes`).
+
+        ``auto`` also runs the contour method; the union (orientation planes plus the
+        contour planes that are new) replaces the orientation planes only when its
+        staircase has more steps, since extra planes can also only add steps.
         """
         cfg = self.config
         if cfg.method == "contour":
-            planes = extract_planes_contour(samples, image, cfg.contour)
             lap("planes")
             return planes, build_terrain(planes, cfg.terrain), "contour requested"
-        planes = extract_planes_orientation(samples, cfg.orientation)
         if cfg.method == "orientation":
             lap("planes")
             return planes, build_terrain(planes, cfg.terrain), "orientation requested (the default)"
-        contour = extract_planes_contour(samples, image, cfg.contour)
+        contour = extract_planes_contour(planes.samples, image, cfg.contour)
         combined, added = combine_plane_sets(planes, contour)
         lap("planes")
         terrain = build_terrain(planes, cfg.terrain)
@@ -480,3 +457,55 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform]:
+    """Put the yaw frame's origin on the floor below the camera (CONVENTIONS: a rig off a
+    robot has its body origin on the ground below the left camera). The floor is the lowest
+    large horizontal plane (a quarter of the largest one's inliers or more) at least
+    ``min_drop_m`` below the camera; with none, the origin stays at the camera."""
+    P = planes.samples.points
+    flat = [s for s in planes.segments if s.kind == HORIZONTAL]
+    cam_z = float(planes.camera_position[2])
+    if not flat:
+        return planes, T
+    biggest = max(s.count for s in flat)
+    heights = [float(np.median(P[s.indices, 2])) for s in flat if s.count >= 0.25 * biggest]
+    below = [z for z in heights if z <= cam_z - min_drop_m]
+    if not below:
+        return planes, T
+    shift = Transform.from_rt(np.eye(3), [0.0, 0.0, -min(below)], "yaw", "yaw")
+    return transform_planes(planes, shift), shift @ T
+
+
+def _gravity_report(
+    source: str,
+    T: Transform,
+    coarse: GravityEstimate,
+    fine: GravityEstimate,
+    config: GravityConfig,
+    orientation_tol_deg: float,
+) -> GravityReport:
+    """What the result says about gravity: where it came from, how sure, and with a rig
+    how far the scene's own estimate is from it (the planes' estimate when the rig is close
+    enough for the planes to have been found, else the local normals')."""
+    up_cam = T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+    if source == "rig":
+        # Planes were found in the rig's frame: the fine estimate measures small
+        # disagreements exactly; the coarse one (independent of the rig) the large ones.
+        far = coarse.ok and angle_deg(coarse.up, up_cam) > orientation_tol_deg
+        if fine.ok and not far:
+            angle, sigma = angle_deg(fine.up, [0.0, 0.0, 1.0]), fine.sigma_deg
+        elif coarse.ok:
+            angle, sigma = angle_deg(coarse.up, up_cam), coarse.sigma_deg
+        else:
+            return GravityReport(source, up_cam, None, None, "the scene does not fix up: rig not checked")
+        if angle > config.rig_tolerance_deg:
+            note = f"the scene's up is {angle:.1f} deg from the rig's (check the rig file or the IMU)"
+        else:
+            note = f"the scene agrees with the rig within {config.rig_tolerance_deg:g} deg"
+        return GravityReport(source, up_cam, None, angle, note, sigma)
+    if source == "scene":
+        best = fine if fine.ok else coarse
+        return GravityReport(source, up_cam, best.sigma_deg, None, best.reason)
+    return GravityReport(source, up_cam, None, None, coarse.reason)

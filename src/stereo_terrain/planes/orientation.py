@@ -11,14 +11,16 @@ is too small or the best plane explains too little of it -- not after a fixed co
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..checks import check_fields, check_min
-from ..cloud import GridSample, PointCloud, sample_grid
-from ..errors import ConfigError
+from ..cloud import GridSample, PointCloud, sample_grid, transform_sample
+from ..errors import ConfigError, FrameError
+from ..frames import Transform
 from .msac import Plane, required_trials
 
 HORIZONTAL, VERTICAL, OTHER = "horizontal", "vertical", "other"
@@ -180,6 +182,31 @@ class PlaneSet:
     @property
     def frame(self) -> str:
         return self.samples.frame
+
+
+def transform_planes(planes: PlaneSet, T: Transform, *, up: np.ndarray | None = None) -> PlaneSet:
+    """Express a plane set (its samples, planes, up and camera) in ``T.to_frame``.
+
+    ``T.from_frame`` must be ``planes.frame``. The segments keep their kinds and inliers;
+    a rigid motion keeps the sign conventions (normal up, or toward the camera). ``up``
+    replaces the moved up direction when ``T`` is a correction of gravity itself.
+    """
+    if T.from_frame != planes.frame:
+        raise FrameError(f"cannot apply {T.name} to planes in frame '{planes.frame}'")
+    R, t = T.rotation, T.translation
+    segments = tuple(
+        dataclasses.replace(
+            s, plane=Plane(R @ s.plane.normal, s.plane.offset - float((R @ s.plane.normal) @ t))
+        )
+        for s in planes.segments
+    )
+    return dataclasses.replace(
+        planes,
+        segments=segments,
+        samples=transform_sample(planes.samples, T),
+        up=R @ np.asarray(planes.up, dtype=np.float64) if up is None else np.asarray(up, dtype=np.float64),
+        camera_position=T.apply(np.asarray(planes.camera_position, dtype=np.float64)[None, :])[0],
+    )
 
 
 def classify_normal(normal: np.ndarray, up: np.ndarray, angle_tol_deg: float) -> str:

@@ -1,0 +1,500 @@
+"""Gravity from the scene: "up" from its plane families (Manhattan structure).
+
+Without a rig or an IMU the pipeline still needs the gravity-aligned ``yaw`` frame. A
+floor alone is a poor guide on stairs (a level camera close to the first riser sees only
+a thin strip of floor, or none). Built scenes are made of horizontal surfaces (floor,
+treads, landings) and vertical ones (risers, walls), so "up" is the direction that is
+*parallel* to the normals of the horizontal family and *orthogonal* to those of every
+vertical family: a tread gives it directly, a riser and a side wall together give it as
+the cross product of their normals. The only prior is a weak one: the camera is roughly
+upright (``prior_cone_deg``).
+
+Two stages, one on each side of the plane stage:
+
+1. :func:`estimate_up` -- coarse, from the local normals of the grid sample
+   (camera frame). MSAC over "up" hypotheses: a sample normal near the prior (a
+   horizontal surface), or the cross product of two sample normals far from it (two
+   vertical surfaces); each sample scores by the truncated squared sine of its angle to
+   the nearest family (parallel or orthogonal to up). The winner is refined by weighted
+   least squares (smallest eigenvector of ``sum_v n n^T - sum_h n n^T``) and its 1-sigma
+   comes from a jackknife over image blocks (neighbouring samples share pixels, so the
+   blocks, not the samples, are independent). Accurate to a few degrees: enough for the
+   orientation method's 6 deg tolerance.
+2. :func:`refine_up_from_planes` -- fine, from the extracted planes, each weighted by how
+   well its fit fixes its normal (scatter of its inliers; a riser 0.17 m tall fixes its
+   tilt about the horizontal axis poorly, a wall fixes it well), plus a per-plane
+   structural floor (real floors slope, real walls lean) of ``structure_sigma_deg``.
+   Gauss-Newton on the sphere; the covariance gives the reported uncertainty.
+
+With a rig the same estimate checks the rig: a disagreement above
+``rig_tolerance_deg`` is reported in the result (the rig is still used).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .checks import check_fields, check_min
+from .cloud import GridSample
+from .errors import ConfigError
+from .frames import Transform
+from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+
+
+@dataclass(frozen=True)
+class GravityConfig:
+    """How "up" is found in the scene.
+
+    Attributes
+    ----------
+    prior_cone_deg : float
+        Up lies within this angle of the camera's up (-y of the optical frame, or the
+        rig's up when a rig is given): the weak prior "camera roughly upright".
+    prior_sigma_deg : float
+        Within the cone, hypotheses are weighted by a Gaussian of this width on their angle
+        to the camera's up.
+    family_tol_deg : float
+        A sample normal within this angle of up (or of the horizontal) belongs to the
+        horizontal (vertical) family when hypotheses are scored.
+    refine_tol_deg : float
+        Tighter tolerance of the final least-squares passes.
+    hypotheses : int
+        Up hypotheses drawn (half from single normals, half from pairs).
+    score_points : int
+        Sample normals each hypothesis is scored on.
+    min_support : float
+        Fraction of the scored samples that must fall in a family for the estimate to
+        count (a scene of slopes and clutter has no gravity to see).
+    max_sigma_deg : float
+        An estimate less certain than this (e.g. one vertical family and no horizontal
+        surface: up is free to turn about the wall's normal) is not used.
+    structure_sigma_deg : float
+        Per-plane floor on the normal's uncertainty: real surfaces are not exactly level
+        or plumb.
+    rig_tolerance_deg : float
+        With a rig, a scene estimate further than this from the rig's up is reported.
+    min_floor_drop_m : float
+        Without a rig the frame's origin goes on the floor below the camera when the floor
+        (lowest large horizontal plane) is at least this far below it; else at the camera.
+    reextract_deg : float
+        Without a rig, planes are extracted again in the levelled frame when the planes'
+        own up differs from the coarse one by more than this (planes near the orientation
+        tolerance may have been missed).
+    blocks : int
+        Image blocks per side for the jackknife uncertainty of the coarse stage.
+    seed : int
+    """
+
+    prior_cone_deg: float = 45.0
+    prior_sigma_deg: float = 25.0
+    family_tol_deg: float = 10.0
+    refine_tol_deg: float = 6.0
+    hypotheses: int = 300
+    score_points: int = 2000
+    min_support: float = 0.2
+    max_sigma_deg: float = 4.0
+    structure_sigma_deg: float = 0.3
+    rig_tolerance_deg: float = 3.0
+    min_floor_drop_m: float = 0.1
+    reextract_deg: float = 1.5
+    blocks: int = 4
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 1, "hypotheses", "score_points")
+        check_min(self, 2, "blocks")
+        check_min(self, 0, "min_floor_drop_m", "min_support")
+        for name in ("prior_cone_deg", "prior_sigma_deg", "family_tol_deg", "refine_tol_deg"):
+            if not 0 < getattr(self, name) <= 60:
+                raise ConfigError(f"GravityConfig.{name} must be in (0, 60] deg, got {getattr(self, name)}")
+        for name in ("max_sigma_deg", "structure_sigma_deg", "rig_tolerance_deg", "reextract_deg"):
+            if not 0 < getattr(self, name) <= 90:
+                raise ConfigError(f"GravityConfig.{name} must be in (0, 90] deg, got {getattr(self, name)}")
+        if self.min_support > 1:
+            raise ConfigError(f"GravityConfig.min_support must be in [0, 1], got {self.min_support}")
+
+
+@dataclass(frozen=True)
+class GravityEstimate:
+    """Gravity-up seen in the scene.
+
+    Attributes
+    ----------
+    up : (3,) float64, unit
+        Up in ``frame`` (NaN when not ``ok``).
+    frame : str
+    sigma_deg : float
+        1-sigma angular uncertainty of ``up``, degrees (inf when unknown).
+    ok : bool
+        True when the scene fixes up well enough to be used (see ``reason``).
+    horizontal_fraction, vertical_fraction : float
+        Fractions of the scored samples (or plane inliers) in the two families.
+    reason : str
+    """
+
+    up: np.ndarray = field(repr=False)
+    frame: str
+    sigma_deg: float
+    ok: bool
+    horizontal_fraction: float = 0.0
+    vertical_fraction: float = 0.0
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class GravityReport:
+    """What a result says about its gravity-aligned frame.
+
+    Attributes
+    ----------
+    source : str
+        ``rig`` (the rig file or the state estimator), ``scene`` (the scene's plane
+        families) or ``assumed-level`` (nothing in view fixes up: a level camera assumed).
+    up_camera : (3,) float64
+        The up used, in the rectified left camera frame.
+    sigma_deg : float or None
+        1-sigma of ``up_camera`` when it came from the scene.
+    rig_disagreement_deg : float or None
+        With a rig: angle between the rig's up and the scene's own estimate.
+    note : str
+    rig_check_sigma_deg : float or None
+        1-sigma of the scene estimate behind ``rig_disagreement_deg``.
+    """
+
+    source: str
+    up_camera: np.ndarray = field(repr=False)
+    sigma_deg: float | None
+    rig_disagreement_deg: float | None
+    note: str
+    rig_check_sigma_deg: float | None = None
+
+    def to_json_dict(self) -> dict:
+        def r(x: float | None) -> float | None:
+            return None if x is None or not math.isfinite(x) else round(float(x), 3)
+
+        return {
+            "source": self.source,
+            "up_camera": [round(float(v), 5) for v in self.up_camera],
+            "sigma_deg": r(self.sigma_deg),
+            "rig_disagreement_deg": r(self.rig_disagreement_deg),
+            "rig_check_sigma_deg": r(self.rig_check_sigma_deg),
+            "note": self.note,
+        }
+
+
+#: Scale of the Cauchy weights on a plane's normalised residual (in sigmas).
+_CAUCHY_SCALE = 2.5
+
+#: Fewest samples that make a plane family (a floor, or a second wall direction).
+_MIN_FAMILY_SAMPLES = 50
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _failed(frame: str, reason: str, h: float = 0.0, v: float = 0.0) -> GravityEstimate:
+    return GravityEstimate(np.full(3, np.nan), frame, math.inf, False, h, v, reason)
+
+
+def _family_scatter(normals: np.ndarray, up: np.ndarray, tol_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the samples in the horizontal and vertical families of ``up``."""
+    c = normals @ up
+    s2 = math.sin(math.radians(tol_deg)) ** 2
+    return (1.0 - c * c) < s2, c * c < s2
+
+
+def _least_squares_up(normals: np.ndarray, horiz: np.ndarray, vert: np.ndarray, prior: np.ndarray):
+    """Up minimising ``sum_v (n.u)^2 + sum_h |n x u|^2``: the smallest eigenvector of
+    ``sum_v n n^T - sum_h n n^T``, signed toward ``prior``."""
+    nv, nh = normals[vert], normals[horiz]
+    M = nv.T @ nv - nh.T @ nh
+    w, V = np.linalg.eigh(M)
+    u = V[:, 0]
+    return u if u @ prior >= 0 else -u
+
+
+def estimate_up(
+    samples: GridSample,
+    config: GravityConfig | None = None,
+    *,
+    prior_up: np.ndarray | None = None,
+    rng: np.random.Generator | int | None = None,
+) -> GravityEstimate:
+    """Coarse gravity-up from the local normals of a grid sample (stage 1 above).
+
+    Parameters
+    ----------
+    samples : GridSample
+        Any frame; typically ``camera_rect``.
+    config : GravityConfig
+    prior_up : (3,) float, optional
+        The camera's up in ``samples.frame`` (default ``(0, -1, 0)``, optical axes).
+    rng : Generator or seed; defaults to ``config.seed``.
+
+    Returns
+    -------
+    GravityEstimate; ``ok`` False (with a reason) when the scene does not fix up.
+    """
+    config = config or GravityConfig()
+    rng = np.random.default_rng(config.seed if rng is None else rng)
+    prior = _unit(np.asarray((0.0, -1.0, 0.0) if prior_up is None else prior_up, dtype=np.float64))
+    frame = samples.frame
+    n = len(samples)
+    if n < 100:
+        return _failed(frame, f"too few samples with normals ({n})")
+    N = samples.normals.astype(np.float64)
+    N = _unit(N)
+    cone = math.cos(math.radians(config.prior_cone_deg))
+    c_prior = N @ prior
+    # Hypotheses: horizontal surfaces (a normal near the prior) ...
+    flat = np.flatnonzero(np.abs(c_prior) >= cone)
+    steep = np.flatnonzero(np.abs(c_prior) <= math.sqrt(1.0 - cone * cone))
+    hyps = []
+    half = config.hypotheses // 2
+    if len(flat):
+        pick = N[rng.choice(flat, size=min(half, len(flat)), replace=False)]
+        hyps.append(pick * np.sign(pick @ prior)[:, None])
+    # ... and pairs of vertical surfaces (their normals' cross product).
+    if len(steep) >= 2:
+        m = config.hypotheses - (len(hyps[0]) if hyps else 0)
+        i = rng.choice(steep, size=3 * m)
+        j = rng.choice(steep, size=3 * m)
+        c = np.cross(N[i], N[j])
+        norm = np.linalg.norm(c, axis=1)
+        ok = norm > math.sin(math.radians(30.0))
+        c = c[ok] / norm[ok, None]
+        c *= np.sign(c @ prior)[:, None]
+        c = c[c @ prior >= cone][:m]
+        if len(c):
+            hyps.append(c)
+    if not hyps:
+        return _failed(frame, "no surface near horizontal or vertical for any plausible up")
+    U = np.vstack(hyps)
+    score_idx = rng.choice(n, size=min(config.score_points, n), replace=False)
+    D = N[score_idx] @ U.T  # (S, H) cosines
+    s2 = math.sin(math.radians(config.family_tol_deg)) ** 2
+    err = np.minimum(1.0 - D * D, D * D)  # squared sine to the nearest family
+    # The weak prior "camera roughly upright": a broad Gaussian on the angle to the prior
+    # up breaks ties between families that a slanted surface (the envelope of a noisy
+    # staircase, a ramp) can make look vertical when up turns far.
+    prior_w = np.exp(
+        -0.5 * (np.arccos(np.clip(U @ prior, -1.0, 1.0)) / math.radians(config.prior_sigma_deg)) ** 2
+    )
+    score = np.sum(s2 - np.minimum(err, s2), axis=0) * prior_w
+    u = U[int(np.argmax(score))]
+    # Refinement: least squares on the family members, tolerance tightened; a step that
+    # leaves the prior cone is not taken.
+    for tol in (config.family_tol_deg, config.refine_tol_deg, config.refine_tol_deg):
+        horiz, vert = _family_scatter(N, u, tol)
+        if horiz.sum() + vert.sum() < 10:
+            break
+        nxt = _least_squares_up(N, horiz, vert, prior)
+        if nxt @ prior < cone:
+            break
+        u = nxt
+    horiz, vert = _family_scatter(N, u, config.refine_tol_deg)
+    h_frac, v_frac = float(horiz.mean()), float(vert.mean())
+    if u @ prior < cone:
+        return _failed(frame, "the scene's up is outside the prior cone", h_frac, v_frac)
+    if h_frac + v_frac < config.min_support:
+        return _failed(
+            frame,
+            f"only {h_frac + v_frac:.0%} of the surfaces are horizontal or vertical "
+            f"(need {config.min_support:.0%})",
+            h_frac,
+            v_frac,
+        )
+    sigma = _jackknife_sigma_deg(samples, N, horiz, vert, u, prior, config.blocks)
+    if not sigma <= config.max_sigma_deg:
+        return GravityEstimate(
+            u,
+            frame,
+            sigma,
+            False,
+            h_frac,
+            v_frac,
+            f"the surfaces fix up only to {sigma:.1f} deg (one wall family and no floor?)",
+        )
+    return GravityEstimate(u, frame, sigma, True, h_frac, v_frac, "plane families of the scene")
+
+
+def _jackknife_sigma_deg(
+    samples: GridSample,
+    N: np.ndarray,
+    horiz: np.ndarray,
+    vert: np.ndarray,
+    u: np.ndarray,
+    prior: np.ndarray,
+    blocks: int,
+) -> float:
+    """1-sigma of ``u`` (degrees) by a delete-one-block jackknife over image blocks."""
+    gh, gw = samples.grid_shape
+    gr, gc = samples.grid_index // gw, samples.grid_index % gw
+    block = (gr * blocks // max(gh, 1)) * blocks + (gc * blocks // max(gw, 1))
+    n_blocks = blocks * blocks
+    Mb = np.zeros((n_blocks, 3, 3))
+    sign = np.where(vert, 1.0, np.where(horiz, -1.0, 0.0))
+    outer = N[:, :, None] * N[:, None, :] * sign[:, None, None]
+    np.add.at(Mb, block, outer)
+    total = Mb.sum(axis=0)
+    used = [b for b in range(n_blocks) if np.any(Mb[b])]
+    if len(used) < 3:
+        return math.inf
+    angles = []
+    for b in used:
+        w, V = np.linalg.eigh(total - Mb[b])
+        ub = V[:, 0] if V[:, 0] @ prior >= 0 else -V[:, 0]
+        angles.append(ub - u)
+    dev = np.array(angles)
+    k = len(used)
+    var = (k - 1) / k * float(np.sum(dev * dev))
+    # The jackknife misses a direction that no block constrains (one wall family and no
+    # floor: up is free to turn about the wall's normal). Up is fixed only by a
+    # horizontal family or by two vertical families at a clear angle to each other.
+    if horiz.sum() < _MIN_FAMILY_SAMPLES:
+        a = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(a) < 0.5:
+            a = np.cross(u, [0.0, 1.0, 0.0])
+        a /= np.linalg.norm(a)
+        nt = N[vert] @ np.vstack([a, np.cross(u, a)]).T
+        theta = np.arctan2(nt[:, 1], nt[:, 0]) % np.pi  # direction of the normal, mod 180
+        hist = np.bincount((theta / np.pi * 36).astype(int) % 36, minlength=36)
+        main = (int(np.argmax(hist)) + 0.5) * np.pi / 36
+        off = np.abs((theta - main + np.pi / 2) % np.pi - np.pi / 2)
+        if np.sum(off > math.radians(30.0)) < max(_MIN_FAMILY_SAMPLES, 0.05 * vert.sum()):
+            return math.inf
+    return math.degrees(math.sqrt(var))
+
+
+def _tangent_basis(u: np.ndarray) -> np.ndarray:
+    """(2, 3): two unit vectors orthogonal to ``u`` and to each other."""
+    a = np.cross(u, [1.0, 0.0, 0.0])
+    if np.linalg.norm(a) < 0.5:
+        a = np.cross(u, [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    return np.vstack([a, np.cross(u, a)])
+
+
+def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None) -> GravityEstimate:
+    """Fine gravity-up from extracted planes (stage 2 above), in the planes' frame.
+
+    Each horizontal plane says ``up = n``, each vertical one ``n . up = 0``; each with the
+    covariance of its normal from the scatter of its inliers (``sigma^2 / lambda`` along
+    each in-plane axis, ``sigma`` the plane's RMS) plus ``structure_sigma_deg``. Solved by
+    iteratively reweighted Gauss-Newton on the sphere from ``planes.up``, with Cauchy
+    weights on each plane's normalised residual: a plane fitted across two surfaces (its
+    normal several degrees off) loses its say instead of tilting everything.
+
+    Returns
+    -------
+    GravityEstimate in ``planes.frame``; ``ok`` False when the planes do not fix up (fewer
+    than two independent constraints).
+    """
+    config = config or GravityConfig()
+    frame = planes.frame
+    u = np.asarray(planes.up, dtype=np.float64)
+    u = u / np.linalg.norm(u)
+    P = planes.samples.points.astype(np.float64)
+    floor = math.radians(config.structure_sigma_deg) ** 2
+    cons: list[tuple[str, np.ndarray, np.ndarray]] = []  # (kind, normal, normal covariance)
+    n_h = n_v = 0
+    total = max(len(P), 1)
+    for seg in planes.segments:
+        if seg.kind not in (HORIZONTAL, VERTICAL) or seg.count < 10:
+            continue
+        q = P[seg.indices]
+        q = q - q.mean(axis=0)
+        lam, E = np.linalg.eigh(q.T @ q)
+        sigma2 = max(seg.rms_m, 1e-3) ** 2
+        cov_n = sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
+        n = seg.plane.normal if seg.kind == VERTICAL or seg.plane.normal @ u >= 0 else -seg.plane.normal
+        cons.append((seg.kind, n, cov_n))
+        n_h += seg.count if seg.kind == HORIZONTAL else 0
+        n_v += seg.count if seg.kind == VERTICAL else 0
+    h_frac, v_frac = n_h / total, n_v / total
+    if len(cons) < 2:
+        return _failed(frame, "too few planes to fix up", h_frac, v_frac)
+    weights = np.ones(len(cons))
+    for _ in range(8):
+        B = _tangent_basis(u)
+        H = np.zeros((2, 2))
+        g = np.zeros(2)
+        chi = np.zeros(len(cons))
+        for k, (kind, n, cov_n) in enumerate(cons):
+            if kind == HORIZONTAL:  # up = n: the tangent components of n, 2 residuals
+                C = B @ cov_n @ B.T + floor * np.eye(2)
+                r, J = B @ n, np.eye(2)
+            else:  # n . up = 0: one residual
+                C = np.array([[float(u @ cov_n @ u) + floor]])
+                r, J = np.array([-float(n @ u)]), (B @ n).reshape(1, 2)
+            W = np.linalg.inv(C)
+            chi[k] = math.sqrt(float(r @ W @ r) / len(r))
+            H += weights[k] * J.T @ W @ J
+            g += weights[k] * J.T @ W @ r
+        if np.linalg.cond(H) > 1e8:
+            return _failed(
+                frame,
+                "the planes do not fix up (need a horizontal plane or two wall directions)",
+                h_frac,
+                v_frac,
+            )
+        delta = np.linalg.solve(H, g)
+        u = u + B.T @ delta
+        u /= np.linalg.norm(u)
+        weights = 1.0 / (1.0 + (chi / _CAUCHY_SCALE) ** 2)
+        if float(np.linalg.norm(delta)) < 1e-7:
+            break
+    cov = np.linalg.inv(H)
+    # Residual scatter beyond the model (weighted chi^2 per degree of freedom) widens sigma.
+    dof = sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) - 2
+    chi2 = float(np.sum(weights * chi * chi)) / max(float(np.sum(weights)), 1e-9) * (dof + 2)
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    sigma = math.degrees(math.sqrt(scale * float(np.linalg.eigvalsh(cov)[-1])))
+    ok = sigma <= config.max_sigma_deg
+    why = "planes of the scene" if ok else f"the planes fix up only to {sigma:.1f} deg"
+    return GravityEstimate(u, frame, sigma, ok, h_frac, v_frac, why)
+
+
+def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking unit vector ``a`` to unit vector ``b``."""
+    a = np.asarray(a, dtype=np.float64) / np.linalg.norm(a)
+    b = np.asarray(b, dtype=np.float64) / np.linalg.norm(b)
+    v = np.cross(a, b)
+    c = float(a @ b)
+    s = float(np.linalg.norm(v))
+    if s < 1e-12:
+        if c > 0:
+            return np.eye(3)
+        axis = np.cross(a, [1.0, 0.0, 0.0])
+        if np.linalg.norm(axis) < 1e-6:
+            axis = np.cross(a, [0.0, 1.0, 0.0])
+        axis /= np.linalg.norm(axis)
+        return 2.0 * np.outer(axis, axis) - np.eye(3)
+    K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + K + K @ K * ((1.0 - c) / (s * s))
+
+
+def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle between two vectors, degrees."""
+    c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+def yaw_frame_from_up(up: np.ndarray, frame: str, camera_position: np.ndarray | None = None) -> Transform:
+    """``T_yaw_<frame>`` for a camera-fixed ``frame`` whose gravity-up is ``up``: z along
+    ``up``, x along the optical axis (+z of ``frame``) projected on the horizontal, origin at
+    the camera (``camera_position``, default the frame's origin)."""
+    z = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    x = np.array([0.0, 0.0, 1.0]) - z * z[2]
+    if np.linalg.norm(x) < 1e-6:  # looking straight up or down: any heading will do
+        x = np.array([1.0, 0.0, 0.0]) - z * z[0]
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.vstack([x, y, z])
+    cam = np.zeros(3) if camera_position is None else np.asarray(camera_position, dtype=np.float64)
+    return Transform.from_rt(R, -R @ cam, "yaw", frame)

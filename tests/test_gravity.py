@@ -1,0 +1,181 @@
+"""Gravity from the scene's plane families (stereo_terrain.gravity)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.cloud import GridSample
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.frames import rotation_from_rpy
+from stereo_terrain.gravity import (
+    GravityConfig,
+    angle_deg,
+    estimate_up,
+    rotation_between,
+    yaw_frame_from_up,
+)
+from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+#: Angle bounds (deg) for the synthetic-normal tests: noise of 8 deg per sample normal.
+COARSE_TOL_DEG = 1.5
+NOISE_DEG = 8.0
+
+
+def _sample(normals_by_family: list[tuple[np.ndarray, int]], R: np.ndarray, rng, clutter: int = 0):
+    """A GridSample whose normals (camera frame, y down) come from the given families
+    (world normals, z up), rotated into the camera by ``R`` (camera <- world), with noise,
+    random signs and ``clutter`` random normals."""
+    normals = []
+    for n, count in normals_by_family:
+        noise = rng.normal(0.0, math.radians(NOISE_DEG) / math.sqrt(2), (count, 3))
+        v = np.asarray(n, dtype=float)[None, :] + noise
+        normals.append(v)
+    if clutter:
+        normals.append(rng.normal(size=(clutter, 3)))
+    N = np.vstack(normals)
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    N *= rng.choice([-1.0, 1.0], size=(len(N), 1))
+    N = N @ R.T
+    n = len(N)
+    gw = 80
+    idx = rng.permutation(120 * gw)[:n].astype(np.int32)
+    return GridSample(
+        points=rng.normal(size=(n, 3)).astype(np.float32),
+        normals=N.astype(np.float32),
+        sigma_m=np.full(n, 0.01, np.float32),
+        rows=(idx // gw).astype(np.int32),
+        cols=(idx % gw).astype(np.int32),
+        grid_index=idx,
+        grid_shape=(120, gw),
+        stride_px=8,
+        frame="camera_rect",
+    )
+
+
+# Camera (optical: x right, y down, z forward) <- world (x forward, y left, z up).
+R_CAM_WORLD = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+
+
+def _camera(roll: float, pitch: float) -> np.ndarray:
+    return R_CAM_WORLD @ rotation_from_rpy(roll, pitch, 0.0).T
+
+
+@pytest.mark.parametrize("pitch_deg", [-5.0, 0.0, 12.0, 30.0])
+def test_risers_and_a_side_wall_give_up_without_any_floor(pitch_deg):
+    """No horizontal surface at all: a riser family and a wall family fix up."""
+    rng = np.random.default_rng(1)
+    yaw = math.radians(35.0)
+    riser = np.array([-math.cos(yaw), -math.sin(yaw), 0.0])
+    wall = np.array([math.sin(yaw), -math.cos(yaw), 0.0])
+    R = _camera(math.radians(2.0), math.radians(pitch_deg))
+    est = estimate_up(_sample([(riser, 1500), (wall, 1500)], R, rng, clutter=800))
+    true_up = R @ np.array([0.0, 0.0, 1.0])
+    assert est.ok, est.reason
+    assert angle_deg(est.up, true_up) < COARSE_TOL_DEG
+    assert 0 < est.sigma_deg < 2.0
+
+
+def test_one_wall_family_alone_does_not_fix_up():
+    """Up may turn freely about a lone wall's normal: not used, and it says why."""
+    rng = np.random.default_rng(2)
+    est = estimate_up(_sample([(np.array([-1.0, 0.0, 0.0]), 3000)], _camera(0.0, 0.1), rng, clutter=300))
+    assert not est.ok and "deg" in est.reason or "up" in est.reason
+
+
+def test_clutter_alone_is_refused():
+    rng = np.random.default_rng(3)
+    est = estimate_up(_sample([], _camera(0.0, 0.0), rng, clutter=3000))
+    assert not est.ok and not np.isfinite(est.sigma_deg)
+
+
+def test_a_slanted_envelope_does_not_pull_up_away_from_the_treads():
+    """A staircase's noisy envelope (slope ~35 deg) plus a side wall: up stays on the
+    treads (the Middlebury Staircase failure: up turned 50 deg to make the slope vertical)."""
+    rng = np.random.default_rng(4)
+    slope = math.radians(35.0)
+    envelope = np.array([-math.sin(slope), 0.0, math.cos(slope)])
+    wall = np.array([0.0, 1.0, 0.0])
+    tread = np.array([0.0, 0.0, 1.0])
+    R = _camera(0.0, math.radians(5.0))
+    est = estimate_up(_sample([(envelope, 2500), (wall, 2500), (tread, 300)], R, rng))
+    assert est.ok, est.reason
+    assert angle_deg(est.up, R @ tread) < 3.0
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    roll=st.floats(-0.3, 0.3),
+    pitch=st.floats(-0.3, 0.5),
+    seed=st.integers(0, 2**16),
+)
+def test_estimate_follows_the_camera_attitude(roll, pitch, seed):
+    """Floor + risers + wall, any camera attitude within the prior: up is found."""
+    rng = np.random.default_rng(seed)
+    R = _camera(roll, pitch)
+    fams = [
+        (np.array([0.0, 0.0, 1.0]), 800),
+        (np.array([-1.0, 0.0, 0.0]), 800),
+        (np.array([0.0, 1.0, 0.0]), 800),
+    ]
+    est = estimate_up(_sample(fams, R, rng, clutter=400))
+    assert est.ok
+    assert angle_deg(est.up, R @ np.array([0.0, 0.0, 1.0])) < COARSE_TOL_DEG
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    a=st.lists(st.floats(-1, 1), min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 0.1),
+    b=st.lists(st.floats(-1, 1), min_size=3, max_size=3).filter(lambda v: np.linalg.norm(v) > 0.1),
+)
+def test_rotation_between_takes_a_to_b(a, b):
+    a, b = np.array(a) / np.linalg.norm(a), np.array(b) / np.linalg.norm(b)
+    R = rotation_between(a, b)
+    assert np.allclose(R @ R.T, np.eye(3), atol=1e-9) and np.linalg.det(R) == pytest.approx(1.0)
+    assert np.allclose(R @ a, b, atol=1e-7)
+
+
+def test_yaw_frame_from_up_levels_and_keeps_the_heading():
+    R = _camera(0.05, 0.2)
+    up = R @ np.array([0.0, 0.0, 1.0])
+    T = yaw_frame_from_up(up, "camera_rect")
+    assert np.allclose(T.apply_vectors(up), [0.0, 0.0, 1.0], atol=1e-9)
+    fwd = T.apply_vectors(np.array([0.0, 0.0, 1.0]))
+    assert fwd[1] == pytest.approx(0.0, abs=1e-9) and fwd[0] > 0
+
+
+def test_config_is_checked():
+    with pytest.raises(ConfigError, match="prior_cone_deg"):
+        GravityConfig(prior_cone_deg=0)
+    with pytest.raises(ConfigError, match="min_support"):
+        GravityConfig(min_support=2.0)
+
+
+def test_pipeline_without_rig_reports_scene_gravity_and_with_rig_checks_it():
+    scene = render_scene(default_scene_spec())
+    free = Pipeline(scene.calibration).run(scene.left, scene.right)
+    true_up = (
+        (scene.rig.T_yaw_camera @ free.rectified.rectification.T_camera_rect)
+        .inverse()
+        .apply_vectors(np.array([0.0, 0.0, 1.0]))
+    )
+    g = free.to_json_dict()["gravity"]
+    assert g["source"] == "scene" and 0 < g["sigma_deg"] < 2.0
+    assert angle_deg(free.gravity.up_camera, true_up) < 1.0
+    rigged = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict()["gravity"]
+    assert rigged["source"] == "rig" and rigged["rig_disagreement_deg"] < 1.0
+    assert "agrees" in rigged["note"]
+
+
+def test_a_wrong_rig_is_reported():
+    from stereo_terrain.frames import Rig, camera_mount
+
+    scene = render_scene(default_scene_spec())
+    wrong = Rig(camera_mount(0.55, 0.0))  # the camera is pitched down 15 deg, not 0
+    g = Pipeline(scene.calibration, wrong).run(scene.left, scene.right).to_json_dict()["gravity"]
+    assert g["rig_disagreement_deg"] > 10.0 and "check the rig" in g["note"]
