@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .geometry import _Geometry
+from .geometry import _BOX_OBSTACLE, _FACE_BOX0, _Geometry
 from .spec import _GROUPS, SceneSpec, SurfaceSpec
 
 #: Side of a square texture tile in texels (a power of two, so wrapping is a bit mask).
@@ -84,6 +84,27 @@ def _make_tile(kind: str, rng: np.random.Generator, n: int = _TILE_PX) -> np.nda
         dots = _gauss_blur_periodic(dots, rng.uniform(0.7, 1.5))
         dots /= dots.std() + 1e-12
         tile = dots + 0.4 * _spectral_noise(rng, n, 1.2)
+    elif kind == "planks":
+        # Floorboards along the tile's s axis (horizontal on treads and risers): a tone
+        # per board, fine grain stretched along it, dark gaps between boards and a few
+        # butt joints across them.
+        n_boards = int(rng.choice([4, 6, 8]))
+        board = (np.arange(n) * n_boards // n)[:, None]
+        tone = rng.normal(0.0, 0.5, n_boards)[board]
+        grain = _spectral_noise(rng, n, 0.9, stretch=25.0)
+        streaks = _spectral_noise(rng, n, 1.5, stretch=8.0)
+        gap_px = max(2, n // 170)
+        gap = ((np.arange(n) % (n // n_boards)) < gap_px)[:, None]
+        joints = np.zeros((n, n), dtype=bool)
+        for bi in range(n_boards):
+            for s_j in rng.integers(0, n, int(rng.integers(0, 2))):
+                band = slice(bi * n // n_boards, (bi + 1) * n // n_boards)
+                joints[band, s_j : s_j + gap_px] = True
+        tile = tone + 0.45 * grain + 0.35 * streaks - 4.0 * (gap | joints)
+        tile = _gauss_blur_periodic(np.broadcast_to(tile, (n, n)).astype(np.float64), 0.6)
+    elif kind == "paint":
+        # Painted plaster or wood: slow blotches of the roller and a faint fine stipple.
+        tile = _spectral_noise(rng, n, 1.8) + 0.35 * _spectral_noise(rng, n, 0.3, f_hi=n / 6.0)
     else:  # pragma: no cover - SurfaceSpec validates the kind
         raise InputError(f"unknown texture kind {kind!r}")
     tile = (tile - tile.mean()) / (tile.std() + 1e-12)
@@ -163,6 +184,12 @@ class _Appearance:
     pyramids: dict  # group index -> _Pyramid
     tile_m: dict  # group index -> metres per tile
     ground_axes: tuple[np.float32, np.float32]  # cos, sin of the ground texture's rotation
+    # Nosing strips (None: none): (F,) float32 front edge ``a`` of each tread face and top
+    # ``z`` of each riser face (-inf, +inf elsewhere), their depth and reflectance factor.
+    nose_a: np.ndarray | None = None
+    nose_z: np.ndarray | None = None
+    nosing_m: float = 0.0
+    nosing_reflectance: float = 1.0
 
     @property
     def key(self) -> np.ndarray:
@@ -186,11 +213,32 @@ def _face_table(geom: _Geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     normals = [np.zeros(3), up, -u]
     groups = [-1, g["ground"], g["wall"]]
     modes = [_MODE_XY, _MODE_XY, _MODE_BZ]
-    for _ in range(geom.boxes.shape[0]):
+    box_modes = [_MODE_BZ, _MODE_BZ, _MODE_AZ, _MODE_AZ, _MODE_BA, _MODE_BA]
+    for i in range(geom.n_boxes):
         normals += [-u, u, -v, v, -up, up]
-        groups += [g["riser"], g["side"], g["side"], g["side"], g["side"], g["tread"]]
-        modes += [_MODE_BZ, _MODE_BZ, _MODE_AZ, _MODE_AZ, _MODE_BA, _MODE_BA]
+        if geom.box_kind is None or geom.box_kind[i] == _BOX_OBSTACLE:
+            groups += [g["riser"], g["side"], g["side"], g["side"], g["side"], g["tread"]]
+        else:
+            groups += [g["wall"]] * 6
+        modes += box_modes
+    for j in range(geom.n_rails):
+        slope = float(geom.rails[j, 6]) if geom.rails is not None else 0.0
+        top = (up - slope * u) / math.hypot(1.0, slope)
+        normals += [-u, u, -v, v, -top, top]
+        groups += [g["rail"]] * 6
+        modes += box_modes
     return np.array(normals), np.array(groups), np.array(modes)
+
+
+def _nosing_tables(geom: _Geometry, n_faces: int) -> tuple[np.ndarray, np.ndarray]:
+    """(F,) front edge ``a`` of tread faces (-inf elsewhere) and top ``z`` of riser faces
+    (+inf elsewhere): no strip off those faces."""
+    nose_a = np.full(n_faces, -np.inf, dtype=np.float32)
+    nose_z = np.full(n_faces, np.inf, dtype=np.float32)
+    for i in range(geom.n_obstacle_boxes):
+        nose_a[_FACE_BOX0 + 6 * i + 5] = geom.boxes[i, 0]
+        nose_z[_FACE_BOX0 + 6 * i + 0] = geom.boxes[i, 5]
+    return nose_a, nose_z
 
 
 def _appearance(spec: SceneSpec, geom: _Geometry) -> _Appearance:
@@ -200,9 +248,17 @@ def _appearance(spec: SceneSpec, geom: _Geometry) -> _Appearance:
     shade = spec.ambient + spec.diffuse * np.maximum(normals @ light, 0.0)
     rng = np.random.default_rng([spec.seed, 1])
     n_faces = len(groups)
-    jitter = 1.0 + rng.uniform(-0.04, 0.04, n_faces)  # e.g. each step's paint a little apart
-    offset = rng.uniform(0.0, 10.0, (n_faces, 2))
+    # The faces of the ground, back wall and obstacle draw from one stream, those of side
+    # walls and rails from another: adding walls or rails leaves the stairs' textures.
+    n_base = _FACE_BOX0 + 6 * geom.n_obstacle_boxes
+    jitter = 1.0 + rng.uniform(-0.04, 0.04, n_base)  # e.g. each step's paint a little apart
+    offset = rng.uniform(0.0, 10.0, (n_base, 2))
     ground_angle = rng.uniform(math.radians(30.0), math.radians(60.0))
+    if n_faces > n_base:
+        # One row per face: the draws of a face do not depend on how many follow it.
+        extra = np.random.default_rng([spec.seed, 4]).random((n_faces - n_base, 3))
+        jitter = np.concatenate([jitter, 1.0 + 0.08 * (extra[:, 0] - 0.5)])
+        offset = np.concatenate([offset, 10.0 * extra[:, 1:]])
     albedo = np.ones(n_faces)
     contrast = np.zeros(n_faces)
     for gi, name in enumerate(_GROUPS):
@@ -217,6 +273,7 @@ def _appearance(spec: SceneSpec, geom: _Geometry) -> _Appearance:
     base = spec.exposure * np.minimum(albedo * jitter, 1.0) * shade
     base[0] = spec.sky_grey
     present = sorted(set(int(x) for x in groups[1:]))
+    nose_a, nose_z = _nosing_tables(geom, n_faces) if spec.nosing_m > 0 else (None, None)
     pyramids, tile_m = {}, {}
     for gi in present:
         surf = getattr(spec, _GROUPS[gi])
@@ -232,7 +289,15 @@ def _appearance(spec: SceneSpec, geom: _Geometry) -> _Appearance:
         pyramids,
         tile_m,
         (np.float32(math.cos(ground_angle)), np.float32(math.sin(ground_angle))),
+        nose_a,
+        nose_z,
+        float(spec.nosing_m),
+        float(spec.nosing_reflectance),
     )
+
+
+#: Height of the nosing strip seen on the top of a riser, metres (at most nosing_m).
+_NOSING_FRONT_M = 0.025
 
 
 #: A second, larger and rotated copy of the texture modulates large surfaces (ground,
@@ -309,5 +374,13 @@ def _shade(
             macro = pyr.bilinear(np.mod(mu, pyr.n), np.mod(mv, pyr.n), level)
             tex = (tex + np.float32(_MACRO_WEIGHT) * macro) * np.float32(1.0 / math.hypot(1.0, _MACRO_WEIGHT))
         refl = np.maximum(1.0 + app.contrast[fi] * tex, np.float32(0.05))
+        if app.nose_a is not None and app.nose_z is not None and m in (_MODE_BA, _MODE_BZ):
+            # A strip (nosing, edge tape) along the front edge of each tread and down the
+            # top of the riser below it.
+            if m == _MODE_BA:
+                strip = pa - app.nose_a[fi] < np.float32(app.nosing_m)
+            else:
+                strip = app.nose_z[fi] - pz < np.float32(min(app.nosing_m, _NOSING_FRONT_M))
+            refl = np.where(strip, refl * np.float32(app.nosing_reflectance), refl)
         out[idx] *= refl
     return out

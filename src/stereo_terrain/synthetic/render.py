@@ -18,7 +18,7 @@ from .appearance import _Appearance, _appearance, _shade
 from .camera import _rig, _rotation, _stereo_geometry, _undistort
 from .geometry import _FACE_BOX0, _FACE_GROUND, _FACE_WALL, _cast, _Geometry, _scene_geometry
 from .sensor import _sensor
-from .spec import CameraIntrinsics, SceneSpec, StairSpec
+from .spec import CameraIntrinsics, SceneSpec, StairSpec, _side_wall_span
 
 
 @dataclass(frozen=True)
@@ -152,6 +152,21 @@ def _truth(spec: SceneSpec, T_yaw_camera: Transform) -> dict:
                 "name": "back_wall",
             }
         )
+    # Side walls: normal toward the stairs (the camera), -v on the left, +v on the right.
+    yw = 0.0 if ob is None else ob.yaw_rad
+    v = (-math.sin(yw), math.cos(yw), 0.0)
+    for side, b in (("left", spec.left_wall_m), ("right", spec.right_wall_m)):
+        if b is None:
+            continue
+        sign = -1.0 if side == "left" else 1.0
+        planes.append(
+            {
+                "normal": [sign * c + 0.0 for c in v],
+                "offset": float(-sign * b) + 0.0,
+                "kind": "vertical",
+                "name": f"{side}_wall",
+            }
+        )
     return {
         "version": 1,
         "frame": "yaw",
@@ -166,6 +181,7 @@ def _truth(spec: SceneSpec, T_yaw_camera: Transform) -> dict:
         "weak_texture": bool(spec.weak_texture),
         "image_size": [int(v) for v in spec.image_size],
         "seed": int(spec.seed),
+        "profile": spec.profile,
         "spec": _spec_to_json(spec),
     }
 
@@ -177,16 +193,26 @@ def _spec_to_json(spec: SceneSpec) -> dict:
     return json.loads(json.dumps(d))  # tuples -> lists
 
 
-def _labels_table(spec: SceneSpec, n_faces: int) -> np.ndarray:
-    """Face id -> index into truth['planes'] (-1 where the face is not listed)."""
+def _labels_table(spec: SceneSpec, geom: _Geometry, n_faces: int) -> np.ndarray:
+    """Face id -> index into truth['planes'] (-1 where the face is not listed).
+
+    The planes are ground, riser/tread of each obstacle box, back wall, left and right
+    wall (each only when present), in the order of :func:`_truth`.
+    """
     table = np.full(n_faces, -1, dtype=np.int16)
     table[_FACE_GROUND] = 0
-    n_boxes = (n_faces - _FACE_BOX0) // 6
+    n_boxes = geom.n_obstacle_boxes
     for i in range(n_boxes):
         table[_FACE_BOX0 + 6 * i + 0] = 1 + 2 * i  # riser_{i+1}
         table[_FACE_BOX0 + 6 * i + 5] = 2 + 2 * i  # tread_{i+1}
+    nxt = 1 + 2 * n_boxes
     if spec.back_wall_m is not None:
-        table[_FACE_WALL] = 1 + 2 * n_boxes
+        table[_FACE_WALL] = nxt
+        nxt += 1
+    for j, side in enumerate(geom.wall_sides):
+        # The inner face: -v (k = 2) for the left wall, +v (k = 3) for the right one.
+        table[_FACE_BOX0 + 6 * (n_boxes + j) + (2 if side == "left" else 3)] = nxt
+        nxt += 1
     return table
 
 
@@ -204,13 +230,14 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
         (nearest first: ``rise``, ``run`` -- None for a staircase's top step, the landing
         --, ``distance`` on the frame's x axis, ``width``), ``yaw`` (None without
         obstacle), ``planes`` (``n . x + d = 0`` in the yaw frame, ``n`` up or toward the
-        camera, named ``ground``, ``riser_i``, ``tread_i``, ``back_wall``), the camera
-        parameters, ``weak_texture``, ``image_size``, ``seed`` and the whole ``spec``.
+        camera, named ``ground``, ``riser_i``, ``tread_i``, ``back_wall``, ``left_wall``,
+        ``right_wall``; walls are never steps), the camera parameters, ``weak_texture``,
+        ``image_size``, ``seed``, ``profile`` and the whole ``spec``.
 
     Raises
     ------
     InputError
-        If the camera is inside the obstacle or below the ground.
+        If the camera is inside the obstacle, below the ground or outside the side walls.
 
     Notes
     -----
@@ -232,6 +259,12 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
         for box in geom.boxes:
             if box[0] <= oa <= box[1] and box[2] <= ob <= box[3] and o[2] <= box[5]:
                 raise InputError(f"the {name} camera is inside the obstacle; move it back")
+        a0, a1 = _side_wall_span(spec)
+        if a0 <= oa <= a1 and (
+            (spec.left_wall_m is not None and ob >= spec.left_wall_m)
+            or (spec.right_wall_m is not None and ob <= spec.right_wall_m)
+        ):
+            raise InputError(f"the {name} camera is outside the side walls; move the walls apart")
     app = _appearance(spec, geom)
     # SceneSpec resolves None cameras in __post_init__.
     left_cam = cast(CameraIntrinsics, spec.left_camera)
@@ -249,14 +282,22 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
         )
         img_r, _ = job_r.result()
     noise_rng = np.random.default_rng([spec.seed, 3])
-    left = _sensor(img_l, spec, left_cam, 1.0, 0.0, spec.noise_sigma[0], noise_rng)
+    jpeg = spec.jpeg_quality or (None, None)
+    left = _sensor(img_l, spec, left_cam, 1.0, 0.0, spec.noise_sigma[0], noise_rng, jpeg[0])
     right = _sensor(
-        img_r, spec, right_cam, spec.right_gain, spec.right_offset_grey, spec.noise_sigma[1], noise_rng
+        img_r,
+        spec,
+        right_cam,
+        spec.right_gain,
+        spec.right_offset_grey,
+        spec.noise_sigma[1],
+        noise_rng,
+        jpeg[1],
     )
     w, h = spec.image_size
     t_c, face_c = cast(tuple[np.ndarray, np.ndarray], centre)
     depth = np.where(np.isfinite(t_c), t_c, np.nan).astype(np.float32).reshape(h, w)
-    labels = _labels_table(spec, len(app.group))[face_c].reshape(h, w)
+    labels = _labels_table(spec, geom, len(app.group))[face_c].reshape(h, w)
     calib = StereoCalibration(
         left_cam.matrix,
         np.array(left_cam.distortion),

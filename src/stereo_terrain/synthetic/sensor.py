@@ -16,8 +16,14 @@ def _sensor(
     offset: float,
     sigma: float,
     rng: np.random.Generator,
+    jpeg_quality: int | None = None,
 ) -> np.ndarray:
-    """Optics and sensor: blur, vignetting, gain/offset, Gaussian noise, 8-bit."""
+    """Optics and sensor: blur, vignetting, gain/offset, noise, 8-bit, JPEG.
+
+    The noise is Gaussian with variance ``sigma**2 + spec.shot_noise * grey`` (grey: the
+    noise-free level, clipped at 0); ``jpeg_quality`` (1..100) encodes and decodes the
+    8-bit image as a webcam's MJPEG stream would (OpenCV's baseline JPEG).
+    """
     h, w = img.shape
     out: np.ndarray = img.astype(np.float32)
     if spec.blur_sigma_px > 0:
@@ -27,6 +33,15 @@ def _sensor(
         r2 = ((uu - cam.cx) ** 2 + (vv - cam.cy) ** 2) / (cam.cx**2 + cam.cy**2)
         out *= 1.0 - spec.vignetting * r2
     out = gain * out + offset
-    if sigma > 0:
+    if spec.shot_noise > 0:
+        std = np.sqrt(sigma * sigma + spec.shot_noise * np.maximum(out, 0.0)).astype(np.float32)
+        out += std * rng.standard_normal(out.shape).astype(np.float32)
+    elif sigma > 0:
         out += rng.normal(0.0, sigma, out.shape).astype(np.float32)
-    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    img8 = np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    if jpeg_quality is not None:
+        ok, buf = cv2.imencode(".jpg", img8, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
+        if not ok:  # pragma: no cover - OpenCV encodes any 8-bit grey image
+            raise RuntimeError("JPEG encoding failed")
+        img8 = np.asarray(cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE), dtype=np.uint8)
+    return img8

@@ -16,10 +16,16 @@ import numpy as np
 from ..errors import InputError
 
 #: Texture kinds a :class:`SurfaceSpec` may name.
-TEXTURE_KINDS = ("noise", "wood", "carpet", "tiles", "speckle")
+TEXTURE_KINDS = ("noise", "wood", "carpet", "tiles", "speckle", "planks", "paint")
+
+#: Profiles of :func:`random_scene_spec` (recorded in :attr:`SceneSpec.profile`).
+PROFILES = ("default", "realistic")
+
+#: Sides a handrail may run along, looking up the stairs.
+RAIL_SIDES = ("left", "right")
 
 #: Face groups: each has its own surface (texture, albedo, contrast).
-_GROUPS = ("ground", "tread", "riser", "side", "wall")
+_GROUPS = ("ground", "tread", "riser", "side", "wall", "rail")
 
 
 # --------------------------------------------------------------------------- checks
@@ -281,6 +287,35 @@ class SceneSpec:
     back_wall_m : float or None
         A vertical wall facing the camera on the plane ``u . p = back_wall_m`` (obstacle
         axis; frame x when there is no obstacle); must lie beyond the obstacle.
+    left_wall_m, right_wall_m : float or None
+        Side walls parallel to the obstacle axis (frame x without obstacle): the inner
+        face of the left wall is the plane ``v . p = left_wall_m``, of the right wall
+        ``v . p = right_wall_m`` (``v`` the lateral axis, positive to the left). They must
+        lie beside the obstacle (left of its left side, right of its right side) and on
+        either side of both cameras' lateral position where they reach past them. None:
+        no wall (default). Listed in the truth planes as ``left_wall`` / ``right_wall``.
+    side_wall_height_m : float
+        Height of the side walls above the ground, metres.
+    side_wall_start_m : float or None
+        Coordinate along the axis (``u . p``) where the side walls begin, metres; they end
+        at the back wall, or 5 m beyond the obstacle's far end. None: at the first riser
+        (box front); -5 m without obstacle.
+    handrails : tuple of str
+        Sides (:data:`RAIL_SIDES`) of a staircase with a handrail: a sloped bar
+        ``handrail_height_m`` above the nosing line, beside the wall on a side with a
+        wall, else over the stair's edge. Stairs only; empty by default.
+    balusters : bool
+        Vertical bars under the handrails of sides without a wall (one per tread, and
+        one more per tread when the run exceeds 0.28 m), plus a newel post.
+    handrail_height_m : float
+        Height of the handrail's top above the nosing line, metres.
+    rail : SurfaceSpec
+        Appearance of handrails and balusters.
+    nosing_m : float
+        Depth of a strip of other (darker or lighter) reflectance at the front edge of
+        every tread (and its 2-3 cm along the top of the riser below), metres; 0 = none.
+    nosing_reflectance : float
+        Factor on the reflectance of the nosing strip (< 1: darker).
     ground, tread, riser, side, wall : SurfaceSpec
         Appearance of the face groups (a box uses riser = front, tread = top, side).
     light_azimuth_rad, light_elevation_rad : float
@@ -301,6 +336,15 @@ class SceneSpec:
         Gaussian blur of the optics, pixels (0 = none).
     supersample : int
         Samples per pixel side (1..4); 2 means 2 x 2 samples.
+    shot_noise : float
+        Signal-dependent noise: variance ``noise_sigma**2 + shot_noise * grey``, grey
+        levels (0 = none).
+    jpeg_quality : (2,) int or None
+        JPEG quality (1..100) of the left and right image, encoded and decoded with
+        OpenCV after quantisation (webcams send MJPEG); None: no JPEG.
+    profile : str
+        Which :func:`random_scene_spec` profile drew this spec (:data:`PROFILES`);
+        informational, copied to the truth.
     """
 
     obstacle: StairSpec | BoxSpec | None
@@ -334,6 +378,19 @@ class SceneSpec:
     vignetting: float = 0.0
     blur_sigma_px: float = 0.0
     supersample: int = 2
+    left_wall_m: float | None = None
+    right_wall_m: float | None = None
+    side_wall_height_m: float = 2.2
+    side_wall_start_m: float | None = None
+    handrails: tuple[str, ...] = ()
+    balusters: bool = False
+    handrail_height_m: float = 0.9
+    rail: SurfaceSpec = field(default_factory=lambda: SurfaceSpec("paint", 0.5, 0.7, 0.02))
+    nosing_m: float = 0.0
+    nosing_reflectance: float = 0.4
+    shot_noise: float = 0.0
+    jpeg_quality: tuple[int, int] | None = None
+    profile: str = "default"
 
     def __post_init__(self) -> None:
         o = "SceneSpec"
@@ -414,6 +471,73 @@ class SceneSpec:
         _set(self, "vignetting", _check_range(o, "vignetting", self.vignetting, 0.0, 0.9))
         _set(self, "blur_sigma_px", _check_range(o, "blur_sigma_px", self.blur_sigma_px, 0.0, 5.0, " px"))
         _set(self, "supersample", _check_int(o, "supersample", self.supersample, 1, 4))
+        self._check_walls_and_rails()
+        _set(self, "nosing_m", _check_range(o, "nosing_m", self.nosing_m, 0.0, 0.2, " m"))
+        _set(
+            self,
+            "nosing_reflectance",
+            _check_range(o, "nosing_reflectance", self.nosing_reflectance, 0.05, 3.0),
+        )
+        _set(self, "shot_noise", _check_range(o, "shot_noise", self.shot_noise, 0.0, 2.0))
+        if self.jpeg_quality is not None:
+            try:
+                q = tuple(self.jpeg_quality)
+            except TypeError:
+                q = ()
+            if len(q) != 2:
+                raise InputError(f"{o}.jpeg_quality must be None or (left, right), got {self.jpeg_quality!r}")
+            _set(self, "jpeg_quality", tuple(_check_int(o, "jpeg_quality", v, 1, 100) for v in q))
+        if self.profile not in PROFILES:
+            raise InputError(f"{o}.profile must be one of {PROFILES}, got {self.profile!r}")
+
+    def _check_walls_and_rails(self) -> None:
+        o = "SceneSpec"
+        ob = self.obstacle
+        b_lo, b_hi = _obstacle_lateral_span(ob)
+        for name, side in (("left_wall_m", 1.0), ("right_wall_m", -1.0)):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            wall = _check_range(o, name, value, -50.0, 50.0, " m")
+            if ob is not None and (wall < b_hi if side > 0 else wall > b_lo):
+                where = f">= {b_hi:.3f}" if side > 0 else f"<= {b_lo:.3f}"
+                raise InputError(f"{o}.{name} must lie beside the obstacle ({where} m), got {value}")
+            _set(self, name, wall)
+        if self.left_wall_m is not None and self.right_wall_m is not None:
+            if not self.left_wall_m - self.right_wall_m > 0.2:
+                raise InputError(
+                    f"{o}.left_wall_m must exceed right_wall_m by more than 0.2 m, got "
+                    f"{self.left_wall_m} and {self.right_wall_m}"
+                )
+        _set(
+            self,
+            "side_wall_height_m",
+            _check_positive(o, "side_wall_height_m", self.side_wall_height_m, 20.0),
+        )
+        if self.side_wall_start_m is not None:
+            start = _check_range(o, "side_wall_start_m", self.side_wall_start_m, -50.0, 50.0, " m")
+            if start >= _side_wall_end(self.obstacle, self.back_wall_m, start):
+                raise InputError(f"{o}.side_wall_start_m must lie before the back wall, got {start}")
+            _set(self, "side_wall_start_m", start)
+        rails: tuple = (self.handrails,) if isinstance(self.handrails, str) else ()
+        if not rails:
+            try:
+                rails = tuple(self.handrails)
+            except TypeError:
+                rails = (self.handrails,)
+        if any(r not in RAIL_SIDES for r in rails) or len(set(rails)) != len(rails):
+            raise InputError(f"{o}.handrails must be distinct sides of {RAIL_SIDES}, got {self.handrails!r}")
+        if rails and not isinstance(ob, StairSpec):
+            raise InputError(f"{o}.handrails need a StairSpec obstacle, got {type(ob).__name__}")
+        _set(self, "handrails", rails)
+        if not isinstance(self.balusters, bool | np.bool_):
+            raise InputError(f"{o}.balusters must be a bool, got {self.balusters!r}")
+        _set(self, "balusters", bool(self.balusters))
+        _set(
+            self,
+            "handrail_height_m",
+            _check_range(o, "handrail_height_m", self.handrail_height_m, 0.3, 1.5, " m"),
+        )
 
 
 def _obstacle_centre_b(obstacle: StairSpec | BoxSpec) -> float:
@@ -422,6 +546,30 @@ def _obstacle_centre_b(obstacle: StairSpec | BoxSpec) -> float:
     The centre of the first riser's bottom edge is ``(distance_m, 0, 0) + lateral_m * v``.
     """
     return obstacle.lateral_m - obstacle.distance_m * math.sin(obstacle.yaw_rad)
+
+
+def _obstacle_lateral_span(obstacle: StairSpec | BoxSpec | None) -> tuple[float, float]:
+    """``(b_lo, b_hi)``: lateral coordinates ``v . p`` of the obstacle's sides (0, 0 without)."""
+    if obstacle is None:
+        return 0.0, 0.0
+    b_mid = _obstacle_centre_b(obstacle)
+    return b_mid - obstacle.width_m / 2, b_mid + obstacle.width_m / 2
+
+
+def _side_wall_span(spec: SceneSpec) -> tuple[float, float]:
+    """``(a_start, a_end)`` of the side walls along the axis, metres."""
+    ob = spec.obstacle
+    if spec.side_wall_start_m is not None:
+        start = spec.side_wall_start_m
+    else:
+        start = -5.0 if ob is None else ob.distance_m * math.cos(ob.yaw_rad)
+    return start, _side_wall_end(ob, spec.back_wall_m, start)
+
+
+def _side_wall_end(obstacle: StairSpec | BoxSpec | None, back_wall_m: float | None, start: float) -> float:
+    if back_wall_m is not None:
+        return back_wall_m
+    return max(_obstacle_far_end(obstacle), start) + 5.0
 
 
 def _obstacle_far_end(obstacle: StairSpec | BoxSpec | None) -> float:

@@ -14,7 +14,7 @@ from ..errors import InputError
 from ..frames import save_rig
 from .random_scenes import random_scene_spec
 from .render import SyntheticScene, render_scene
-from .spec import _check_int
+from .spec import PROFILES, _check_int
 
 
 def write_scene(scene: SyntheticScene, out_dir: str | Path) -> Path:
@@ -45,17 +45,22 @@ def write_scene(scene: SyntheticScene, out_dir: str | Path) -> Path:
     return out
 
 
-def render_scenes(out_dir: str | Path, count: int, seed: int, **kw: Any) -> list[Path]:
+def render_scenes(
+    out_dir: str | Path, count: int, seed: int, *, profile: str = "default", **kw: Any
+) -> list[Path]:
     """Render ``count`` random scenes into ``out_dir/scene_000``, ``scene_001``, ...
 
-    Deterministic: the same ``seed`` (and ``kw``, passed to :func:`random_scene_spec`)
-    writes the same files.
+    Deterministic: the same ``seed``, ``profile`` ("default" or "realistic", see
+    :func:`random_scene_spec`) and ``kw`` (passed to :func:`random_scene_spec`) write the
+    same files.
     """
     count = _check_int("render_scenes", "count", count, 0, 100_000)
     seed = _check_int("render_scenes", "seed", seed, 0, 2**63 - 1)
+    if profile not in PROFILES:
+        raise InputError(f"profile must be one of {', '.join(PROFILES)}; got {profile!r}")
     rng = np.random.default_rng(seed)
     paths = []
     for i in range(count):
-        spec = random_scene_spec(rng, **kw)
+        spec = random_scene_spec(rng, profile=profile, **kw)
         paths.append(write_scene(render_scene(spec), Path(out_dir) / f"scene_{i:03d}"))
     return paths
