@@ -152,6 +152,12 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--size", type=_size, default=(640, 480), help="WIDTHxHEIGHT (default 640x480)")
     g.add_argument("--kind", choices=["stairs", "box", "none"], help="obstacle kind (default: random)")
+    g.add_argument(
+        "--profile",
+        choices=["default", "realistic"],  # synthetic.PROFILES, not imported at parse time
+        default="default",
+        help="scenes like the renderer's own (default) or like webcam photos of real stairs (realistic)",
+    )
     _add_runtime_commands(sub)
     return p
 
@@ -352,7 +358,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     kw: dict[str, Any] = {"image_size": args.size}
     if args.kind:
         kw["kind"] = args.kind
-    paths = render_scenes(args.out, args.count, args.seed, **kw)
+    paths = render_scenes(args.out, args.count, args.seed, profile=args.profile, **kw)
     for p in paths:
         print(p)
     return EXIT_OK
