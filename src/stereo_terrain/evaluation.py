@@ -100,7 +100,9 @@ def summarize(scores: Iterable[SceneScore]) -> dict[str, float]:
         "rise_median_m": stat(rises, 50),
         "rise_p90_m": stat(rises, 90),
         "run_median_m": stat(runs, 50),
+        "run_p90_m": stat(runs, 90),
         "first_distance_median_m": stat(firsts, 50),
+        "first_distance_p90_m": stat(firsts, 90),
         "matched_steps": float(len(rises)),
     }
 

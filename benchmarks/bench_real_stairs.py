@@ -1,0 +1,150 @@
+"""Issue 11 ("Real stairs"): the realistic rendered profile beside the default one, with and
+without a rig, and the real scenes of ../shared/data that have no ground truth.
+
+For each profile, the same scenes are run twice: with the true rig (gravity from the rig)
+and without one (gravity from the scene's plane families). Columns: detection, false
+positives (scenes without an obstacle), step count, rise / run / first-riser distance
+errors (median and p90, cm) and, without a rig, the angle between the estimated and the
+true up (median, p90, share within 2 deg). Then one line per real scene.
+
+    .venv/bin/python benchmarks/bench_real_stairs.py [--scenes 60] [--seed 11]
+        [--profiles default,realistic] [--config CFG.yaml] [--real-only]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from stereo_terrain.calibration import read_calibration
+from stereo_terrain.evaluation import score_result, summarize
+from stereo_terrain.gravity import angle_deg
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.rectify import read_image
+from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+
+#: (name, folder, left, right, calibration, what a correct result is)
+REAL_SCENES = [
+    ("Staircase", "middlebury2014Q_noGT/Staircase", "im0.png", "im1.png", "calib.txt", "stairs, >= 4 steps"),
+    ("Classroom2", "middlebury2014Q_noGT/Classroom2", "im0.png", "im1.png", "calib.txt", "tiered floor"),
+    ("corridor", "oakd_lite/corridor", "left.png", "right.png", "stereodemo_calibration.json", "no stairs"),
+    ("desk", "oakd_lite/desk", "left.png", "right.png", "stereodemo_calibration.json", "no stairs"),
+    (
+        "living_room",
+        "oakd_lite/living_room",
+        "left.png",
+        "right.png",
+        "stereodemo_calibration.json",
+        "no stairs",
+    ),
+]
+
+
+def true_up_camera(scene, pipeline: Pipeline) -> np.ndarray:
+    """Gravity-up in the rectified left camera frame, from the scene's true rig."""
+    T = scene.rig.T_yaw_camera @ pipeline.rectification.T_camera_rect
+    return T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+
+
+def run_profile(profile: str, n: int, seed: int, config: PipelineConfig) -> dict[str, list]:
+    rng = np.random.default_rng(seed)
+    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": [], "gravity_sigma": []}
+    for i in range(n):
+        spec = random_scene_spec(rng, profile=profile)
+        scene = render_scene(spec)
+        with_rig = Pipeline(scene.calibration, scene.rig, config)
+        out["rig"].append(score_result(with_rig.run(scene.left, scene.right).to_json_dict(), scene.truth))
+        free = Pipeline(scene.calibration, None, config)
+        result = free.run(scene.left, scene.right)
+        out["scene"].append(score_result(result.to_json_dict(), scene.truth))
+        if result.gravity is not None and result.gravity_source == "scene":
+            out["gravity_err"].append(angle_deg(result.gravity.up_camera, true_up_camera(scene, free)))
+            out["gravity_sigma"].append(result.gravity.sigma_deg)
+        else:
+            out["gravity_err"].append(float("inf"))  # not estimated counts as a miss
+            out["gravity_sigma"].append(float("inf"))
+        sys.stderr.write(f"\r{profile}: {i + 1}/{n}")
+    sys.stderr.write("\n")
+    return out
+
+
+def row(name: str, scores, grav=None) -> str:
+    s = summarize(scores)
+    cm = 100.0
+
+    def f(x: float) -> str:
+        return "-" if not np.isfinite(x) else f"{x * cm:.1f}"
+
+    g = "| - | - | -"
+    if grav is not None:
+        e = np.array(grav)
+        fin = e[np.isfinite(e)]
+        g = (
+            f"| {np.median(fin):.2f} | {np.percentile(fin, 90):.2f} | {np.mean(e < 2.0):.0%}"
+            if len(fin)
+            else "| - | - | 0%"
+        )
+    return (
+        f"| {name} | {int(s['scenes'])} | {s['detection_rate']:.0%} | {s['false_positive_rate']:.0%} | "
+        f"{s['count_rate']:.0%} | {f(s['rise_median_m'])} / {f(s['rise_p90_m'])} | "
+        f"{f(s['run_median_m'])} / {f(s['run_p90_m'])} | "
+        f"{f(s['first_distance_median_m'])} / {f(s['first_distance_p90_m'])} {g} |"
+    )
+
+
+def real_scenes(config: PipelineConfig) -> None:
+    print("\n| real scene | expected | result | steps (rise / run, cm) | yaw deg | gravity | ms |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for name, folder, left, right, calib, expected in REAL_SCENES:
+        d = DATA / folder
+        if not d.is_dir():
+            print(f"| {name} | {expected} | (missing: {d}) | | | | |")
+            continue
+        pipeline = Pipeline(read_calibration(d / calib), None, config)
+        L, R = read_image(d / left), read_image(d / right)
+        pipeline.run(L, R)  # warm
+        t = time.perf_counter()
+        result = pipeline.run(L, R)
+        ms = (time.perf_counter() - t) * 1000.0
+        data = result.to_json_dict()
+        steps = ", ".join(
+            f"{s['rise'] * 100:.1f}/" + ("-" if s["run"] is None else f"{s['run'] * 100:.1f}")
+            for s in data["steps"]
+        )
+        yaw = "-" if data["yaw"] is None or data["obstacle"] == "none" else f"{np.degrees(data['yaw']):.0f}"
+        g = data["gravity"]
+        grav = g["source"] + (f" +-{g['sigma_deg']:.1f} deg" if g["sigma_deg"] is not None else "")
+        print(f"| {name} | {expected} | {data['obstacle']} | {steps} | {yaw} | {grav} | {ms:.0f} |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", type=int, default=60)
+    ap.add_argument("--seed", type=int, default=11)
+    ap.add_argument("--profiles", default="default,realistic")
+    ap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")
+    ap.add_argument("--real-only", action="store_true", help="only the real scenes")
+    args = ap.parse_args()
+    config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
+    if not args.real_only:
+        print(
+            "| profile, gravity from | n | detected | false pos. | step count | rise cm med / p90 | "
+            "run cm med / p90 | 1st distance cm med / p90 | gravity err deg med | p90 | within 2 deg |"
+        )
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        for profile in args.profiles.split(","):
+            res = run_profile(profile, args.scenes, args.seed, config)
+            print(row(f"{profile}, rig", res["rig"]))
+            print(row(f"{profile}, scene (no rig)", res["scene"], res["gravity_err"]))
+            sys.stdout.flush()
+    real_scenes(config)
+
+
+if __name__ == "__main__":
+    main()
