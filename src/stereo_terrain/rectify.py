@@ -226,7 +226,12 @@ def compute_rectification(
         roi = _largest_valid_rectangle(valid_left)
     if roi[2] <= 0 or roi[3] <= 0:
         roi = (0, 0, w, h)
-    maps = (*cv2.convertMaps(m1x, m1y, cv2.CV_16SC2), *cv2.convertMaps(m2x, m2y, cv2.CV_16SC2))
+    # The fixed-point maps straight from OpenCV (converting the float ones rounds a few
+    # pixels differently from what the pipeline always used).
+    maps = (
+        *cv2.initUndistortRectifyMap(calib.K1, calib.D1, R1, P1, (w, h), cv2.CV_16SC2),
+        *cv2.initUndistortRectifyMap(calib.K2, calib.D2, R2, P2, (w, h), cv2.CV_16SC2),
+    )
     return Rectification(
         calib,
         f,

@@ -133,6 +133,8 @@ class VerticalOffset:
         return abs(self.offset_px) + abs(self.slope) * half
 
 
+_MIN_TILE_STD = 1.0  # grey levels; below it a tile has no texture to measure
+
 _WINDOWS: dict[tuple[int, int], np.ndarray] = {}
 
 
@@ -171,6 +173,8 @@ def measure_tiles(
             a = lrow[:, x0 : x0 + tw]
             b = rrow[:, x0 - off : x0 - off + tw]
             (_dx, dy), response = cv2.phaseCorrelate(a, b, win)
+            if float(a.std()) < _MIN_TILE_STD or float(b.std()) < _MIN_TILE_STD:
+                response = 0.0  # a flat tile correlates with anything (at zero shift)
             out.append((x0 + (tw - 1) / 2.0, dy, response))
     return np.asarray(out, dtype=np.float64)
 
