@@ -25,6 +25,7 @@ from stereo_terrain.errors import CalibrationError, ConfigError, InputError
 from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import compute_rectification, rectify, rectify_points
+from stereo_terrain.stereo.vertical import VerticalAlignConfig
 from stereo_terrain.synthetic import default_scene_spec, render_scene, write_scene
 
 ANGLE_DEG = 0.3
@@ -138,7 +139,8 @@ def test_check_calib_cli(scenes, tmp_path, capsys):
     code = main(["check-calib", str(d / "left.png"), str(d / "right.png"), "--calib", str(d / "calib.yaml")])
     out = capsys.readouterr().out
     assert code == 0
-    assert "vertical disparity" in out and "verdict: recalibrate" in out and "median +2.9" in out
+    # +2.9 px at OpenCV alpha 0's focal length; the full-height rectification's is ~6% shorter.
+    assert "vertical disparity" in out and "verdict: recalibrate" in out and "median +2.7" in out
 
 
 def test_check_calib_cli_bad_input(scenes, tmp_path, capsys):
@@ -175,7 +177,10 @@ def test_online_correction_leaves_a_good_rig_alone(scenes):
 def test_online_correction_restores_the_rise(scenes, yawed_views, axis):
     s = scenes[axis]
     truth = s.truth
-    plain = score_result(Pipeline(s.calibration, s.rig).run(s.left, s.right).to_json_dict(), truth)
+    # Without any correction: the per-frame vertical alignment (stereo/vertical.py) alone
+    # also undoes a turn about x, so it is off here.
+    no_fix = PipelineConfig(vertical=VerticalAlignConfig(enabled=False))
+    plain = score_result(Pipeline(s.calibration, s.rig, no_fix).run(s.left, s.right).to_json_dict(), truth)
     base = score_result(
         Pipeline(scenes[None].calibration, scenes[None].rig)
         .run(scenes[None].left, scenes[None].right)

@@ -45,7 +45,7 @@ from scipy.stats import chi2
 
 from .checks import check_fields, check_min
 from .errors import ConfigError, InputError
-from .rectify import Rectification, RectifiedPair, compute_rectification
+from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification
 
 log = logging.getLogger(__name__)
 
@@ -189,8 +189,9 @@ def match_features(pair: RectifiedPair, config: DriftConfig | None = None) -> Fe
     cfg = config or DriftConfig()
     left, right = pair.left, pair.right
     orb = cv2.ORB_create(nfeatures=cfg.max_features)  # type: ignore[attr-defined]
-    kl, dl = orb.detectAndCompute(left, None)
-    kr, dr = orb.detectAndCompute(right, None)
+    rect = pair.rectification
+    kl, dl = orb.detectAndCompute(left, _feature_mask(rect.valid_left))
+    kr, dr = orb.detectAndCompute(right, _feature_mask(rect.valid_right))
     empty = FeatureMatches(np.zeros((0, 2)), np.zeros((0, 2)))
     if dl is None or dr is None or len(kl) < 2 or len(kr) < 2:
         return empty
@@ -237,6 +238,15 @@ def match_features(pair: RectifiedPair, config: DriftConfig | None = None) -> Fe
     inside = (pr_fine[:, 0] >= 0) & (pr_fine[:, 0] <= w - 1) & (pr_fine[:, 1] >= 0) & (pr_fine[:, 1] <= h - 1)
     ok &= inside
     return FeatureMatches(pl[ok].astype(np.float64), pr_fine[ok].astype(np.float64))
+
+
+def _feature_mask(valid: np.ndarray | None) -> np.ndarray | None:
+    """Where ORB may put a feature: pixels whose 31-px descriptor patch and LK window stay
+    off the sourceless border of the rectified image (None: anywhere)."""
+    if valid is None:
+        return None
+    k = np.ones((33, 33), np.uint8)
+    return cv2.erode(valid.astype(np.uint8), k, borderType=cv2.BORDER_REPLICATE) * np.uint8(255)
 
 
 def _lucas_kanade(
@@ -751,7 +761,9 @@ class OnlineRectifier:
             )
         if np.any(cand):
             R_corr, _ = cv2.Rodrigues(cand.reshape(3, 1))
-            self.current = compute_rectification(self.base.calibration, right_correction=R_corr)
+            self.current = compute_rectification(
+                self.base.calibration, fov=_same_fov(self.base), right_correction=R_corr
+            )
         else:
             self.current = self.base
         log.info(
@@ -761,6 +773,12 @@ class OnlineRectifier:
             rms_cand,
         )
         return CorrectionUpdate(self.current, True, n, rms_cand, "corrected")
+
+
+def _same_fov(rect: Rectification) -> str:
+    """The ``fov`` that rebuilds ``rect``'s rectified cameras (an explicit alpha of 0 is
+    ``valid``'s; other alphas are rare and rebuilt as ``valid`` too)."""
+    return rect.fov if rect.fov in RECTIFY_FOVS else "valid"
 
 
 def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:

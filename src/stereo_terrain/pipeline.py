@@ -59,11 +59,12 @@ from .planes.orientation import (
     extract_planes_orientation,
     transform_planes,
 )
-from .rectify import Rectification, RectifiedPair, compute_rectification, rectify
+from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
 from .stereo.fill import PlanarFillConfig, fill_planar_regions
 from .stereo.opencv import OpenCVSGBMConfig
 from .stereo.sgm import SGMConfig
+from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
 from .swing import SwingConfig, SwingPlan, plan_swing
 from .terrain import StairModel, TerrainConfig, build_terrain
 
@@ -101,6 +102,13 @@ class PipelineConfig:
     drift : DriftConfig
         Online correction of the rectification for a rig that moved since calibration
         (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
+    rectify_fov : str
+        What the rectified view keeps (:data:`stereo_terrain.rectify.RECTIFY_FOVS`):
+        ``full-height`` (default: the raw images' whole height), ``valid`` (OpenCV alpha 0,
+        the earlier behaviour) or ``all``.
+    vertical : VerticalAlignConfig
+        Per-frame correction of a residual vertical offset of the right image
+        (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
     """
 
     backend: str = "opencv"
@@ -117,6 +125,9 @@ class PipelineConfig:
     swing: SwingConfig = field(default_factory=SwingConfig)
     drift: DriftConfig = field(default_factory=DriftConfig)
     gravity: GravityConfig = field(default_factory=GravityConfig)
+    # Stage 1 options (rectify.py, stereo/vertical.py): issue 11.
+    rectify_fov: str = "full-height"
+    vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -129,6 +140,9 @@ class PipelineConfig:
             raise ConfigError(f"unknown method '{self.method}'; choose one of: {', '.join(PLANE_METHODS)}")
         if not self.min_depth_m > 0:
             raise ConfigError(f"min_depth_m must be > 0, got {self.min_depth_m}")
+        if self.rectify_fov not in RECTIFY_FOVS:
+            choices = ", ".join(RECTIFY_FOVS)
+            raise ConfigError(f"unknown rectify_fov '{self.rectify_fov}'; choose one of: {choices}")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PipelineConfig:
@@ -148,6 +162,7 @@ class PipelineConfig:
             "swing": SwingConfig,
             "drift": DriftConfig,
             "gravity": GravityConfig,
+            "vertical": VerticalAlignConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -308,12 +323,13 @@ class Pipeline:
         self.config = config or PipelineConfig()
         self.calibration = calibration
         self.rig = rig
-        self.rectification: Rectification = compute_rectification(calibration)
+        self.rectification: Rectification = compute_rectification(calibration, fov=self.config.rectify_fov)
         # Online drift correction (opt-in): owns the rectification from here on.
         self.rectifier: OnlineRectifier | None = (
             OnlineRectifier(self.rectification, self.config.drift) if self.config.drift.online else None
         )
         self.last_correction: CorrectionUpdate | None = None
+        self.last_vertical: VerticalOffset | None = None  # stereo/vertical.py, last frame
         if self.config.max_disparity_px is not None:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
         else:
@@ -358,12 +374,17 @@ class Pipeline:
             if self.last_correction.changed:  # re-rectify this frame with the corrected rig
                 self.rectification = self.last_correction.rectification
                 pair = rectify(left, right, self.rectification)
+        pair, self.last_vertical = align_vertical(pair, self.config.vertical)  # residual vertical offset
         lap("rectify")
         disp = self.backend.compute(pair, self.max_disparity_px)
         if self.config.fill.enabled:
             # Texture-poor faces: disparity from their outline (see stereo/fill.py).
             values, filled = fill_planar_regions(
-                disp.disparity, pair.left, self.config.fill, max_disparity_px=disp.max_disparity_px
+                disp.disparity,
+                pair.left,
+                self.config.fill,
+                max_disparity_px=disp.max_disparity_px,
+                valid=pair.rectification.valid_left,
             )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")

@@ -1,8 +1,32 @@
 """Stage 1: load and check a stereo pair, rectify it from the calibration.
 
-Rectification uses OpenCV (``stereoRectify`` + ``initUndistortRectifyMap``); the maps are
-computed once per calibration and cached in a :class:`Rectification`. Already rectified
-calibrations (Middlebury, OAK-D) pass images through untouched.
+Rectification uses OpenCV (``stereoRectify`` for the rotations, ``initUndistortRectifyMap``
+for the maps); the maps are computed once per calibration and cached in a
+:class:`Rectification`. Already rectified calibrations (Middlebury, OAK-D) pass images
+through untouched.
+
+What the rectified view keeps (``fov``, :data:`RECTIFY_FOVS`):
+
+- ``full-height`` (the default): the rectified camera is chosen so that the raw images'
+  whole vertical extent stays in view. Its focal length ``f`` (the same for x and y, so
+  pixels are square whatever ``fy / fx`` the raw cameras have) and ``cy`` put the raw top
+  and bottom edges of *both* cameras, over the central half of the width, on the first and
+  last rectified rows; ``cx`` centres the left camera's raw horizontal extent. The output
+  keeps the raw size. A level camera close to stairs sees the floor and the first riser
+  only in a thin strip at the bottom of the raw image: OpenCV's ``alpha = 0`` crops to
+  a rectangle in which both images have a source pixel, and that rectangle, held to the
+  image's aspect ratio, loses that strip whenever the images are offset or turned
+  against each other. The price is a slightly smaller focal length and pixels without a
+  source (image corners, the sides when ``fy < fx``).
+- ``valid``: OpenCV ``alpha = 0`` (every rectified pixel has a source; what the pipeline
+  did before).
+- ``all``: OpenCV ``alpha = 1`` (every raw pixel is kept; the smallest focal length).
+
+Pixels without a source pixel are not left to the matchers: :attr:`Rectification.valid_left`
+and :attr:`Rectification.valid_right` mark the rectified pixels that have one (with a margin
+of :data:`SOURCE_MARGIN_PX` so that no matching window reaches the black border), and the
+disparity backends make every disparity NaN whose left pixel or matched right pixel is
+outside them.
 """
 
 from __future__ import annotations
@@ -14,8 +38,20 @@ import cv2
 import numpy as np
 
 from .calibration import StereoCalibration
-from .errors import CalibrationError, InputError
+from .errors import CalibrationError, ConfigError, InputError
 from .frames import Transform
+
+#: What a rectification keeps of the raw view (``compute_rectification(fov=...)``).
+RECTIFY_FOVS = ("full-height", "valid", "all")
+
+#: Pixels next to a pixel without a source that count as having none too: the matchers'
+#: windows (5x5 census, 5x5 SGBM block) reach 2 px, bilinear interpolation 1 px more.
+SOURCE_MARGIN_PX = 3
+
+#: Central fraction of the width over which ``full-height`` keeps the raw top and bottom
+#: edges (the corners of a barrel-distorted image bow out further and would cost focal
+#: length for content at the image's far corners).
+_EDGE_BAND = 0.5
 
 
 @dataclass(frozen=True)
@@ -49,6 +85,12 @@ class Rectification:
     right_correction : (3, 3) float64 or None
         Rotation applied to the rectified right camera on top of the calibration (online
         drift correction, :mod:`stereo_terrain.drift`); None for none.
+    valid_left, valid_right : (H, W) bool or None
+        Rectified pixels that have a raw source pixel, at least :data:`SOURCE_MARGIN_PX`
+        from any that has none; None when every pixel has one.
+    fov : str
+        What was kept (:data:`RECTIFY_FOVS`; ``alpha=...`` for an explicit OpenCV alpha,
+        ``rectified`` for a pass-through).
     """
 
     calibration: StereoCalibration
@@ -66,6 +108,9 @@ class Rectification:
     P1: np.ndarray | None = field(default=None, repr=False)
     P2: np.ndarray | None = field(default=None, repr=False)
     right_correction: np.ndarray | None = field(default=None, repr=False)
+    valid_left: np.ndarray | None = field(default=None, repr=False)
+    valid_right: np.ndarray | None = field(default=None, repr=False)
+    fov: str = "rectified"
 
     @property
     def image_size(self) -> tuple[int, int]:
@@ -81,22 +126,41 @@ class Rectification:
 
 
 def compute_rectification(
-    calib: StereoCalibration, *, alpha: float = 0.0, right_correction: np.ndarray | None = None
+    calib: StereoCalibration,
+    *,
+    fov: str = "full-height",
+    alpha: float | None = None,
+    right_correction: np.ndarray | None = None,
 ) -> Rectification:
     """Build (and cache the maps of) the rectification for ``calib``.
 
     Parameters
     ----------
-    alpha : float
-        OpenCV free-scaling parameter: 0 keeps only valid pixels (default), 1 keeps all.
+    fov : str
+        What the rectified view keeps, one of :data:`RECTIFY_FOVS` (see the module
+        docstring): ``full-height`` (default), ``valid`` (OpenCV alpha 0) or ``all``
+        (alpha 1).
+    alpha : float, optional
+        An explicit OpenCV free-scaling parameter in [0, 1] instead of ``fov``.
     right_correction : (3, 3) float64, optional
         A small rotation applied to the rectified right camera after ``stereoRectify``
         (``R2 <- right_correction @ R2``): undoes a rotation of the right camera that
         happened since calibration (:mod:`stereo_terrain.drift`). The left camera, ``Q``
         and ``T_camera_rect`` do not change, so depth and frames stay those of the
         calibration.
+
+    Examples
+    --------
+    >>> from stereo_terrain.synthetic import default_scene_spec, render_scene
+    >>> rect = compute_rectification(render_scene(default_scene_spec()).calibration)
+    >>> rect.fov, rect.image_size
+    ('full-height', (640, 480))
     """
     w, h = calib.image_size
+    if fov not in RECTIFY_FOVS:
+        raise ConfigError(f"fov must be one of {', '.join(RECTIFY_FOVS)}, got {fov!r}")
+    if alpha is not None and not 0.0 <= alpha <= 1.0:
+        raise ConfigError(f"alpha must be in [0, 1], got {alpha}")
     if calib.rectified and right_correction is not None:
         raise CalibrationError(
             "a rectification correction needs the raw calibration (K, D, R, T); this one is of "
@@ -114,6 +178,7 @@ def compute_rectification(
         return Rectification(
             calib, f, cx, cy, b, doffs, Q_rect, Transform(np.eye(4), "camera", "camera_rect"), (0, 0, w, h)
         )
+    cv_alpha = alpha if alpha is not None else {"valid": 0.0, "all": 1.0}.get(fov, 0.0)
     try:
         R1, R2, P1, P2, Q, roi1, _roi2 = cv2.stereoRectify(
             calib.K1,
@@ -124,7 +189,7 @@ def compute_rectification(
             calib.R,
             calib.T.reshape(3, 1),
             flags=cv2.CALIB_ZERO_DISPARITY,
-            alpha=alpha,
+            alpha=cv_alpha,
         )
     except cv2.error as exc:
         first = str(exc.err).strip().splitlines()[0] if str(exc.err).strip() else "unknown error"
@@ -134,21 +199,39 @@ def compute_rectification(
             "calibration baseline is not horizontal; this pipeline needs a side-by-side pair "
             "(right camera along +x of the left)"
         )
-    if right_correction is not None:
-        R2 = np.asarray(right_correction, dtype=np.float64).reshape(3, 3) @ R2
-    m1x, m1y = cv2.initUndistortRectifyMap(calib.K1, calib.D1, R1, P1, (w, h), cv2.CV_16SC2)
-    m2x, m2y = cv2.initUndistortRectifyMap(calib.K2, calib.D2, R2, P2, (w, h), cv2.CV_16SC2)
-    f = float(P1[0, 0])
     baseline = float(-P2[0, 3] / P2[0, 0])
     if baseline <= 0:
         raise CalibrationError(
             "right camera is to the left of the left camera (T[0] > 0); swap the images or the "
             "calibration's cameras"
         )
+    chosen = f"alpha={alpha:g}" if alpha is not None else fov
+    if alpha is None and fov == "full-height":
+        # Computed before any right correction: the rectified cameras (and so Q and the
+        # frames) stay those of the calibration.
+        P1, P2, Q = _full_height_cameras(calib, R1, R2, baseline)
+    if right_correction is not None:
+        R2 = np.asarray(right_correction, dtype=np.float64).reshape(3, 3) @ R2
+    m1x, m1y = cv2.initUndistortRectifyMap(calib.K1, calib.D1, R1, P1, (w, h), cv2.CV_32FC1)
+    m2x, m2y = cv2.initUndistortRectifyMap(calib.K2, calib.D2, R2, P2, (w, h), cv2.CV_32FC1)
+    valid_left = _with_source(m1x, m1y)
+    valid_right = _with_source(m2x, m2y)
+    f = float(P1[0, 0])
     T_camera_rect = Transform.from_rt(R1.T, np.zeros(3), "camera", "camera_rect")
-    roi: tuple[int, int, int, int] = (int(roi1[0]), int(roi1[1]), int(roi1[2]), int(roi1[3]))
+    if valid_left is None:
+        roi: tuple[int, int, int, int] = (0, 0, w, h)
+    elif alpha is None and fov == "valid":
+        roi = (int(roi1[0]), int(roi1[1]), int(roi1[2]), int(roi1[3]))
+    else:
+        roi = _largest_valid_rectangle(valid_left)
     if roi[2] <= 0 or roi[3] <= 0:
         roi = (0, 0, w, h)
+    # The fixed-point maps straight from OpenCV (converting the float ones rounds a few
+    # pixels differently from what the pipeline always used).
+    maps = (
+        *cv2.initUndistortRectifyMap(calib.K1, calib.D1, R1, P1, (w, h), cv2.CV_16SC2),
+        *cv2.initUndistortRectifyMap(calib.K2, calib.D2, R2, P2, (w, h), cv2.CV_16SC2),
+    )
     return Rectification(
         calib,
         f,
@@ -159,13 +242,99 @@ def compute_rectification(
         Q,
         T_camera_rect,
         roi,
-        (m1x, m1y, m2x, m2y),  # type: ignore[arg-type]
+        maps,  # type: ignore[arg-type]
         R1,
         R2,
         P1,
         P2,
         None if right_correction is None else np.asarray(right_correction, dtype=np.float64).reshape(3, 3),
+        valid_left,
+        valid_right,
+        chosen,
     )
+
+
+def _normalized_rectified(K: np.ndarray, D: np.ndarray, R: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Raw pixels (N, 2) -> normalized coordinates (N, 2) of the rectified camera."""
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-10)
+    out = cv2.undistortPoints(pts.reshape(-1, 1, 2).astype(np.float64), K, D, R=R, criteria=criteria)
+    return np.asarray(out, dtype=np.float64).reshape(-1, 2)
+
+
+def _full_height_cameras(
+    calib: StereoCalibration, R1: np.ndarray, R2: np.ndarray, baseline_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``P1, P2, Q`` of the ``full-height`` rectification (module docstring)."""
+    w, h = calib.image_size
+    xs = np.linspace((0.5 - _EDGE_BAND / 2) * (w - 1), (0.5 + _EDGE_BAND / 2) * (w - 1), 17)
+    top = np.column_stack([xs, np.zeros_like(xs)])
+    bottom = np.column_stack([xs, np.full_like(xs, h - 1.0)])
+    y_lo, y_hi = np.inf, -np.inf
+    for K, D, R in ((calib.K1, calib.D1, R1), (calib.K2, calib.D2, R2)):
+        y_lo = min(y_lo, float(_normalized_rectified(K, D, R, top)[:, 1].min()))
+        y_hi = max(y_hi, float(_normalized_rectified(K, D, R, bottom)[:, 1].max()))
+    if not y_hi > y_lo:
+        raise CalibrationError("the rectified cameras see no vertical extent; check the calibration")
+    f = (h - 1.0) / (y_hi - y_lo)
+    cy = -f * y_lo
+    ys = np.linspace(0.25 * (h - 1), 0.75 * (h - 1), 9)
+    sides = np.column_stack([np.r_[np.zeros_like(ys), np.full_like(ys, w - 1.0)], np.r_[ys, ys]])
+    xn = _normalized_rectified(calib.K1, calib.D1, R1, sides)[:, 0]
+    x_lo, x_hi = float(xn[: len(ys)].min()), float(xn[len(ys) :].max())
+    cx = (w - 1.0) / 2.0 - f * (x_lo + x_hi) / 2.0
+    P1 = np.array([[f, 0.0, cx, 0.0], [0.0, f, cy, 0.0], [0.0, 0.0, 1.0, 0.0]])
+    P2 = P1.copy()
+    P2[0, 3] = -f * baseline_m
+    Q = np.array(
+        [[1.0, 0, 0, -cx], [0, 1.0, 0, -cy], [0, 0, 0, f], [0, 0, 1.0 / baseline_m, 0.0]], dtype=np.float64
+    )
+    return P1, P2, Q
+
+
+def _with_source(mx: np.ndarray, my: np.ndarray) -> np.ndarray | None:
+    """Pixels of a rectified image whose (float) map lands inside the raw image, shrunk by
+    :data:`SOURCE_MARGIN_PX`; None when every pixel qualifies."""
+    h, w = mx.shape
+    ok = (mx >= 0) & (mx <= w - 1) & (my >= 0) & (my <= h - 1)
+    if ok.all():
+        return None
+    k = 2 * SOURCE_MARGIN_PX + 1
+    # Erode with the image border counted as having a source (it is the image's edge, not
+    # a black fill).
+    ok = cv2.erode(ok.astype(np.uint8), np.ones((k, k), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    return ok.astype(bool)
+
+
+def _largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:
+    """A large axis-aligned rectangle ``(x, y, w, h)`` of ``valid`` pixels only: the border
+    row or column with the largest share of invalid pixels is dropped until none is left."""
+    h, w = valid.shape
+    bad = (~valid).astype(np.int32)
+    rows = np.zeros((h + 1, w + 1), np.int64)
+    rows[1:, 1:] = bad.cumsum(0).cumsum(1)
+
+    def count(y0: int, y1: int, x0: int, x1: int) -> int:  # bad pixels in [y0, y1) x [x0, x1)
+        return int(rows[y1, x1] - rows[y0, x1] - rows[y1, x0] + rows[y0, x0])
+
+    y0, y1, x0, x1 = 0, h, 0, w
+    while y1 > y0 and x1 > x0 and count(y0, y1, x0, x1) > 0:
+        width, height = x1 - x0, y1 - y0
+        shares = (
+            count(y0, y0 + 1, x0, x1) / width,
+            count(y1 - 1, y1, x0, x1) / width,
+            count(y0, y1, x0, x0 + 1) / height,
+            count(y0, y1, x1 - 1, x1) / height,
+        )
+        side = int(np.argmax(shares))
+        if side == 0:
+            y0 += 1
+        elif side == 1:
+            y1 -= 1
+        elif side == 2:
+            x0 += 1
+        else:
+            x1 -= 1
+    return (x0, y0, x1 - x0, y1 - y0)
 
 
 def rectify_points(points: np.ndarray, rectification: Rectification, side: str) -> np.ndarray:

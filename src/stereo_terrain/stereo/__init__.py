@@ -104,6 +104,30 @@ def check_max_disparity(max_disparity_px: int, width: int, multiple: int = 16) -
     return n
 
 
+def invalidate_sourceless(disparity: np.ndarray, rectification: Rectification) -> np.ndarray:
+    """Make NaN, in place, every disparity whose left pixel or matched right pixel
+    ``(x - d, y)`` has no raw source pixel (``Rectification.valid_left/valid_right``: the
+    black border of a rectification that keeps the whole field of view, where a matcher
+    would find false matches). Returns ``disparity``.
+
+    Parameters
+    ----------
+    disparity : (H, W) float32, pixels, NaN invalid
+    rectification : Rectification
+    """
+    vl, vr = rectification.valid_left, rectification.valid_right
+    if vl is not None and vl.shape == disparity.shape:
+        disparity[~vl] = np.nan
+    if vr is not None and vr.shape == disparity.shape:
+        ys, xs = np.nonzero(np.isfinite(disparity))
+        xr = np.rint(xs - disparity[ys, xs]).astype(np.intp)
+        inside = (xr >= 0) & (xr < disparity.shape[1])
+        bad = ~inside
+        bad[inside] = ~vr[ys[inside], xr[inside]]
+        disparity[ys[bad], xs[bad]] = np.nan
+    return disparity
+
+
 def make_backend(name: str, **options) -> DisparityBackend:
     """Build a disparity backend by name (``opencv``, ``sgm``)."""
     if name == "opencv":

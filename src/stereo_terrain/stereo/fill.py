@@ -87,9 +87,10 @@ class PlanarFillConfig:
 
 
 def flat_regions(
-    image: np.ndarray, config: PlanarFillConfig
+    image: np.ndarray, config: PlanarFillConfig, valid: np.ndarray | None = None
 ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-    """Label connected texture-poor regions of a grey image.
+    """Label connected texture-poor regions of a grey image (only ``valid`` pixels, when
+    given, can be flat).
 
     Returns
     -------
@@ -101,7 +102,10 @@ def flat_regions(
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
     mag = cv2.magnitude(gx, gy) / 8.0  # Sobel's 3x3 kernel gain
-    flat = cv2.erode((mag < config.flat_gradient).astype(np.uint8), np.ones((3, 3), np.uint8))
+    flat = mag < config.flat_gradient
+    if valid is not None:
+        flat &= valid
+    flat = cv2.erode(flat.astype(np.uint8), np.ones((3, 3), np.uint8))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(flat, connectivity=4)
     vertical_edges = np.abs(gx) / 8.0 > config.edge_gradient
     return count, labels, stats, vertical_edges
@@ -113,6 +117,7 @@ def fill_planar_regions(
     config: PlanarFillConfig | None = None,
     *,
     max_disparity_px: float | None = None,
+    valid: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Fill texture-poor planar regions of ``disparity`` from their supported plane.
 
@@ -123,6 +128,10 @@ def fill_planar_regions(
     config : PlanarFillConfig
     max_disparity_px : float, optional
         Filled values must stay in ``[0, max_disparity_px)``.
+    valid : (H, W) bool, optional
+        Pixels of ``left`` that have a source (``Rectification.valid_left``); the others
+        (the black border of a rectification that keeps the field of view, flat and
+        edge-bounded like a painted face) are neither filled nor part of any region.
 
     Returns
     -------
@@ -135,7 +144,7 @@ def fill_planar_regions(
     if not config.enabled:
         return out, filled
     h, w = disparity.shape
-    count, labels, stats, edges = flat_regions(left, config)
+    count, labels, stats, edges = flat_regions(left, config, valid)
     min_area = config.min_region_fraction * h * w
     rng = np.random.default_rng(config.seed)
     valid = np.isfinite(disparity)

@@ -10,7 +10,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..rectify import RectifiedPair
-from . import DisparityMap, check_max_disparity
+from . import DisparityMap, check_max_disparity, invalidate_sourceless
 
 _MODES = {
     "sgbm": cv2.STEREO_SGBM_MODE_SGBM,
@@ -102,4 +102,5 @@ class OpenCVSGBM:
         raw = self._matcher(n).compute(pair.left, pair.right)
         disp = raw.astype(np.float32) / 16.0
         disp[raw < 0] = np.nan
+        invalidate_sourceless(disp, pair.rectification)
         return DisparityMap(disp, n, pair.rectification, None, self.name)

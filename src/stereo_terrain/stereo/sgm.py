@@ -59,7 +59,7 @@ from numba.extending import intrinsic, register_jitable
 from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
 from ..rectify import RectifiedPair
-from . import DisparityMap, check_max_disparity
+from . import DisparityMap, check_max_disparity, invalidate_sourceless
 
 
 def _allow_noalias_option() -> bool:
@@ -748,6 +748,7 @@ class SGM:
             fixed = _to_fixed_point(disp)
             cv2.filterSpeckles(fixed, _INVALID_FIXED, c.speckle_window_px, c.speckle_range_px * 16)
             _invalidate_where(disp, fixed)
+        invalidate_sourceless(disp, pair.rectification)
         return DisparityMap(disp, n, pair.rectification, conf, self.name)
 
     def _use_cuda(self) -> bool:
