@@ -293,6 +293,7 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
         spec.noise_sigma[1],
         noise_rng,
         jpeg[1],
+        spec.right_blur_sigma_px,
     )
     w, h = spec.image_size
     t_c, face_c = cast(tuple[np.ndarray, np.ndarray], centre)
