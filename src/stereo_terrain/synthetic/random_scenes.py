@@ -141,7 +141,9 @@ def random_scene_spec(
         None: weakly textured with probability 0.3. Weak scenes paint the risers and stair
         (or box) sides, and with probability 0.5 the treads (box top), with a texture of
         0.5-1.5 grey levels std before noise; every other surface has a texture of at
-        least 6-10 grey levels std.
+        least 6-10 grey levels std. Realistic profile: None draws the material, True
+        picks one with painted risers (all painted, or wooden treads on painted risers),
+        False one without (wood or carpet throughout).
     profile : {"default", "realistic"}
         Which kind of scenes to draw (:data:`PROFILES`); recorded in ``spec.profile``.
     **overrides

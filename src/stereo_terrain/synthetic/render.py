@@ -41,7 +41,8 @@ class SyntheticScene:
         where nothing is hit.
     labels_left : (H, W) int16
         Index into ``truth["planes"]`` of the surface hit by each left pixel centre; -1
-        for nothing (sky) and for faces not listed there (stair/box sides and backs).
+        for nothing (sky) and for faces not listed there (stair/box sides and backs, the
+        ends and tops of side walls, handrails and balusters).
     """
 
     spec: SceneSpec

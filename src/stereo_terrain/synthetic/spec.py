@@ -213,7 +213,7 @@ class CameraIntrinsics:
 
 @dataclass(frozen=True)
 class SurfaceSpec:
-    """Appearance of one face group (ground, treads, risers, stair sides, back wall).
+    """Appearance of one face group (ground, treads, risers, stair sides, walls, rails).
 
     Attributes
     ----------
