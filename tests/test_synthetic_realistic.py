@@ -128,7 +128,8 @@ def test_realistic_specs_respect_their_ranges(seed: int) -> None:
         assert abs(cam.cx - 319.5) <= 11.0 and abs(cam.cy - 239.5) <= 11.0
     assert spec.left_camera != spec.right_camera
     assert spec.jpeg_quality is not None and all(60 <= q <= 85 for q in spec.jpeg_quality)
-    assert 0.5 <= spec.blur_sigma_px <= 1.5 and spec.shot_noise > 0 and spec.vignetting > 0
+    assert 0.5 <= spec.blur_sigma_px <= 1.5 and 0.5 <= spec.right_blur_sigma_px <= 1.5
+    assert spec.shot_noise > 0 and spec.vignetting > 0
     assert 0.25 <= spec.camera_height_m <= 0.7
     assert math.radians(-5.0) <= spec.pitch_down_rad <= math.radians(10.0)
     assert abs(spec.body_rpy[0]) <= math.radians(3.0)
@@ -140,6 +141,9 @@ def test_realistic_specs_respect_their_ranges(seed: int) -> None:
         assert 2 <= ob.n_steps <= 6
         assert 0.12 <= ob.rise_m <= 0.22 and 0.22 <= ob.run_m <= 0.35
         assert spec.back_wall_m is not None
+        walls = {"left": spec.left_wall_m, "right": spec.right_wall_m}
+        if any(walls[side] is None for side in spec.handrails):
+            assert spec.balusters  # no rail floats over an open side
     if ob is None:
         assert spec.left_wall_m is not None and spec.right_wall_m is not None
 
@@ -154,6 +158,18 @@ def test_realistic_profile_is_deterministic_and_mixes_kinds() -> None:
     assert any(s.handrails for s in specs) and any(s.nosing_m > 0 for s in specs)
     assert {s.tread.texture for s in specs} >= {"planks", "carpet"}
     assert any(s.riser.texture == "paint" for s in specs)
+
+
+def test_some_realistic_stairs_fill_the_view() -> None:
+    """With no floor in front: the first riser's foot is below the image."""
+    from stereo_terrain.synthetic.random_scenes import _below_view, _stairs_points
+
+    rng = np.random.default_rng(2)
+    specs = [random_scene_spec(rng, image_size=TINY, profile="realistic", kind="stairs") for _ in range(40)]
+    fills = [s for s in specs if _below_view(s, _stairs_points(s.obstacle, floor_edge=True)[:1])]
+    assert 2 <= len(fills) <= 20
+    for s in fills:
+        assert s.obstacle.distance_m <= 1.0
 
 
 def test_realistic_overrides_and_kind() -> None:

@@ -7,11 +7,18 @@ SGM -> cloud -> planes -> stairs) has work to do:
 * both cameras have OpenCV distortion (``k1, k2, p1, p2, k3``), slightly different
   intrinsics and a small relative rotation; the exact values are in the calibration;
 * every (sub)pixel is undistorted to a ray by Newton's method (accurate to ~1e-9 px),
-  cast against the ground plane, an optional back wall and the obstacle's boxes (slab
-  method), textured in physical face coordinates (metres, identical in both views,
-  trilinear mip-mapping), shaded (Lambertian + ambient), supersampled and averaged;
-* then optics and sensor: mild blur, vignetting, gain/offset difference of the right
-  camera, Gaussian noise, 8-bit quantisation.
+  cast against the ground plane, an optional back wall, optional side walls, the
+  obstacle's boxes (slab method) and optional handrails and balusters, textured in
+  physical face coordinates (metres, identical in both views, trilinear mip-mapping;
+  optional nosing strips at the tread edges), shaded (Lambertian + ambient),
+  supersampled and averaged;
+* then optics and sensor: blur, vignetting, gain/offset difference of the right
+  camera, Gaussian (optionally signal-dependent) noise, 8-bit quantisation, optional
+  JPEG compression.
+
+:func:`random_scene_spec` draws scenes of two profiles: ``"default"`` (the scenes of
+version 1, unchanged) and ``"realistic"`` (webcam photos of real stairs: a level camera,
+side walls, handrails, wood and paint, strong distortion, JPEG).
 
 Scene frame
 -----------
@@ -24,8 +31,10 @@ origin). The ground is the plane ``z = 0``. An obstacle has an *axis*
 (``y = 0``) meets that plane, as in the terrain result of CONVENTIONS.md.
 
 Ground truth (``SyntheticScene.truth``) uses the keys and meaning of the terrain result
-(version 1), plus the exact ``planes`` (ground, each riser and tread, back wall),
-``camera_height_m``, ``pitch_down_rad``, ``weak_texture`` and ``image_size``.
+(version 1), plus the exact ``planes`` (ground, each riser and tread, back wall, side
+walls), ``camera_height_m``, ``pitch_down_rad``, ``weak_texture``, ``image_size`` and
+``profile``. The rig (``rig.yaml``) is the true mounting: with its ``body_rpy`` it gives
+the true gravity direction in the camera frame.
 
 Package layout (data flows one way, each module imports only those before it):
 ``spec`` (specs and their checks) -> ``camera`` (lens model, projection, rig) ->

@@ -141,7 +141,9 @@ def random_scene_spec(
         None: weakly textured with probability 0.3. Weak scenes paint the risers and stair
         (or box) sides, and with probability 0.5 the treads (box top), with a texture of
         0.5-1.5 grey levels std before noise; every other surface has a texture of at
-        least 6-10 grey levels std.
+        least 6-10 grey levels std. Realistic profile: None draws the material, True
+        picks one with painted risers (all painted, or wooden treads on painted risers),
+        False one without (wood or carpet throughout).
     profile : {"default", "realistic"}
         Which kind of scenes to draw (:data:`PROFILES`); recorded in ``spec.profile``.
     **overrides
@@ -410,6 +412,12 @@ def _visible(spec: SceneSpec, pts: np.ndarray, margin: float = 0.04) -> bool:
     return bool(np.all(t > 0.99))  # t = 1 at the point: hidden if something is nearer
 
 
+def _below_view(spec: SceneSpec, pts: np.ndarray) -> bool:
+    """True when every yaw-frame point of ``pts`` projects below the left image."""
+    uv = _project(_rig(spec).T_yaw_camera.inverse().apply(pts), cast(CameraIntrinsics, spec.left_camera))
+    return bool(np.all(uv[:, 1] > spec.image_size[1] - 1))
+
+
 def _stairs_points(ob: StairSpec | BoxSpec, *, floor_edge: bool) -> np.ndarray:
     """Yaw-frame points that must be seen: the first riser (bottom edge centre and +-35 %
     of the width, or with ``floor_edge`` False its upper part) and the first tread's
@@ -473,17 +481,19 @@ def _random_realistic_spec(
     * kind: stairs 80 %, a box 10 %, nothing 10 % (a corridor: floor, two side walls and
       a back wall 3-8 m ahead), unless ``kind`` is given;
     * a roughly level camera: ``pitch_down`` -5..+10 deg, body roll and pitch within
-      +-3 and +-1.5 deg (in the rig), height 0.25-0.7 m, first riser (box front)
-      0.8-2.0 m ahead (``distance_m``); 20 % of the staircases are seen from 0.8-1.0 m
-      with the camera 0.45-0.7 m high, so that they fill the view with no floor in front;
+      +-3 and +-1.5 deg (in the rig), first riser (box front) 0.8-2.0 m ahead
+      (``distance_m``), height 0.25-0.7 m such that the riser's foot is seen 65-95 % of
+      the half field of view below the image centre (little floor in view); 20 % of the
+      staircases fill the view: seen from 0.8-1.0 m, yaw within +-20 deg, 1.0-1.6 m wide,
+      pitch -5..+3 deg, the first riser's foot (and the floor before it) below the image;
     * stairs: yaw +-45 deg, lateral offset +-0.3 m, 2-6 steps, rise 0.12-0.22 m, run
       0.22-0.35 m, width 0.8-1.6 m, a landing of 0.8-1.5 m and a back wall 0-0.3 m beyond
       it (with 4-6 steps the top is usually above the cameras);
     * side walls 1.5-2.5 m high parallel to the stair axis, 0-5 cm beside the stairs: both
       (35 %), left or right only (25 % each), none (15 %); they start at the first riser,
       or up to 1.2 m before it when both cameras stand between them; a handrail on each
-      side with probability 0.5 (along the wall, or over the stair's edge with balusters
-      on a side without a wall, 60 %);
+      side with probability 0.5 (along the wall, or over the stair's edge on balusters
+      on a side without a wall);
     * materials (:data:`_REALISTIC_MATERIALS`): wooden boards with horizontal grain and
       dark gaps, near-uniform paint, wooden treads over painted risers, or carpet;
       treads and risers often of the same material; dark (or light) nosing strips
@@ -494,7 +504,7 @@ def _random_realistic_spec(
       ``k2`` 0..0.45 (invertible over the image), the right camera a slightly different
       unit; a relative rotation of 0.3-2 deg;
     * sensor: noise 1.5-3.5 grey levels plus shot noise (0.02-0.1 x grey), blur 0.5-1.5
-      px, vignetting 0.15-0.4, right gain 0.8-1.2 and offset +-12 grey levels, JPEG
+      px (each camera its own), vignetting 0.15-0.4, right gain 0.8-1.2 and offset +-12 grey levels, JPEG
       quality 60-85 for each camera;
     * indoor light: strong ambient (0.5-0.75), weak directional part (0.2-0.45).
 
@@ -546,6 +556,7 @@ def _random_realistic_spec(
         "right_offset_grey": float(rng.uniform(-12.0, 12.0)),
         "vignetting": float(rng.uniform(0.15, 0.4)),
         "blur_sigma_px": float(rng.uniform(0.5, 1.5)),
+        "right_blur_sigma_px": float(rng.uniform(0.5, 1.5)),
         "jpeg_quality": (q, q_right),
     }
     ground_shade = appearance["ambient"] + appearance["diffuse"] * math.sin(appearance["light_elevation_rad"])
@@ -554,9 +565,12 @@ def _random_realistic_spec(
     floor_levels = rng.uniform(4.0, 8.0, len(_GROUPS))
 
     spec = None
+    # Stairs that fill the view: close, nearly square on, the first riser's foot (and the
+    # floor before it) below the image.
+    fill = kind == "stairs" and "distance_m" not in ob_over and rng.random() < 0.2
     for _ in range(300):
-        fill = kind == "stairs" and rng.random() < 0.2
-        yaw = math.radians(rng.uniform(-45.0, 45.0) if kind == "stairs" else rng.uniform(-25.0, 25.0))
+        max_yaw = 20.0 if fill else 45.0 if kind == "stairs" else 25.0
+        yaw = math.radians(rng.uniform(-max_yaw, max_yaw))
         lateral = float(rng.uniform(-0.3, 0.3))
         distance = float(rng.uniform(0.8, 1.0) if fill else rng.uniform(0.8, 2.0))
         ob: StairSpec | BoxSpec | None
@@ -565,7 +579,7 @@ def _random_realistic_spec(
                 "n_steps": int(rng.integers(2, 7)),
                 "rise_m": float(rng.uniform(0.12, 0.22)),
                 "run_m": float(rng.uniform(0.22, 0.35)),
-                "width_m": float(rng.uniform(0.8, 1.6)),
+                "width_m": float(rng.uniform(1.0, 1.6) if fill else rng.uniform(0.8, 1.6)),
                 "distance_m": distance,
                 "yaw_rad": yaw,
                 "lateral_m": lateral,
@@ -586,10 +600,10 @@ def _random_realistic_spec(
             ob = None
         pitch = math.radians(rng.uniform(-5.0, 3.0) if fill else rng.uniform(-5.0, 10.0))
         # Little floor in view: the first riser's foot is seen just above the bottom of
-        # the image (angle below the horizon: pitch + 55-95 % of the half field of view),
+        # the image (angle below the horizon: pitch + 65-95 % of the half field of view),
         # or below it when the stairs fill the view; the height follows, within 0.25-0.7 m.
         half_fov = math.atan((size[1] - 1 - left.cy) / left.fy)
-        depression = pitch + half_fov * (rng.uniform(1.05, 1.4) if fill else rng.uniform(0.55, 0.95))
+        depression = pitch + half_fov * (rng.uniform(1.05, 1.4) if fill else rng.uniform(0.65, 0.95))
         foot = distance if ob is None else ob.distance_m * math.cos(ob.yaw_rad)
         height = float(np.clip(foot * math.tan(max(depression, 0.0)), 0.25, 0.7))
         geometry: dict[str, Any] = {
@@ -605,7 +619,10 @@ def _random_realistic_spec(
         values.update(sc_over)
         candidate = SceneSpec(**values)
         ob = candidate.obstacle
-        if ob is None or _visible(candidate, _stairs_points(ob, floor_edge=not fill)):
+        if ob is None or (
+            _visible(candidate, _stairs_points(ob, floor_edge=not fill))
+            and (not fill or _below_view(candidate, _stairs_points(ob, floor_edge=True)[:1]))
+        ):
             spec = candidate
             break
     if spec is None:
@@ -660,6 +677,8 @@ def _realistic_walls(rng: np.random.Generator, ob: StairSpec | BoxSpec | None) -
     if isinstance(ob, StairSpec) and ob.n_steps >= 2:
         rails = tuple(side for side in ("left", "right") if rng.random() < 0.5)
         out["handrails"] = rails
-        out["balusters"] = bool(rng.random() < 0.6)
+        # A rail over an open side stands on balusters (one without would float).
+        walls = {"left": left, "right": right}
+        out["balusters"] = any(walls[side] is None for side in rails)
         out["handrail_height_m"] = float(rng.uniform(0.8, 1.0))
     return out

@@ -41,7 +41,8 @@ class SyntheticScene:
         where nothing is hit.
     labels_left : (H, W) int16
         Index into ``truth["planes"]`` of the surface hit by each left pixel centre; -1
-        for nothing (sky) and for faces not listed there (stair/box sides and backs).
+        for nothing (sky) and for faces not listed there (stair/box sides and backs, the
+        ends and tops of side walls, handrails and balusters).
     """
 
     spec: SceneSpec
@@ -293,6 +294,7 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
         spec.noise_sigma[1],
         noise_rng,
         jpeg[1],
+        spec.right_blur_sigma_px,
     )
     w, h = spec.image_size
     t_c, face_c = cast(tuple[np.ndarray, np.ndarray], centre)

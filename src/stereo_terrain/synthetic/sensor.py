@@ -17,17 +17,20 @@ def _sensor(
     sigma: float,
     rng: np.random.Generator,
     jpeg_quality: int | None = None,
+    blur_sigma_px: float | None = None,
 ) -> np.ndarray:
     """Optics and sensor: blur, vignetting, gain/offset, noise, 8-bit, JPEG.
 
     The noise is Gaussian with variance ``sigma**2 + spec.shot_noise * grey`` (grey: the
-    noise-free level, clipped at 0); ``jpeg_quality`` (1..100) encodes and decodes the
+    noise-free level, clipped at 0); ``blur_sigma_px`` (None: the spec's) blurs the optics;
+    ``jpeg_quality`` (1..100) encodes and decodes the
     8-bit image as a webcam's MJPEG stream would (OpenCV's baseline JPEG).
     """
     h, w = img.shape
     out: np.ndarray = img.astype(np.float32)
-    if spec.blur_sigma_px > 0:
-        out = cv2.GaussianBlur(out, (0, 0), spec.blur_sigma_px, borderType=cv2.BORDER_REFLECT)
+    blur = spec.blur_sigma_px if blur_sigma_px is None else blur_sigma_px
+    if blur > 0:
+        out = cv2.GaussianBlur(out, (0, 0), blur, borderType=cv2.BORDER_REFLECT)
     if spec.vignetting > 0:
         vv, uu = np.mgrid[0:h, 0:w].astype(np.float32)
         r2 = ((uu - cam.cx) ** 2 + (vv - cam.cy) ** 2) / (cam.cx**2 + cam.cy**2)

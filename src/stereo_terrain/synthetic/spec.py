@@ -213,7 +213,7 @@ class CameraIntrinsics:
 
 @dataclass(frozen=True)
 class SurfaceSpec:
-    """Appearance of one face group (ground, treads, risers, stair sides, back wall).
+    """Appearance of one face group (ground, treads, risers, stair sides, walls, rails).
 
     Attributes
     ----------
@@ -334,6 +334,9 @@ class SceneSpec:
         Relative darkening at the image corners (0 = none).
     blur_sigma_px : float
         Gaussian blur of the optics, pixels (0 = none).
+    right_blur_sigma_px : float or None
+        Blur of the right camera's optics when it differs from the left one's, pixels;
+        None: ``blur_sigma_px``.
     supersample : int
         Samples per pixel side (1..4); 2 means 2 x 2 samples.
     shot_noise : float
@@ -386,6 +389,7 @@ class SceneSpec:
     balusters: bool = False
     handrail_height_m: float = 0.9
     rail: SurfaceSpec = field(default_factory=lambda: SurfaceSpec("paint", 0.5, 0.7, 0.02))
+    right_blur_sigma_px: float | None = None
     nosing_m: float = 0.0
     nosing_reflectance: float = 0.4
     shot_noise: float = 0.0
@@ -471,6 +475,12 @@ class SceneSpec:
         _set(self, "vignetting", _check_range(o, "vignetting", self.vignetting, 0.0, 0.9))
         _set(self, "blur_sigma_px", _check_range(o, "blur_sigma_px", self.blur_sigma_px, 0.0, 5.0, " px"))
         _set(self, "supersample", _check_int(o, "supersample", self.supersample, 1, 4))
+        if self.right_blur_sigma_px is not None:
+            _set(
+                self,
+                "right_blur_sigma_px",
+                _check_range(o, "right_blur_sigma_px", self.right_blur_sigma_px, 0.0, 5.0, " px"),
+            )
         self._check_walls_and_rails()
         _set(self, "nosing_m", _check_range(o, "nosing_m", self.nosing_m, 0.0, 0.2, " m"))
         _set(
