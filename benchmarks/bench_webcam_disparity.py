@@ -41,7 +41,7 @@ from stereo_terrain.stereo.vertical import VerticalAlignConfig, align_vertical
 from stereo_terrain.synthetic import SurfaceSpec, random_scene_spec, render_scene
 
 BEFORE = {"rectify_fov": "valid", "vertical": VerticalAlignConfig(enabled=False)}
-AFTER: dict = {}
+AFTER = {"rectify_fov": "full-height"}  # and the vertical alignment, on by default
 
 
 def shift_down(image: np.ndarray, dy: float) -> np.ndarray:

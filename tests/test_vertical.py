@@ -102,8 +102,8 @@ def test_shift_of_one_and_a_half_px_corrected(demo, demo_pair):
 
 
 def test_full_height_keeps_the_bottom_rows(demo):
-    rect = compute_rectification(demo.calibration)
-    old = compute_rectification(demo.calibration, fov="valid")
+    rect = compute_rectification(demo.calibration, fov="full-height")
+    old = compute_rectification(demo.calibration)
     w, h = rect.image_size
     bottom = np.array([[w / 2, h - 1.5], [w / 4, h - 1.5], [3 * w / 4, h - 1.5], [w / 2, 0.5]])
     for side in ("left", "right"):
@@ -140,12 +140,15 @@ def test_fy_not_fx_rectifies_and_reconstructs():
     cam = CameraIntrinsics(0.85 * w, 0.93 * 0.85 * w, (w - 1) / 2, (h - 1) / 2, (-0.1, 0.01, 0.0, 0.0, 0.0))
     spec = dataclasses.replace(spec, left_camera=cam, right_camera=cam)
     scene = render_scene(spec)
-    rect = compute_rectification(scene.calibration)
+    rect = compute_rectification(scene.calibration, fov="full-height")
     assert np.isclose(rect.P1[0, 0], rect.P1[1, 1])
     uv = rectify_points(np.array([[w / 2, h - 1.5]]), rect, "left")
     assert 0 <= uv[0, 1] <= h - 1
     score = score_result(
-        Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict(), scene.truth
+        Pipeline(scene.calibration, scene.rig, PipelineConfig(rectify_fov="full-height"))
+        .run(scene.left, scene.right)
+        .to_json_dict(),
+        scene.truth,
     )
     assert score.count_right and max(score.rise_errors_m) < RISE_TOL_M
     assert abs(score.first_distance_error_m) < 0.03

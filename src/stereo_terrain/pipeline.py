@@ -104,8 +104,8 @@ class PipelineConfig:
         (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
     rectify_fov : str
         What the rectified view keeps (:data:`stereo_terrain.rectify.RECTIFY_FOVS`):
-        ``full-height`` (default: the raw images' whole height), ``valid`` (OpenCV alpha 0,
-        the earlier behaviour) or ``all``.
+        ``valid`` (default; OpenCV alpha 0), ``full-height`` (the raw images' whole height:
+        for a camera close to stairs whose floor is a thin strip at the bottom) or ``all``.
     vertical : VerticalAlignConfig
         Per-frame correction of a residual vertical offset of the right image
         (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
@@ -126,7 +126,7 @@ class PipelineConfig:
     drift: DriftConfig = field(default_factory=DriftConfig)
     gravity: GravityConfig = field(default_factory=GravityConfig)
     # Stage 1 options (rectify.py, stereo/vertical.py): issue 11.
-    rectify_fov: str = "full-height"
+    rectify_fov: str = "valid"
     vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
 
     def __post_init__(self) -> None:
