@@ -106,7 +106,7 @@ def run_folder(folder: Path, config: PipelineConfig) -> dict[str, list]:
 
 
 def row(name: str, scores, grav=None) -> str:
-    s = summarize(scores)
+    s = {"run_p90_m": float("nan"), "first_distance_p90_m": float("nan"), **summarize(scores)}
     cm = 100.0
 
     def f(x: float) -> str:

@@ -256,7 +256,13 @@ class TerrainResult:
             "frame": "yaw",
             "obstacle": t.obstacle,
             "steps": [
-                {"rise": r(s.rise_m), "run": r(s.run_m), "distance": r(s.distance_m), "width": r(s.width_m)}
+                {
+                    "rise": r(s.rise_m),
+                    "run": r(s.run_m),
+                    "distance": r(s.distance_m),
+                    "width": r(s.width_m),
+                    "rise_inferred": s.rise_inferred,
+                }
                 for s in t.steps
             ],
             "yaw": r(t.yaw_rad),
