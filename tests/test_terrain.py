@@ -208,3 +208,37 @@ def test_yawed_stairs_beside_a_wall_the_wall_is_never_a_riser(yaw_deg, side):
             assert abs(got.distance_m - want["distance"]) < 0.05
             # A riser faces down the stairs; the wall's normal is across them.
             assert abs(got.riser.normal @ axis) > math.cos(math.radians(10.0))
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, -30.0])
+def test_stairs_filling_the_view_keep_their_first_step(yaw_deg):
+    """A level camera 0.8 m from a wide staircase: the first riser's foot and the floor are
+    below the image. The first step is still reported, at its distance, with its rise
+    inferred from the others."""
+    import dataclasses
+    import math
+
+    from stereo_terrain.pipeline import Pipeline
+    from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+    base = default_scene_spec()
+    stairs = dataclasses.replace(
+        base.obstacle, n_steps=5, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=2.5, distance_m=0.8
+    )
+    spec = dataclasses.replace(
+        base,
+        obstacle=stairs,
+        camera_height_m=0.45,
+        pitch_down_rad=0.0,
+        body_rpy=(0.0, 0.0, 0.0),
+        back_wall_m=None,
+    )
+    scene = render_scene(spec)
+    data = Pipeline(scene.calibration).run(scene.left, scene.right).to_json_dict()
+    truth = scene.truth["steps"]
+    assert data["obstacle"] == "stairs" and len(data["steps"]) == len(truth), data["note"]
+    first = data["steps"][0]
+    assert first["rise_inferred"] is True and not any(s["rise_inferred"] for s in data["steps"][1:])
+    assert abs(first["distance"] - truth[0]["distance"]) < 0.03
+    for got, want in zip(data["steps"], truth, strict=True):
+        assert abs(got["rise"] - want["rise"]) < 0.02
