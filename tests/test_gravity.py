@@ -153,7 +153,7 @@ def test_config_is_checked():
     with pytest.raises(ConfigError, match="prior_cone_deg"):
         GravityConfig(prior_cone_deg=0)
     with pytest.raises(ConfigError, match="min_support"):
-        GravityConfig(min_support=2.0)
+        GravityConfig(min_support=0.5)
 
 
 def test_pipeline_without_rig_reports_scene_gravity_and_with_rig_checks_it():

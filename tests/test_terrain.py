@@ -212,9 +212,10 @@ def test_yawed_stairs_beside_a_wall_the_wall_is_never_a_riser(yaw_deg, side):
 
 @pytest.mark.parametrize("yaw_deg", [0.0, -30.0])
 def test_stairs_filling_the_view_keep_their_first_step(yaw_deg):
-    """A level camera 0.8 m from a wide staircase: the first riser's foot and the floor are
+    """A level camera 0.45 m high, 0.8 m from a wide staircase: the first riser's foot and the floor are
     below the image. The first step is still reported, at its distance, with its rise
-    inferred from the others."""
+    inferred from the others. (Two steps, both treads below the camera: a tread above it is not seen
+    and its rise comes from the riser's top edge, a harder case than this test is about.)"""
     import dataclasses
     import math
 
@@ -223,7 +224,7 @@ def test_stairs_filling_the_view_keep_their_first_step(yaw_deg):
 
     base = default_scene_spec()
     stairs = dataclasses.replace(
-        base.obstacle, n_steps=5, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=2.5, distance_m=0.8
+        base.obstacle, n_steps=2, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=2.5, distance_m=0.8
     )
     spec = dataclasses.replace(
         base,
