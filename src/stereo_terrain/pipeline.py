@@ -331,7 +331,8 @@ class Pipeline:
         self.last_correction: CorrectionUpdate | None = None
         self.last_vertical: VerticalOffset | None = None  # stereo/vertical.py, last frame
         if self.config.max_disparity_px is not None:
-            self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
+            width = self.rectification.image_size[0]  # rectified (larger with rectify_fov="keep")
+            self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, width)
         else:
             self.max_disparity_px = default_max_disparity(self.rectification, self.config.min_depth_m)
         if backend is None:
