@@ -105,7 +105,9 @@ class PipelineConfig:
     rectify_fov : str
         What the rectified view keeps (:data:`stereo_terrain.rectify.RECTIFY_FOVS`):
         ``valid`` (default; OpenCV alpha 0), ``full-height`` (the raw images' whole height:
-        for a camera close to stairs whose floor is a thin strip at the bottom) or ``all``.
+        for a camera close to stairs whose floor is a thin strip at the bottom), ``keep``
+        (alpha 0's focal length in a larger image that holds the whole raw left image) or
+        ``all``.
     vertical : VerticalAlignConfig
         Per-frame correction of a residual vertical offset of the right image
         (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).

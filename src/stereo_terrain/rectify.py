@@ -7,6 +7,26 @@ through untouched.
 
 What the rectified view keeps (``fov``, :data:`RECTIFY_FOVS`):
 
+- ``keep``: OpenCV ``alpha = 0``'s rectified cameras (same focal length, so no loss of
+  resolution or depth accuracy against ``valid``), moved by a whole number of pixels in
+  ``cx, cy`` into a *larger* rectified image that holds the raw left image's whole outline
+  (its four edges, corners included): every raw left pixel lands inside the rectified
+  left image, so the floor and the first riser in the raw bottom strip are kept. The
+  right camera's outline is not added: a rectified right pixel outside the left's rows
+  or columns is never matched by a left pixel (``x_right = x_left - d``, same row).
+  ``valid``'s image is an exact crop of ``keep``'s (same pixels). The image grows by at
+  most :data:`_KEEP_MAX_MARGIN` of the raw size on each side; the added pixels that have
+  no source are marked in ``valid_left/valid_right``. Costs: 16-24 % more rectified
+  pixels on the renderer's scenes (default / realistic profile), about that much more
+  time for matching and remapping. :attr:`Rectification.image_size` is the rectified size,
+  :attr:`Rectification.raw_size` the raw one; :func:`rectify` checks the raw images
+  against the latter.
+  Not the default yet: on 30 rendered default scenes it keeps 96% of the raw bottom tenth
+  (``valid`` 79%; the rest is the :data:`SOURCE_MARGIN_PX` margin at the raw border) with
+  lower rise errors (p90 0.5 cm vs 0.7 cm) but one staircase fewer with the right step
+  count (78% vs 81%), and the acceptance mix of ``tests/test_pipeline.py`` falls to 77%
+  (17/22; bound 85%, ``valid`` 86%): both 320x240 scenes lose a step or the staircase
+  (``benchmarks/bench_rectify_accuracy.py``).
 - ``full-height`` (opt-in, ``PipelineConfig(rectify_fov="full-height")``): the rectified
   camera is chosen so that the raw images' whole vertical extent stays in view. Its focal
   length ``f`` (the same for x and y, so pixels are square whatever
