@@ -266,9 +266,11 @@ def sample_disparity(
     config : CloudConfig
         Depth range of the points kept.
     target_points : int
-        About this many grid cells.
+        About this many grid cells for an image of the raw size (a larger rectified image,
+        ``fov="keep"``, gets more at the same stride).
     smooth_px : int, optional
-        Half-size of the neighbourhood used for normals (default 4 px at 640 wide).
+        Half-size of the neighbourhood used for normals (default 4 px at 640 raw pixels
+        wide).
 
     Returns
     -------
@@ -284,8 +286,11 @@ def sample_disparity(
     dd = d + np.float32(rect.doffs_px)
     with np.errstate(invalid="ignore"):
         valid = (dd >= fb / config.max_depth_m) & (dd <= fb / config.min_depth_m)
-    stride = grid_stride((h, w), target_points)
-    k = smooth_px if smooth_px is not None else max(2, int(round(4 * w / 640)))
+    # Stride and normal scale per raw pixel: a rectification that keeps more of the view
+    # than the raw size (fov="keep") gives more samples, not a sparser grid.
+    raw_w, raw_h = rect.raw_size
+    stride = grid_stride((raw_h, raw_w), target_points)
+    k = smooth_px if smooth_px is not None else max(2, int(round(4 * raw_w / 640)))
     ksize = (2 * k + 1, 2 * k + 1)
     vf = valid.astype(np.float32)
     cnt = cv2.boxFilter(vf, -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT)

@@ -105,7 +105,9 @@ class PipelineConfig:
     rectify_fov : str
         What the rectified view keeps (:data:`stereo_terrain.rectify.RECTIFY_FOVS`):
         ``valid`` (default; OpenCV alpha 0), ``full-height`` (the raw images' whole height:
-        for a camera close to stairs whose floor is a thin strip at the bottom) or ``all``.
+        for a camera close to stairs whose floor is a thin strip at the bottom), ``keep``
+        (alpha 0's focal length in a larger image that holds the whole raw left image) or
+        ``all``.
     vertical : VerticalAlignConfig
         Per-frame correction of a residual vertical offset of the right image
         (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
@@ -337,7 +339,8 @@ class Pipeline:
         self.last_correction: CorrectionUpdate | None = None
         self.last_vertical: VerticalOffset | None = None  # stereo/vertical.py, last frame
         if self.config.max_disparity_px is not None:
-            self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, calibration.width)
+            width = self.rectification.image_size[0]  # rectified (larger with rectify_fov="keep")
+            self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, width)
         else:
             self.max_disparity_px = default_max_disparity(self.rectification, self.config.min_depth_m)
         if backend is None:

@@ -80,13 +80,13 @@ def choose_max_disparity(rectification: Rectification, min_depth_m: float, multi
 def default_max_disparity(rectification: Rectification, min_depth_m: float) -> int:
     """The disparity range used when none is given: the calibration's own (Middlebury
     ``ndisp``) rounded up to a multiple of 16, else enough to see ``min_depth_m``; never more
-    than half the image width."""
+    than half the rectified image's width."""
     calib = rectification.calibration
     if calib.ndisp:
         n = -(-calib.ndisp // 16) * 16
     else:
         n = choose_max_disparity(rectification, min_depth_m)
-    return min(n, (calib.width // 2) // 16 * 16)
+    return min(n, (rectification.image_size[0] // 2) // 16 * 16)
 
 
 def check_max_disparity(max_disparity_px: int, width: int, multiple: int = 16) -> int:
