@@ -190,22 +190,45 @@ def _riser_edges(
 
     Inliers alone stop short of the edges (normals there mix two faces); any sample within
     ``thr`` of the plane and inside its lateral extent is on the riser or on the surface
-    meeting it at the edge, whose height is the edge's. Only the samples connected in
-    height to the riser's own (``seed_z``, its inliers' median height: no gap over
-    :data:`_EDGE_GAP_M`) count: stray matches that happen to lie on the plane far above or
-    below it (a textureless sky, a wall's far end) are not its edges.
+    meeting it at the edge, whose height is the edge's. Two things on the same plane are
+    not the riser and must not stretch it:
+
+    * stray matches far above or below it (a textureless sky, a wall's far end): only the
+      samples connected in height to the riser's own (``seed_z``, its inliers' median; no
+      gap over :data:`_EDGE_GAP_M`) count;
+    * a newel post, a baluster or a door frame standing on the riser's line: the edges are
+      the medians over :data:`_EDGE_BINS` lateral slices of the riser of each slice's
+      extent, so that something narrow moves them only where it stands.
     """
     near = plane.residuals(P) < thr
     lat = P[near] @ v
-    z = np.sort(P[near, 2][(lat > v_lo) & (lat < v_hi)])
+    keep = (lat > v_lo) & (lat < v_hi)
+    z, lat = P[near, 2][keep], lat[keep]
     if len(z) == 0:
         return None
+    order = np.argsort(z)
+    z, lat = z[order], lat[order]
     k = int(np.clip(np.searchsorted(z, seed_z), 0, len(z) - 1))
     gaps = np.flatnonzero(np.diff(z) > _EDGE_GAP_M)
     lo_i = int(gaps[gaps < k].max()) + 1 if np.any(gaps < k) else 0
     hi_i = int(gaps[gaps >= k].min()) + 1 if np.any(gaps >= k) else len(z)
-    lo, hi = np.percentile(z[lo_i:hi_i], [2, 98])
-    return float(lo), float(hi)
+    z, lat = z[lo_i:hi_i], lat[lo_i:hi_i]
+    bins = np.clip(((lat - v_lo) / max(v_hi - v_lo, 1e-9) * _EDGE_BINS).astype(int), 0, _EDGE_BINS - 1)
+    lows, highs = [], []
+    for b in range(_EDGE_BINS):
+        zb = z[bins == b]
+        if len(zb) >= 3:
+            lo_b, hi_b = np.percentile(zb, [2, 98])
+            lows.append(lo_b)
+            highs.append(hi_b)
+    if not lows:
+        lo, hi = np.percentile(z, [2, 98])
+        return float(lo), float(hi)
+    return float(np.median(lows)), float(np.median(highs))
+
+
+#: Lateral slices of a riser over which its edge heights are taken (medians).
+_EDGE_BINS = 8
 
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
