@@ -196,9 +196,10 @@ def _riser_edges(
     * stray matches far above or below it (a textureless sky, a wall's far end): only the
       samples connected in height to the riser's own (``seed_z``, its inliers' median; no
       gap over :data:`_EDGE_GAP_M`) count;
-    * a newel post, a baluster or a door frame standing on the riser's line: the edges are
-      the medians over :data:`_EDGE_BINS` lateral slices of the riser of each slice's
-      extent, so that something narrow moves them only where it stands.
+    * a newel post, a baluster or a door frame standing on the riser's line: the edges come
+      from :data:`_EDGE_BINS` lateral slices of the riser (a high percentile of the slices'
+      top edges, a low one of their bottoms), so that something narrow, standing in one or
+      two slices, does not move them.
     """
     near = plane.residuals(P) < thr
     lat = P[near] @ v
@@ -224,11 +225,15 @@ def _riser_edges(
     if not lows:
         lo, hi = np.percentile(z, [2, 98])
         return float(lo), float(hi)
-    return float(np.median(lows)), float(np.median(highs))
+    # Not the medians: a slice at the riser's ends may see less of it (occluded, cut by
+    # the image); two slices of eight may hold a post.
+    return float(np.percentile(lows, 100 - _EDGE_QUANTILE)), float(np.percentile(highs, _EDGE_QUANTILE))
 
 
-#: Lateral slices of a riser over which its edge heights are taken (medians).
+#: Lateral slices of a riser over which its edge heights are taken, and the percentile of
+#: the slices' top edges (bottom: 100 minus it) that is the riser's.
 _EDGE_BINS = 8
+_EDGE_QUANTILE = 70.0
 
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
