@@ -408,7 +408,7 @@ def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
     img = np.asarray(image)
     if img.dtype not in (np.uint8, np.uint16):
         raise InputError(
-            f"{name} must have 8- or 16-bit unsigned samples, got {img.dtype} "
+            f"{name} must have 8- or 16-bit unsigned samples (uint8 or uint16), got {img.dtype} "
             "(save it as an 8- or 16-bit PNG)"
         )
     if img.ndim == 3 and img.shape[2] in (1, 2):  # grey, grey + alpha
