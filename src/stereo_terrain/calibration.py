@@ -43,7 +43,9 @@ def _as_count(value: object, what: str) -> int:
     except (TypeError, ValueError, OverflowError):
         raise CalibrationError(f"{what} must be a number, got {value!r}") from None
     if not math.isfinite(v) or v != int(v) or not 0 < v <= MAX_IMAGE_SIDE_PX:
-        raise CalibrationError(f"{what} must be a positive whole number (at most {MAX_IMAGE_SIDE_PX}), got {value!r}")
+        raise CalibrationError(
+            f"{what} must be a positive whole number (at most {MAX_IMAGE_SIDE_PX}), got {value!r}"
+        )
     return int(v)
 
 
