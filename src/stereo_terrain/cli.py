@@ -387,6 +387,24 @@ def _add_runtime_commands(sub: Any) -> None:
     si.add_argument("--no-plot", action="store_true")
 
 
+def _read_pair(left_path: Path, right_path: Path, calib: Any, calib_path: Path) -> tuple[Any, Any]:
+    """Both images, checked against each other and the calibration with the files named."""
+    from .rectify import read_image
+
+    left, right = read_image(left_path), read_image(right_path)
+    (hl, wl), (hr, wr) = left.shape[:2], right.shape[:2]
+    if (wl, hl) != (wr, hr):
+        raise InputError(
+            f"{left_path} is {wl}x{hl} but {right_path} is {wr}x{hr}; the images of a pair differ in size"
+        )
+    if (wl, hl) != calib.image_size:
+        raise InputError(
+            f"{left_path} is {wl}x{hl} but {calib_path} is for {calib.width}x{calib.height}; "
+            "use the calibration of this camera mode or resize the images"
+        )
+    return left, right
+
+
 def _fmt(v: float | None, unit: str = "m") -> str:
     return "   -  " if v is None else f"{v:6.3f}{unit}"
 
@@ -464,7 +482,6 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     from .calibration import read_calibration
     from .frames import load_rig
     from .pipeline import Pipeline, PipelineConfig
-    from .rectify import read_image
 
     _check_output_file(args.json, "--json")
     _check_output_file(args.plot, "--plot")
@@ -479,8 +496,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         config = dataclasses.replace(config, max_disparity_px=args.max_disparity)
     if args.method is not None:
         config = dataclasses.replace(config, method=args.method)
-    left = read_image(args.left)
-    right = read_image(args.right)
+    left, right = _read_pair(args.left, args.right, calib, args.calib)
     pipeline = Pipeline(calib, rig, config)
     result = pipeline.run(left, right)
     data = result.to_json_dict()
@@ -536,16 +552,14 @@ def _pair_disparity(method: str, calib, left, right, max_disparity: int | None):
 
 def cmd_disparity(args: argparse.Namespace) -> int:
     from .calibration import read_calibration
-    from .rectify import read_image
     from .stereo.io import write_disparity
 
     if args.out.suffix.lower() not in (".pfm", ".npy", ".png"):
         raise InputError(f"--out: unknown disparity file type '{args.out.suffix}'; use .pfm, .npy or .png")
     _check_output_file(args.out, "--out")
     calib = read_calibration(args.calib)
-    dm, ms = _pair_disparity(
-        args.method, calib, read_image(args.left), read_image(args.right), args.max_disparity
-    )
+    left, right = _read_pair(args.left, args.right, calib, args.calib)
+    dm, ms = _pair_disparity(args.method, calib, left, right, args.max_disparity)
     _replace_from_temp(args.out, lambda tmp: write_disparity(tmp, dm.disparity))
     print(f"{args.method}: {dm.max_disparity_px} disparities, density {dm.density:.1%}, {ms:.0f} ms")
     print(f"wrote {args.out}")
@@ -616,7 +630,7 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
 
     from .calibration import read_calibration
     from .drift import DriftConfig, check_calibration
-    from .rectify import compute_rectification, read_image, rectify
+    from .rectify import compute_rectification, rectify
 
     if len(args.images) % 2:
         raise InputError(
@@ -625,7 +639,7 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
     calib = read_calibration(args.calib)
     rect = compute_rectification(calib)
     pairs = [
-        rectify(read_image(left), read_image(right), rect)
+        rectify(*_read_pair(left, right, calib, args.calib), rect)
         for left, right in zip(args.images[::2], args.images[1::2], strict=True)
     ]
     cfg = DriftConfig()

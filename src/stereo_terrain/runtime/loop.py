@@ -290,8 +290,10 @@ class LiveLoop:
                 or (img.shape[1], img.shape[0]) != size
             ):
                 shape = getattr(img, "shape", None)
+                got = f"{shape[1]}x{shape[0]}" if shape is not None and len(shape) >= 2 else repr(shape)
                 self._unreadable(
-                    f"pair {frame.index}: image {shape} is not a {size[0]}x{size[1]} uint8 frame"
+                    f"pair {frame.index}: image {got} {getattr(img, 'dtype', '')} is not a "
+                    f"{size[0]}x{size[1]} uint8 frame like the calibration"
                 )
                 return
         odo, rpy = self.pose(frame)
