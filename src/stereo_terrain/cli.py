@@ -88,13 +88,13 @@ def _seed(text: str) -> int:
     return v
 
 
-def _finite_float(text: str) -> float:
+def _metres(text: str) -> float:
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
+        raise argparse.ArgumentTypeError(f"expected a positive number of metres, got '{text}'") from None
     if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
+        raise argparse.ArgumentTypeError(f"expected a finite positive number of metres, got {text}")
     return v
 
 
@@ -168,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--right", required=True, help="glob of the right images (paired with the left in sorted order)"
     )
     c.add_argument("--pattern", required=True, help="inner corners COLSxROWS, e.g. 9x6")
-    c.add_argument("--square", type=_finite_float, required=True, help="square side in metres, e.g. 0.025")
+    c.add_argument("--square", type=_metres, required=True, help="square side in metres, e.g. 0.025")
     c.add_argument("--out", type=Path, required=True, help="calibration YAML to write")
     c.add_argument(
         "--figure", type=_figure_path, help="write a figure of the coverage and per-view errors (PNG)"
