@@ -352,7 +352,7 @@ CASES = [
          ("--square",)),
     Case("calibrate-square-nan", lambda g, w: ["calibrate", "--left", "l*", "--right", "r*", "--pattern",
                                               "9x6", "--square", "nan", "--out", _out(w, "c.yaml")],
-         ("--square",)),
+         ("square",)),
     Case("calibrate-square-neg", lambda g, w: ["calibrate", "--left", str(g.dir / "l*.png"), "--right",
                                               str(g.dir / "r*.png"), "--pattern", "9x6", "--square", "-0.02",
                                               "--out", _out(w, "c.yaml")], ("square",)),

@@ -19,7 +19,6 @@ import dataclasses
 import importlib
 import json
 import logging
-import math
 import os
 import sys
 import tempfile
@@ -85,16 +84,6 @@ def _seed(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected an integer >= 0, got '{text}'") from None
     if not 0 <= v < 2**63:
         raise argparse.ArgumentTypeError(f"expected an integer in [0, 2**63), got {v}")
-    return v
-
-
-def _metres(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number of metres, got '{text}'") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"expected a finite positive number of metres, got {text}")
     return v
 
 
@@ -168,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--right", required=True, help="glob of the right images (paired with the left in sorted order)"
     )
     c.add_argument("--pattern", required=True, help="inner corners COLSxROWS, e.g. 9x6")
-    c.add_argument("--square", type=_metres, required=True, help="square side in metres, e.g. 0.025")
+    c.add_argument("--square", type=float, required=True, help="square side in metres, e.g. 0.025")
     c.add_argument("--out", type=Path, required=True, help="calibration YAML to write")
     c.add_argument(
         "--figure", type=_figure_path, help="write a figure of the coverage and per-view errors (PNG)"
@@ -395,11 +384,12 @@ def _read_pair(left_path: Path, right_path: Path, calib: Any, calib_path: Path) 
     (hl, wl), (hr, wr) = left.shape[:2], right.shape[:2]
     if (wl, hl) != (wr, hr):
         raise InputError(
-            f"{left_path} is {wl}x{hl} but {right_path} is {wr}x{hr}; the images of a pair differ in size"
+            f"{left_path} is {wl}x{hl} but {right_path} is {wr}x{hr}; the two images differ in size"
         )
     if (wl, hl) != calib.image_size:
         raise InputError(
-            f"{left_path} is {wl}x{hl} but {calib_path} is for {calib.width}x{calib.height}; "
+            f"{left_path} is {wl}x{hl} but the calibration is for {calib.width}x{calib.height} "
+            f"({calib_path}); "
             "use the calibration of this camera mode or resize the images"
         )
     return left, right
