@@ -43,7 +43,10 @@ def test_replay_without_lcm(recording, tmp_path, capsys):
     assert data["processed"] == 3 and data["latency_median_ms"] > 0
 
 
-def test_replay_status_line_goes_to_stderr(recording, capsys):
+def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
+    import stereo_terrain.cli
+
+    monkeypatch.setattr(stereo_terrain.cli, "_is_terminal", lambda stream: True)  # drawn on a terminal only
     code, out, err = _run(["replay", recording, "--no-lcm", "--as-fast", "--frames", "2"], capsys)
     assert code == 0 and "\r" in err and "pairs" in err and out.startswith("done: 2 pairs")
 

@@ -65,4 +65,9 @@ def test_approach_config_is_checked():
         ApproachConfig(rear_hip_m=0.0)
     assert ApproachConfig(start_distance_m=2.2, end_distance_m=0.45, speed_mps=0.5, fps=30).frame_count == 106
     with pytest.raises(ConfigError, match="more than 20000"):
+        ApproachConfig(fps=1e9)
+    with pytest.raises(ConfigError, match="speed_mps must be >= 0.01"):
         ApproachConfig(speed_mps=1e-9)
+    for kw in ({"start_distance_m": 1e308}, {"fps": 1e308}, {"speed_mps": 1e-300, "fps": 1e300}):
+        with pytest.raises(ConfigError):
+            ApproachConfig(**kw)

@@ -327,6 +327,25 @@ class CheckerboardCalibration:
     board: BoardConfig
 
 
+#: Two views whose corners are all closer than this (pixels, both cameras) are one view.
+DUPLICATE_VIEW_PX = 1.0
+
+
+def _distinct_views(views: BoardViews) -> list[int]:
+    """Indices of the views that are not copies of an earlier one (same board pose: every
+    corner within :data:`DUPLICATE_VIEW_PX` on both sides). Copies add no information but
+    weigh the fit toward one pose, which biases the baseline."""
+    kept: list[int] = []
+    for i in range(len(views.names)):
+        if not any(
+            np.max(np.abs(views.left[i] - views.left[j])) < DUPLICATE_VIEW_PX
+            and np.max(np.abs(views.right[i] - views.right[j])) < DUPLICATE_VIEW_PX
+            for j in kept
+        ):
+            kept.append(i)
+    return kept
+
+
 def calibrate_stereo(views: BoardViews, board: BoardConfig) -> CheckerboardCalibration:
     """Calibrate both cameras and the pair from detected board views.
 
@@ -341,6 +360,14 @@ def calibrate_stereo(views: BoardViews, board: BoardConfig) -> CheckerboardCalib
         raise CalibrationError(
             f"only {n} pair(s) show the whole board on both sides; need at least {MIN_VIEWS} "
             "(better 10-20, tilted and spread over the image)"
+        )
+    distinct = _distinct_views(views)
+    if len(distinct) < MIN_VIEWS:
+        copies = [name for i, name in enumerate(views.names) if i not in distinct]
+        raise CalibrationError(
+            f"only {len(distinct)} distinct view(s) of the board among {n} pairs "
+            f"({', '.join(copies[:4])}{' ...' if len(copies) > 4 else ''} repeat an earlier view); "
+            f"need at least {MIN_VIEWS} different poses of the board (better 10-20)"
         )
     obj = [board.object_points] * n
     il = [c.reshape(-1, 1, 2) for c in views.left]

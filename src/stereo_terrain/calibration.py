@@ -12,6 +12,7 @@ Formats read (see ``docs/conventions.md``):
 from __future__ import annotations
 
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,10 +20,38 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from .checks import MAX_NESTING, nesting_depth, read_text_file
 from .errors import CalibrationError, InputError
 
 #: A longer baseline is taken for a unit mistake (millimetres instead of metres).
 MAX_BASELINE_M = 2.0
+
+#: Focal lengths outside this range (pixels) are not of a camera: a unit or file mistake.
+FOCAL_RANGE_PX = (1.0, 1.0e6)
+
+#: Largest image side accepted, pixels.
+MAX_IMAGE_SIDE_PX = 65536
+
+#: Calibration files are small; a larger one is not a calibration.
+MAX_CALIBRATION_BYTES = 4 << 20
+
+
+def _as_count(value: object, what: str) -> int:
+    """A positive whole number from a file (``image_width: .inf`` and 640.5 refused)."""
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        raise CalibrationError(f"{what} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v != int(v) or not 0 < v <= MAX_IMAGE_SIDE_PX:
+        raise CalibrationError(
+            f"{what} must be a positive whole number (at most {MAX_IMAGE_SIDE_PX}), got {value!r}"
+        )
+    return int(v)
+
+
+def _read_text(path: Path, what: str = "calibration file") -> str:
+    """The whole file as UTF-8 text; :class:`InputError` when it is not."""
+    return read_text_file(path, what, max_bytes=MAX_CALIBRATION_BYTES)
 
 
 @dataclass(frozen=True)
@@ -69,7 +98,7 @@ class StereoCalibration:
         for name, (value, shape) in arrays.items():
             try:
                 a = np.array(value, dtype=np.float64)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise CalibrationError(f"calibration{where}: {name} is not numeric") from None
             if shape is None:
                 a = a.reshape(-1)
@@ -98,6 +127,17 @@ class StereoCalibration:
                     f"calibration{where}: {name} is not a camera matrix (need fx, fy > 0 and "
                     f"last row [0, 0, 1]), got {k.tolist()}"
                 )
+            lo, hi = FOCAL_RANGE_PX
+            if not (lo <= k[0, 0] <= hi and lo <= k[1, 1] <= hi):
+                raise CalibrationError(
+                    f"calibration{where}: {name} focal lengths fx={k[0, 0]:.6g}, fy={k[1, 1]:.6g} px are "
+                    f"outside [{lo:g}, {hi:g}] px; K must be in pixels"
+                )
+            if np.any(np.abs(k[:2, 2]) > 10 * MAX_IMAGE_SIDE_PX) or abs(k[0, 1]) > hi:
+                raise CalibrationError(f"calibration{where}: {name} has an absurd principal point or skew")
+        for name in ("D1", "D2"):
+            if np.any(np.abs(getattr(self, name)) > 1e6):
+                raise CalibrationError(f"calibration{where}: {name} has absurd distortion coefficients")
         r = self.R
         if not np.allclose(r @ r.T, np.eye(3), atol=1e-4) or np.linalg.det(r) < 0.5:
             raise CalibrationError(f"calibration{where}: R is not a rotation matrix")
@@ -109,12 +149,14 @@ class StereoCalibration:
                 "T must be in metres (docs/conventions.md)"
             )
         try:
-            w, h = (int(v) for v in self.image_size)
+            w_in, h_in = self.image_size
         except (TypeError, ValueError):
             raise CalibrationError(f"calibration{where}: image_size must be (width, height)") from None
-        if w <= 0 or h <= 0:
-            raise CalibrationError(f"calibration{where}: image size must be positive, got {w}x{h}")
+        w = _as_count(w_in, f"calibration{where}: image width")
+        h = _as_count(h_in, f"calibration{where}: image height")
         object.__setattr__(self, "image_size", (w, h))
+        if self.ndisp is not None:
+            object.__setattr__(self, "ndisp", _as_count(self.ndisp, f"calibration{where}: ndisp"))
 
     @property
     def baseline_m(self) -> float:
@@ -136,20 +178,26 @@ def read_calibration(path: str | Path) -> StereoCalibration:
         raise InputError(f"{path} is a folder, not a calibration file")
     if not path.is_file():
         raise InputError(f"calibration file not found: {path}")
-    try:
-        head = path.read_bytes()[:4096].decode("utf-8", errors="replace")
-    except OSError as exc:
-        raise InputError(f"calibration file {path} is not readable: {exc.strerror}") from None
-    if "cam0" in head and "baseline" in head:
+    text = _read_text(path)
+    if not text.strip():
+        raise CalibrationError(f"calibration file {path} is empty")
+    if _MB_KEY.search(text) and re.search(r"^\s*baseline\s*=", text, re.MULTILINE):
         return read_middlebury_calib(path)
-    if path.suffix.lower() == ".json" or head.lstrip().startswith("{"):
+    if path.suffix.lower() == ".json" or text.lstrip().startswith(("{", "[")):
         return read_stereodemo_json(path)
     return read_opencv_yaml(path)
+
+
+# A Middlebury key at the start of a line (not "cam0" inside a YAML comment or value).
+_MB_KEY = re.compile(r"^\s*cam0\s*=", re.MULTILINE)
 
 
 def read_opencv_yaml(path: str | Path) -> StereoCalibration:
     """Read an OpenCV FileStorage (YAML or XML) stereo calibration."""
     path = Path(path)
+    text = _read_text(path)
+    if nesting_depth(text) > MAX_NESTING:
+        raise CalibrationError(f"calibration file {path} nests brackets deeper than {MAX_NESTING} levels")
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError):  # OpenCV's parser raises SystemError on garbage
@@ -160,6 +208,11 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
     if not fs.isOpened():
         raise CalibrationError(f"calibration file {path} could not be opened as OpenCV YAML/XML")
     try:
+        if not fs.root().isMap():
+            raise CalibrationError(
+                f"calibration file {path}: the top level must be a mapping of K1, D1, K2, D2, R, T, "
+                "image_width, image_height"
+            )
         values: dict[str, np.ndarray] = {}
         for key in ("K1", "D1", "K2", "D2", "R", "T"):
             node = fs.getNode(key)
@@ -176,7 +229,11 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
                 raise CalibrationError(f"calibration file {path} lacks '{key}'")
             if not (node.isInt() or node.isReal()):
                 raise CalibrationError(f"calibration file {path}: '{key}' must be a number")
-            size.append(int(node.real()))
+            size.append(_as_count(node.real(), f"calibration file {path}: '{key}'"))
+    except cv2.error:
+        raise CalibrationError(
+            f"calibration file {path} is not a readable OpenCV YAML/XML calibration"
+        ) from None
     finally:
         fs.release()
     return StereoCalibration(
@@ -240,7 +297,7 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
     principal point, carried by ``K2[0, 2] - K1[0, 2]``.
     """
     path = Path(path)
-    text = path.read_text(errors="replace")
+    text = _read_text(path)
     mats: dict[str, np.ndarray] = {}
     for name, body in _MB_MATRIX.findall(text):
         try:
@@ -257,6 +314,8 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
             scalars[k] = float(v)
         except ValueError:
             raise CalibrationError(f"{path}: '{k}' must be a number, got '{v}'") from None
+        if not math.isfinite(scalars[k]):
+            raise CalibrationError(f"{path}: '{k}' must be a finite number, got '{v}'")
     for key in ("baseline", "width", "height"):
         if key not in scalars:
             raise CalibrationError(f"{path}: Middlebury calib.txt lacks '{key}'")
@@ -271,7 +330,7 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
     baseline_m = scalars["baseline"] / 1000.0
     if baseline_m <= 0:
         raise CalibrationError(f"{path}: baseline must be positive (millimetres), got {scalars['baseline']}")
-    ndisp = int(scalars["ndisp"]) if "ndisp" in scalars else None
+    ndisp = _as_count(scalars["ndisp"], f"{path}: 'ndisp'") if "ndisp" in scalars else None
     return StereoCalibration(
         K1,
         np.zeros(5),
@@ -279,7 +338,7 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
         np.zeros(5),
         np.eye(3),
         np.array([-baseline_m, 0.0, 0.0]),
-        (int(scalars["width"]), int(scalars["height"])),
+        (_as_count(scalars["width"], f"{path}: 'width'"), _as_count(scalars["height"], f"{path}: 'height'")),
         rectified=True,
         ndisp=ndisp,
         source=str(path),
@@ -289,18 +348,30 @@ def read_middlebury_calib(path: str | Path) -> StereoCalibration:
 def read_stereodemo_json(path: str | Path) -> StereoCalibration:
     """Read stereodemo's ``stereodemo_calibration.json`` (rectified pair, metres)."""
     path = Path(path)
+    text = _read_text(path)
+    if nesting_depth(text) > MAX_NESTING:
+        raise CalibrationError(f"{path}: JSON nests brackets deeper than {MAX_NESTING} levels")
     try:
-        d = json.loads(path.read_text())
+        d = json.loads(text)
+    except (json.JSONDecodeError, RecursionError):
+        raise CalibrationError(f"{path}: not valid JSON") from None
+    if not isinstance(d, dict):
+        raise CalibrationError(
+            f"{path}: a stereodemo calibration must be a JSON object, got {type(d).__name__}"
+        )
+    try:
         fx, fy = float(d["fx"]), float(d["fy"])
         cx0, cx1, cy = float(d["cx0"]), float(d["cx1"]), float(d["cy"])
         baseline = float(d["baseline_meters"])
-        size = (int(d["width"]), int(d["height"]))
-    except (json.JSONDecodeError, UnicodeDecodeError):
-        raise CalibrationError(f"{path}: not valid JSON") from None
+        size = (d["width"], d["height"])
     except KeyError as exc:
         raise CalibrationError(f"{path}: stereodemo calibration lacks {exc}") from None
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise CalibrationError(f"{path}: stereodemo calibration has non-numeric values") from None
+    if not all(math.isfinite(v) for v in (fx, fy, cx0, cx1, cy, baseline)):
+        raise CalibrationError(f"{path}: stereodemo calibration has non-finite values (NaN or Infinity)")
+    if isinstance(size[0], bool) or isinstance(size[1], bool):
+        raise CalibrationError(f"{path}: width and height must be numbers")
     if baseline <= 0:
         raise CalibrationError(f"{path}: baseline_meters must be positive, got {baseline}")
     K1 = np.array([[fx, 0, cx0], [0, fy, cy], [0, 0, 1]])

@@ -1,13 +1,75 @@
 """Validators shared by the stage configs: each raises :class:`ConfigError` naming the
-field, what was expected and what came."""
+field, what was expected and what came; and the readers of small text files (rig, config,
+``pairs.csv``) that refuse what is not UTF-8 text or YAML before a parser trips on it."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 from typing import Any
 
-from .errors import ConfigError
+from .errors import ConfigError, InputError
+
+#: Integer config fields must fit a C int (OpenCV takes them as one).
+INT_LIMIT = 2**31 - 1
+
+#: Text files the package reads (rig, config, ``pairs.csv``) larger than this are refused.
+MAX_TEXT_BYTES = 64 << 20
+
+#: Brackets nested deeper are refused before a parser recurses into them.
+MAX_NESTING = 32
+
+
+def read_text_file(path: str | Path, what: str, *, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The whole file as UTF-8 text; :class:`InputError` naming ``what`` and the path when it
+    is missing, a folder, unreadable, too large or not UTF-8."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {path} is a folder, not a file")
+    try:
+        with path.open("rb") as f:
+            data = f.read(max_bytes + 1)
+    except FileNotFoundError:
+        raise InputError(f"{what} not found: {path}") from None
+    except OSError as exc:
+        raise InputError(f"{what} {path} is not readable: {exc.strerror}") from None
+    if len(data) > max_bytes:
+        raise InputError(f"{what} {path} is larger than {max_bytes >> 20} MiB")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{what} {path} is not UTF-8 text (invalid byte at offset {exc.start})") from None
+
+
+def nesting_depth(text: str) -> int:
+    """Deepest nesting of ``[`` / ``{`` brackets in ``text`` (quotes are not parsed)."""
+    depth = best = 0
+    for ch in text:
+        if ch in "[{":
+            depth += 1
+            if depth > best:
+                best = depth
+        elif ch in "]}":
+            depth = max(0, depth - 1)
+    return best
+
+
+def load_yaml_file(path: str | Path, what: str) -> Any:
+    """Parse a small YAML file (``yaml.safe_load``); :class:`InputError` for a file that is
+    missing, not UTF-8, nested deeper than :data:`MAX_NESTING` or not YAML."""
+    import yaml
+
+    text = read_text_file(path, what)
+    if nesting_depth(text) > MAX_NESTING:
+        raise InputError(f"{what} {path} nests brackets deeper than {MAX_NESTING} levels")
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{what} {path} is not valid YAML: {first}") from None
+    except (RecursionError, ValueError, OverflowError, TypeError) as exc:
+        raise InputError(f"{what} {path} is not valid YAML: {type(exc).__name__}") from None
 
 
 def check_fields(config: Any) -> None:
@@ -26,8 +88,8 @@ def check_fields(config: Any) -> None:
             ok = isinstance(value, bool)
             want = "true or false"
         elif isinstance(default, int):
-            ok = isinstance(value, int) and not isinstance(value, bool)
-            want = "an integer"
+            ok = isinstance(value, int) and not isinstance(value, bool) and abs(value) <= INT_LIMIT
+            want = f"an integer of magnitude <= {INT_LIMIT}"
         elif isinstance(default, float):
             ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
             want = "a finite number"
@@ -52,5 +114,5 @@ def check_min(config: Any, minimum: float, *names: str) -> None:
     """Each named field must be >= ``minimum``."""
     for name in names:
         value = getattr(config, name)
-        if value < minimum:
+        if not value >= minimum:
             raise ConfigError(f"{type(config).__name__}.{name} must be >= {minimum}, got {value}")

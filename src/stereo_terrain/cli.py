@@ -1,23 +1,31 @@
 """Command line: ``stereo-terrain demo | reconstruct | render | disparity | eval-disparity |
 calibrate | check-calib | record | run | replay | simulate``.
 
-Thin: parses arguments, calls the pipeline, maps errors to exit codes (0 success, 2 bad
-input or usage with one line on stderr, 1 internal error).
+Thin: parses arguments, calls the pipeline, maps errors to exit codes through
+:func:`stereo_terrain.errors.exit_code` (0 success, 2 bad input or usage with one line on
+stderr, 1 internal error).
+
+Before any work every command checks what it will write (a file's folder exists, a folder
+is not a file, a recording folder is new) and the optional packages it needs (matplotlib
+for figures, lcm for publishing), so that a mistake costs nothing and leaves nothing
+behind: files are written to a temporary name and renamed, folders the command created
+are removed again when it fails. Progress and status lines are drawn only on a terminal.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib
 import json
 import logging
+import os
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any, NoReturn
 
-from .errors import InputError, StereoTerrainError
-
-EXIT_OK, EXIT_INTERNAL, EXIT_USAGE = 0, 1, 2
+from .errors import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, InputError, exit_code
 
 # Disparity methods by name: backend and its options.
 _METHODS: dict[str, tuple[str, dict[str, Any]]] = {
@@ -38,6 +46,9 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_USAGE)
 
 
+MAX_SIZE_PX = 4096
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
@@ -45,7 +56,13 @@ def _size(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"size must be WIDTHxHEIGHT like 640x480, got '{text}'") from None
     if w < 32 or h < 32:
         raise argparse.ArgumentTypeError(f"size must be at least 32x32, got {text}")
+    if w > MAX_SIZE_PX or h > MAX_SIZE_PX:
+        raise argparse.ArgumentTypeError(f"size must be at most {MAX_SIZE_PX}x{MAX_SIZE_PX}, got {text}")
     return w, h
+
+
+#: Integers on the command line above this are typos (and overflow OpenCV's C int).
+MAX_INT_OPTION = 1_000_000
 
 
 def _positive_int(text: str) -> int:
@@ -55,6 +72,18 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'") from None
     if v <= 0:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
+    if v > MAX_INT_OPTION:
+        raise argparse.ArgumentTypeError(f"expected a positive integer up to {MAX_INT_OPTION}, got {v}")
+    return v
+
+
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got '{text}'") from None
+    if not 0 <= v < 2**63:
+        raise argparse.ArgumentTypeError(f"expected an integer in [0, 2**63), got {v}")
     return v
 
 
@@ -149,7 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     g = sub.add_parser("render", help="write synthetic stereo scenes with ground truth")
     g.add_argument("--out", type=Path, required=True)
     g.add_argument("--count", type=_positive_int, default=1)
-    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--seed", type=_seed, default=0)
     g.add_argument("--size", type=_size, default=(640, 480), help="WIDTHxHEIGHT (default 640x480)")
     g.add_argument("--kind", choices=["stairs", "box", "none"], help="obstacle kind (default: random)")
     g.add_argument(
@@ -170,6 +199,121 @@ def _nonneg_float(text: str) -> float:
     if not v >= 0 or v == float("inf"):
         raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
     return v
+
+
+# ----------------------------------------------------------------- outputs, extras, progress
+
+# Folders this command created (removed again, when still empty, if it fails).
+_CREATED: list[Path] = []
+# A progress line is drawn and not yet ended (an error must start on a fresh line).
+_PROGRESS_OPEN = [False]
+
+
+def _is_terminal(stream: Any) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+def _check_output_file(path: Path | None, option: str) -> None:
+    """Refuse, before any work, an output file that cannot be written."""
+    if path is None or str(path) == "-":
+        return
+    if path.is_dir():
+        raise InputError(f"cannot write {option} {path}: it is a folder; give a file name")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(f"cannot write {option} {path}: the folder {parent} does not exist; create it first")
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise InputError(f"cannot write {option} {path}: permission denied")
+
+
+def _check_output_dir(path: Path, option: str) -> None:
+    """Refuse, before any work, an output folder that cannot be created or written."""
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{option} {path} exists and is not a folder")
+    existing = path
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"{option} {path}: {existing} is a file, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"{option} {path}: {existing} is not writable")
+
+
+def _make_dir(path: Path, option: str) -> None:
+    """Create an output folder (and its parents); remembered so a failure removes them."""
+    _check_output_dir(path, option)
+    top = path
+    while not top.parent.exists() and top.parent != top:
+        top = top.parent
+    created = not top.exists()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create {option} folder {path}: {exc.strerror}") from None
+    if created:
+        _CREATED.append(top)
+
+
+def _remove_created() -> None:
+    """Remove the folders this command created when they hold no file."""
+    while _CREATED:
+        top = _CREATED.pop()
+        try:
+            for root, dirs, files in os.walk(top, topdown=False):
+                if files:
+                    return
+                for d in dirs:
+                    (Path(root) / d).rmdir()
+            top.rmdir()
+        except OSError:
+            pass
+
+
+def _replace_from_temp(target: Path, write: Any) -> None:
+    """``write(tmp_path)`` then rename onto ``target``: an existing file is replaced only by a
+    whole new one, and a failed write leaves nothing behind."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent or ".")
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, target)
+    except OSError as exc:
+        raise InputError(f"cannot write {target}: {exc.strerror}") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _require(module: str, extra: str, what: str, skip: str = "") -> None:
+    """An optional dependency, checked before any work."""
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        alt = f", or pass {skip}" if skip else ""
+        raise InputError(
+            f"{what} needs the Python package '{module}', which is not installed: "
+            f"pip install 'stereo-terrain[{extra}]'{alt}"
+        ) from None
+
+
+def _require_viz(what: str, skip: str = "") -> None:
+    _require("matplotlib", "viz", what, skip)
+
+
+def _require_lcm(what: str, skip: str = "") -> None:
+    _require("lcm", "lcm", what, skip)
+
+
+def _end_progress() -> None:
+    if _PROGRESS_OPEN[0]:
+        sys.stderr.write("\n")
+        sys.stderr.flush()
+        _PROGRESS_OPEN[0] = False
 
 
 def _add_runtime_commands(sub: Any) -> None:
@@ -232,6 +376,25 @@ def _add_runtime_commands(sub: Any) -> None:
     si.add_argument("--no-plot", action="store_true")
 
 
+def _read_pair(left_path: Path, right_path: Path, calib: Any, calib_path: Path) -> tuple[Any, Any]:
+    """Both images, checked against each other and the calibration with the files named."""
+    from .rectify import read_image
+
+    left, right = read_image(left_path), read_image(right_path)
+    (hl, wl), (hr, wr) = left.shape[:2], right.shape[:2]
+    if (wl, hl) != (wr, hr):
+        raise InputError(
+            f"{left_path} is {wl}x{hl} but {right_path} is {wr}x{hr}; the two images differ in size"
+        )
+    if (wl, hl) != calib.image_size:
+        raise InputError(
+            f"{left_path} is {wl}x{hl} but the calibration is for {calib.width}x{calib.height} "
+            f"({calib_path}); "
+            "use the calibration of this camera mode or resize the images"
+        )
+    return left, right
+
+
 def _fmt(v: float | None, unit: str = "m") -> str:
     return "   -  " if v is None else f"{v:6.3f}{unit}"
 
@@ -250,10 +413,7 @@ def _write_json(data: dict[str, Any], target: Path) -> None:
     if str(target) == "-":
         print(text)
         return
-    try:
-        target.write_text(text + "\n")
-    except OSError as exc:
-        raise InputError(f"cannot write {target}: {exc.strerror}") from None
+    _replace_from_temp(target, lambda tmp: tmp.write_text(text + "\n"))
 
 
 def _plot(result, target: Path, truth: dict | None = None) -> None:
@@ -263,10 +423,7 @@ def _plot(result, target: Path, truth: dict | None = None) -> None:
         raise InputError(
             f"--plot needs matplotlib ({exc}); install with pip install 'stereo-terrain[viz]'"
         ) from None
-    try:
-        save_result_figure(result, target, truth=truth)
-    except OSError as exc:
-        raise InputError(f"cannot write {target}: {exc.strerror}") from None
+    _replace_from_temp(target, lambda tmp: save_result_figure(result, tmp, truth=truth))
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -274,10 +431,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .synthetic import default_scene_spec, render_scene, write_scene
 
     out: Path = args.out
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder {out}: {exc.strerror}") from None
+    _check_output_dir(out, "--out")
+    if not args.no_plot:
+        _require_viz("the demo's figure", "--no-plot")
+    _make_dir(out, "--out")
     spec = default_scene_spec()
     scene = render_scene(spec)
     write_scene(scene, out / "scene")
@@ -315,19 +472,21 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     from .calibration import read_calibration
     from .frames import load_rig
     from .pipeline import Pipeline, PipelineConfig
-    from .rectify import read_image
 
+    _check_output_file(args.json, "--json")
+    _check_output_file(args.plot, "--plot")
+    if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
+        raise InputError(f"--json and --plot name the same file {args.json}")
+    if args.plot is not None:
+        _require_viz("--plot")
     calib = read_calibration(args.calib)
     rig = load_rig(args.rig) if args.rig else None
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
-    import dataclasses
-
     if args.max_disparity is not None:
         config = dataclasses.replace(config, max_disparity_px=args.max_disparity)
     if args.method is not None:
         config = dataclasses.replace(config, method=args.method)
-    left = read_image(args.left)
-    right = read_image(args.right)
+    left, right = _read_pair(args.left, args.right, calib, args.calib)
     pipeline = Pipeline(calib, rig, config)
     result = pipeline.run(left, right)
     data = result.to_json_dict()
@@ -351,10 +510,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     from .synthetic import render_scenes
 
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder {args.out}: {exc.strerror}") from None
+    _make_dir(args.out, "--out")
     kw: dict[str, Any] = {"image_size": args.size}
     if args.kind:
         kw["kind"] = args.kind
@@ -386,27 +542,29 @@ def _pair_disparity(method: str, calib, left, right, max_disparity: int | None):
 
 def cmd_disparity(args: argparse.Namespace) -> int:
     from .calibration import read_calibration
-    from .rectify import read_image
     from .stereo.io import write_disparity
 
     if args.out.suffix.lower() not in (".pfm", ".npy", ".png"):
-        raise InputError(f"unknown disparity file type '{args.out.suffix}'; use .pfm, .npy or .png")
+        raise InputError(f"--out: unknown disparity file type '{args.out.suffix}'; use .pfm, .npy or .png")
+    _check_output_file(args.out, "--out")
     calib = read_calibration(args.calib)
-    dm, ms = _pair_disparity(
-        args.method, calib, read_image(args.left), read_image(args.right), args.max_disparity
-    )
-    write_disparity(args.out, dm.disparity)
+    left, right = _read_pair(args.left, args.right, calib, args.calib)
+    dm, ms = _pair_disparity(args.method, calib, left, right, args.max_disparity)
+    _replace_from_temp(args.out, lambda tmp: write_disparity(tmp, dm.disparity))
     print(f"{args.method}: {dm.max_disparity_px} disparities, density {dm.density:.1%}, {ms:.0f} ms")
     print(f"wrote {args.out}")
     return EXIT_OK
 
 
 def _progress(done: int, total: int, text: str) -> None:
-    """A one-line progress bar on stderr (a newline when done)."""
+    """A one-line progress bar on stderr when it is a terminal (a newline when done)."""
+    if not _is_terminal(sys.stderr):
+        return
     bar = "#" * (20 * done // max(total, 1))
     sys.stderr.write(f"\r[{bar:<20}] {done}/{total} {text:<60}")
+    _PROGRESS_OPEN[0] = True
     if done == total:
-        sys.stderr.write("\n")
+        _end_progress()
     sys.stderr.flush()
 
 
@@ -424,9 +582,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     board = BoardConfig(cols, rows, args.square)
     if args.out.suffix.lower() not in (".yaml", ".yml", ".xml"):
         raise InputError(f"--out must be a .yaml, .yml or .xml file (OpenCV FileStorage), got {args.out}")
-    for target in (args.out, args.figure):  # fail before the detection work, not after it
-        if target is not None and (target.is_dir() or not target.resolve().parent.is_dir()):
-            raise InputError(f"cannot write {target}: it is a folder or its folder does not exist")
+    # Fail before the detection work, not after it.
+    _check_output_file(args.out, "--out")
+    _check_output_file(args.figure, "--figure")
+    if args.figure is not None:
+        _require_viz("--figure")
 
     def progress(done: int, total: int, name: str, reason: str | None) -> None:
         _progress(done, total, f"{name}: {'board found' if reason is None else 'skipped, ' + reason}")
@@ -441,7 +601,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             f"so {args.out} was not written; "
             "use distinct views of the board moved around the image, paired left/right in the same order"
         )
-    write_opencv_yaml(result.calibration, args.out)
+    _replace_from_temp(args.out, lambda tmp: write_opencv_yaml(result.calibration, tmp))
     print(f"wrote {args.out}")
     if args.figure is not None:
         try:
@@ -450,10 +610,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             raise InputError(
                 f"--figure needs matplotlib ({exc}); install with pip install 'stereo-terrain[viz]'"
             ) from None
-        try:
-            save_calibration_figure(result, args.figure)
-        except OSError as exc:
-            raise InputError(f"cannot write {args.figure}: {exc.strerror}") from None
+        _replace_from_temp(args.figure, lambda tmp: save_calibration_figure(result, tmp))
         print(f"wrote {args.figure}")
     return EXIT_OK
 
@@ -463,7 +620,7 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
 
     from .calibration import read_calibration
     from .drift import DriftConfig, check_calibration
-    from .rectify import compute_rectification, read_image, rectify
+    from .rectify import compute_rectification, rectify
 
     if len(args.images) % 2:
         raise InputError(
@@ -472,7 +629,7 @@ def cmd_check_calib(args: argparse.Namespace) -> int:
     calib = read_calibration(args.calib)
     rect = compute_rectification(calib)
     pairs = [
-        rectify(read_image(left), read_image(right), rect)
+        rectify(*_read_pair(left, right, calib, args.calib), rect)
         for left, right in zip(args.images[::2], args.images[1::2], strict=True)
     ]
     cfg = DriftConfig()
@@ -559,9 +716,17 @@ def cmd_eval_disparity(args: argparse.Namespace) -> int:
 
 
 def cmd_record(args: argparse.Namespace) -> int:
-    from .runtime.capture import Capture, open_devices, record_pairs
+    from .runtime.capture import PAIRS_FILE, Capture, open_devices, record_pairs
 
-    capture = Capture(open_devices(args.left, args.right), args.max_skew_ms / 1000.0)
+    source = open_devices(args.left, args.right)
+    try:
+        _check_output_dir(args.out, "--out")
+        if (args.out / PAIRS_FILE).exists():
+            raise InputError(f"--out {args.out} already holds a recording ({PAIRS_FILE}); use a new folder")
+    except InputError:
+        source.close()
+        raise
+    capture = Capture(source, args.max_skew_ms / 1000.0)
     try:
         n = record_pairs(capture, args.out, max_pairs=args.frames or 0, max_duration_s=args.duration or 0.0)
     finally:
@@ -599,6 +764,7 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
     from .runtime.loop import LiveLoop, LoopConfig
 
     publish: Any = lambda msg: None  # noqa: E731
+    _check_output_file(args.summary_json, "--summary-json")
     if not args.no_lcm:
         from .runtime.lcm_io import DEFAULT_URL, LcmPublisher
 
@@ -615,7 +781,7 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
         publish,
         pose=pose,
         config=config,
-        status=None if args.quiet else sys.stderr,
+        status=None if args.quiet or not _is_terminal(sys.stderr) else sys.stderr,
     )
     loop.warm_up()
     summary = loop.run()
@@ -633,6 +799,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .runtime.capture import open_devices
     from .runtime.loop import rig_pose
 
+    _check_output_file(args.summary_json, "--summary-json")
+    if not args.no_lcm or args.state_channel:
+        _require_lcm("publishing terrain messages" if not args.no_lcm else "--state-channel", "--no-lcm")
     pipeline = _pipeline(args.calib, args.rig, args.config)
     pose = rig_pose(pipeline.rig)
     listener = None
@@ -657,6 +826,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from .runtime.capture import FolderPairs, Paced
 
     folder: Path = args.folder
+    if not folder.exists():
+        raise InputError(f"recorded pairs folder not found: {folder}")
+    if not folder.is_dir():
+        raise InputError(f"{folder} is not a folder of recorded pairs (pairs.csv and the images)")
+    _check_output_file(args.summary_json, "--summary-json")
+    if not args.no_lcm:
+        _require_lcm("publishing terrain messages", "--no-lcm")
     calib = args.calib or folder / "calib.yaml"
     if args.calib is None and not calib.is_file():
         raise InputError(f"no --calib given and {calib} does not exist")
@@ -699,20 +875,30 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         approach_spec(cfg, 0.0, 0.0)  # the stairs' own checks, before any work
     except InputError as exc:
         raise _in_option_names(exc) from None
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create output folder {args.out}: {exc.strerror}") from None
+    from .runtime.capture import PAIRS_FILE
+
+    _check_output_dir(args.out, "--out")
+    if args.record is not None:
+        _check_output_dir(args.record, "--record")
+        if (args.record / PAIRS_FILE).exists():
+            raise InputError(f"--record {args.record} already holds a recording ({PAIRS_FILE})")
+    if not args.no_plot:
+        _require_viz("the approach figure", "--no-plot")
     publish = None
     if args.lcm_url:
+        _require_lcm("--lcm-url")
         from .runtime.lcm_io import LcmPublisher
 
         publish = LcmPublisher(args.lcm_url, args.channel)
+    _make_dir(args.out, "--out")
 
     def progress(k: int, n: int) -> None:
+        if not _is_terminal(sys.stderr):
+            return
         sys.stderr.write(f"\rrendering and processing frame {k}/{n}")
+        _PROGRESS_OPEN[0] = True
         if k == n:
-            sys.stderr.write("\n")
+            _end_progress()
 
     result = simulate_approach(cfg, publish=publish, record_to=args.record, progress=progress)
     summary = result.summary()
@@ -740,7 +926,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             raise InputError(
                 f"the plot needs matplotlib ({exc}); pip install 'stereo-terrain[viz]'"
             ) from None
-        save_approach_figure(result, args.out / "approach.png")
+        _replace_from_temp(args.out / "approach.png", lambda tmp: save_approach_figure(result, tmp))
         print(f"wrote {args.out / 'approach.png'}")
     print(f"wrote {args.out / 'summary.json'}" + (f" and the frames in {args.record}" if args.record else ""))
     return EXIT_OK
@@ -761,31 +947,52 @@ COMMANDS = {
 }
 
 
+def _error_line(command: str, exc: BaseException) -> str:
+    """The one line a failed command prints."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "stereo-terrain: interrupted"
+    code = exit_code(exc)
+    if code == EXIT_USAGE and isinstance(exc, OSError):
+        return f"stereo-terrain {command}: error: cannot use {exc.filename}: {exc.strerror or exc}"
+    text = " ".join(str(exc).split())  # one line, whatever the message held
+    if code == EXIT_USAGE:
+        return f"stereo-terrain {command}: error: {text}"
+    return (
+        f"stereo-terrain {command}: internal error: {type(exc).__name__}: {text[:500]} "
+        "(please report it; run with -v for details)"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s"
     )
+    # Python warnings go through logging (one format), and only with -v.
+    logging.captureWarnings(True)
+    logging.getLogger("py.warnings").setLevel(logging.WARNING if args.verbose else logging.ERROR)
+    from .native import silence_opencv_logging
+
+    silence_opencv_logging()
+    _CREATED.clear()
+    _PROGRESS_OPEN[0] = False
     try:
         return COMMANDS[args.command](args)
-    except StereoTerrainError as exc:
-        sys.stderr.write(f"stereo-terrain {args.command}: error: {exc}\n")
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        sys.stderr.write("stereo-terrain: interrupted\n")
-        return 130
-    except Exception as exc:  # an internal error: say so, keep the traceback for the log
-        log.debug("internal error", exc_info=True)
-        sys.stderr.write(
-            f"stereo-terrain {args.command}: internal error: {type(exc).__name__}: {exc} "
-            "(please report it; run with -v for details)\n"
-        )
-        if args.verbose:
+    except (Exception, KeyboardInterrupt) as exc:
+        code = exit_code(exc)
+        _end_progress()
+        _remove_created()
+        if code == EXIT_INTERNAL:
+            log.debug("internal error", exc_info=True)
+        sys.stderr.write(_error_line(args.command, exc) + "\n")
+        if code == EXIT_INTERNAL and args.verbose:
             import traceback
 
             traceback.print_exc()
-        return EXIT_INTERNAL
+        return code
+    finally:
+        _CREATED.clear()
 
 
 if __name__ == "__main__":

@@ -28,3 +28,24 @@ class FrameError(InputError):
 
 class ConfigError(InputError):
     """A configuration value is out of its documented range."""
+
+
+#: Exit codes of every command (docs/conventions.md): success, internal error, bad input.
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE = 0, 1, 2
+
+
+def exit_code(exc: BaseException) -> int:
+    """The one mapping from an exception to a command's exit code.
+
+    The package's own errors (bad input, config, calibration, frames), and an operating
+    system refusal about a named file (permission denied, disk full, a folder where a
+    file was expected), are the user's to fix: :data:`EXIT_USAGE`. Anything else is a bug:
+    :data:`EXIT_INTERNAL`. Ctrl-C gives 130 as shells expect.
+    """
+    if isinstance(exc, KeyboardInterrupt):
+        return 130
+    if isinstance(exc, StereoTerrainError):
+        return EXIT_USAGE
+    if isinstance(exc, OSError) and getattr(exc, "filename", None) is not None:
+        return EXIT_USAGE
+    return EXIT_INTERNAL

@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from .calibration import StereoCalibration, read_calibration
@@ -184,17 +183,34 @@ class MiddleburyScene:
 
 
 def read_middlebury_scene(folder: str | Path) -> MiddleburyScene:
-    """Read a scene folder of :func:`middlebury_scene_dirs`."""
+    """Read a scene folder of :func:`middlebury_scene_dirs`.
+
+    :class:`InputError` when the images, ground truth and mask differ in size from the
+    calibration, or the mask does not decode.
+    """
     folder = Path(folder)
+    calibration = read_calibration(folder / "calib.txt")
+    left, right = read_image(folder / "im0.png"), read_image(folder / "im1.png")
+    truth = read_pfm(folder / "disp0GT.pfm")
+    size = calibration.image_size
+    for name, a in (("im0.png", left), ("im1.png", right), ("disp0GT.pfm", truth)):
+        if (a.shape[1], a.shape[0]) != size:
+            raise InputError(
+                f"{folder / name} is {a.shape[1]}x{a.shape[0]} but {folder / 'calib.txt'} says "
+                f"{size[0]}x{size[1]}; every file of a scene must have the same resolution"
+            )
     mask_path = folder / "mask0nocc.png"
     nonoccluded = None
     if mask_path.is_file():
-        nonoccluded = np.asarray(cv2.imread(str(mask_path), cv2.IMREAD_GRAYSCALE)) == 255
-    return MiddleburyScene(
-        folder.name,
-        read_calibration(folder / "calib.txt"),
-        read_image(folder / "im0.png"),
-        read_image(folder / "im1.png"),
-        read_pfm(folder / "disp0GT.pfm"),
-        nonoccluded,
-    )
+        try:
+            mask = read_image(mask_path)
+        except InputError as exc:
+            raise InputError(f"non-occlusion mask {mask_path} is unreadable: {exc}") from None
+        if (mask.shape[1], mask.shape[0]) != size:
+            raise InputError(
+                f"{mask_path} is {mask.shape[1]}x{mask.shape[0]} but the scene is {size[0]}x{size[1]}"
+            )
+        nonoccluded = mask == 255
+        if not nonoccluded.any():
+            raise InputError(f"{mask_path} marks no pixel as non-occluded (255): a wrong or corrupt mask")
+    return MiddleburyScene(folder.name, calibration, left, right, truth, nonoccluded)

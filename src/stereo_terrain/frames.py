@@ -210,31 +210,50 @@ class Rig:
         return yaw_from_body(self.body_rpy[0], self.body_rpy[1]) @ self.T_body_camera
 
 
+#: A rig translation longer than this (metres) is taken for millimetres.
+MAX_RIG_TRANSLATION_M = 5.0
+
+
 def load_rig(path: str | Path) -> Rig:
-    """Read a rig YAML file (``T_body_camera`` 4x4 nested list, optional ``body_rpy``)."""
+    """Read a rig YAML file (``T_body_camera`` 4x4 nested list, metres; optional ``body_rpy``).
+
+    Raises :class:`InputError` for a file that is missing, not UTF-8 YAML, not a mapping
+    with ``T_body_camera``, not rigid, or whose translation is longer than
+    :data:`MAX_RIG_TRANSLATION_M` (millimetres instead of metres).
+    """
+    from .checks import load_yaml_file
+
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise InputError(f"rig file not found: {path}") from None
-    except (OSError, yaml.YAMLError) as exc:
-        raise InputError(f"rig file {path} is not readable YAML: {str(exc).splitlines()[0]}") from None
+    data = load_yaml_file(path, "rig file")
     if not isinstance(data, dict) or "T_body_camera" not in data:
         raise InputError(f"rig file {path} must be a mapping with key 'T_body_camera' (4x4 list)")
     try:
         m = np.array(data["T_body_camera"], dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"rig file {path}: T_body_camera must be a 4x4 list of numbers") from None
     try:
         T = Transform(m, "body", "camera")
+        t = float(np.linalg.norm(T.translation))
+        if t > MAX_RIG_TRANSLATION_M:
+            raise InputError(
+                f"rig file {path}: T_body_camera puts the camera {t:.3g} m from the body origin; "
+                "the translation must be in metres, not millimetres"
+            )
         rpy = data.get("body_rpy", [0.0, 0.0, 0.0])
         rpy_arr = np.array(rpy, dtype=np.float64).reshape(-1)
         if rpy_arr.shape != (3,):
             raise InputError(f"rig file {path}: body_rpy must be [roll, pitch, yaw] in radians")
+        if not np.all(np.abs(rpy_arr) <= 2 * math.pi):
+            raise InputError(
+                f"rig file {path}: body_rpy must be 3 finite angles in radians (within +-2 pi), "
+                f"got {rpy_arr.tolist()}"
+            )
         return Rig(T, tuple(rpy_arr))  # type: ignore[arg-type]
-    except InputError:
-        raise
-    except (TypeError, ValueError) as exc:
+    except InputError as exc:
+        if str(path) in str(exc):
+            raise
+        raise type(exc)(f"rig file {path}: {exc}") from None
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InputError(f"rig file {path}: {exc}") from None
 
 

@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from .calibration import StereoCalibration
 from .checks import check_fields
@@ -38,7 +37,7 @@ from .cloud import (
     transform_sample,
 )
 from .drift import CorrectionUpdate, DriftConfig, OnlineRectifier
-from .errors import ConfigError, InputError
+from .errors import ConfigError
 from .frames import R_BODY_OPTICAL, Rig, Transform
 from .gravity import (
     GravityConfig,
@@ -193,15 +192,13 @@ class PipelineConfig:
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> PipelineConfig:
+        from .checks import load_yaml_file  # UTF-8, nesting depth, YAML errors: one message
+
+        data = load_yaml_file(path, "config file")
         try:
-            data = yaml.safe_load(Path(path).read_text()) or {}
-        except FileNotFoundError:
-            raise InputError(f"config file not found: {path}") from None
-        except OSError as exc:
-            raise InputError(f"config file {path} is not readable: {exc.strerror}") from None
-        except yaml.YAMLError as exc:
-            raise InputError(f"config file {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
-        return cls.from_dict(data)
+            return cls.from_dict({} if data is None else data)
+        except ConfigError as exc:
+            raise ConfigError(f"config file {path}: {exc}") from None
 
 
 @dataclass(frozen=True)

@@ -469,34 +469,108 @@ class RectifiedPair:
     rectification: Rectification
 
 
+#: Images with more pixels are refused before they are decoded (a file whose header claims
+#: 50000x50000 would otherwise allocate gigabytes): 64 megapixels, far above any webcam.
+MAX_IMAGE_PIXELS = 1 << 26
+
+# What libjpeg and libpng print for a file they could only partly decode.
+_CORRUPT_MARKERS = ("Premature end of JPEG", "Corrupt JPEG", "libpng error", "JPEG datastream", "Bogus")
+
+
 def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
-    """Convert a uint8/uint16 grey, BGR or BGRA image to (H, W) uint8 grey."""
+    """Convert a uint8/uint16 grey, grey+alpha, BGR or BGRA image to (H, W) uint8 grey.
+
+    Alpha is dropped; 16-bit images keep their top 8 bits. Other sample types (float,
+    signed) raise :class:`InputError`: their range is unknown.
+    """
     img = np.asarray(image)
-    if img.ndim == 3 and img.shape[2] == 1:
+    if img.dtype not in (np.uint8, np.uint16):
+        raise InputError(
+            f"{name} must have 8- or 16-bit unsigned samples (uint8 or uint16), got {img.dtype} "
+            "(save it as an 8- or 16-bit PNG)"
+        )
+    if img.ndim == 3 and img.shape[2] in (1, 2):  # grey, grey + alpha
         img = img[:, :, 0]
     if img.ndim == 3 and img.shape[2] in (3, 4):
         code = cv2.COLOR_BGR2GRAY if img.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
-        img = cv2.cvtColor(img, code)
-    if img.ndim != 2:
-        raise InputError(f"{name} must be a grey or BGR image, got array of shape {img.shape}")
+        img = cv2.cvtColor(np.ascontiguousarray(img), code)
+    if img.ndim != 2 or img.size == 0:
+        raise InputError(f"{name} must be a grey or colour image, got an array of shape {img.shape}")
     if img.dtype == np.uint16:
         img = (img >> 8).astype(np.uint8)
-    elif img.dtype != np.uint8:
-        raise InputError(f"{name} must be uint8 or uint16, got {img.dtype}")
     return img
 
 
+def _header_size(path: Path) -> tuple[int, int] | None:
+    """(width, height) claimed by a PNG or JPEG header, None for other or unparsable files."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(24)
+            if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+                return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+            if head[:2] != b"\xff\xd8":
+                return None
+            f.seek(2)
+            for _ in range(1000):  # markers up to the first start-of-frame
+                marker = f.read(2)
+                if len(marker) < 2 or marker[0] != 0xFF:
+                    return None
+                if marker[1] in (0xD8, 0x01) or 0xD0 <= marker[1] <= 0xD7:
+                    continue
+                length = int.from_bytes(f.read(2), "big")
+                if 0xC0 <= marker[1] <= 0xCF and marker[1] not in (0xC4, 0xC8, 0xCC):
+                    body = f.read(5)
+                    if len(body) < 5:
+                        return None
+                    return int.from_bytes(body[3:5], "big"), int.from_bytes(body[1:3], "big")
+                if length < 2:
+                    return None
+                f.seek(length - 2, 1)
+    except OSError:
+        return None
+    return None
+
+
 def read_image(path: str | Path) -> np.ndarray:
-    """Read an image file as (H, W) uint8 grey; :class:`InputError` if missing/unreadable."""
+    """Read an image file as (H, W) uint8 grey; :class:`InputError` if missing/unreadable.
+
+    8- and 16-bit grey, grey+alpha, colour and colour+alpha images are accepted. A file
+    whose header claims more than :data:`MAX_IMAGE_PIXELS`, one that does not decode, or
+    one that libjpeg/libpng could only partly decode (truncated or corrupt) is refused;
+    what those libraries print goes into the message, never to the terminal.
+    """
+    from .native import captured_native_stderr
+
     path = Path(path)
     if path.is_dir():
         raise InputError(f"{path} is a folder, not an image file")
     if not path.is_file():
         raise InputError(f"image not found: {path}")
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    size = _header_size(path)
+    if size is not None and size[0] * size[1] > MAX_IMAGE_PIXELS:
+        raise InputError(
+            f"image {path} claims {size[0]}x{size[1]} pixels, more than {MAX_IMAGE_PIXELS} "
+            "(a corrupt file or a decompression bomb)"
+        )
+    if size is not None and size[0] * size[1] == 0:
+        raise InputError(f"cannot decode image {path}: its header says {size[0]}x{size[1]} pixels")
+    img = None
+    try:
+        with captured_native_stderr() as native:
+            img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        img = None
+    problems = [
+        line
+        for line in native.lines()
+        if any(m in line for m in _CORRUPT_MARKERS) and "extraneous bytes" not in line  # benign in MJPEG
+    ]
     if img is None or img.size == 0:
-        raise InputError(f"cannot decode image {path}: not a PNG/JPEG/PPM/... image or corrupt")
-    return to_grey(img, name=str(path))
+        why = f" ({problems[0]})" if problems else ""
+        raise InputError(f"cannot decode image {path}: not a PNG/JPEG/PPM/... image or corrupt{why}")
+    if problems:
+        raise InputError(f"image {path} is truncated or corrupt: {problems[0]}")
+    return to_grey(img, name=f"image {path}")
 
 
 def check_same_size(left: np.ndarray, right: np.ndarray) -> None:

@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 from ..errors import ConfigError, InputError
-from ..rectify import check_same_size
+from ..rectify import check_same_size, read_image
 from ..swing import Odometry
 
 log = logging.getLogger(__name__)
@@ -356,38 +356,56 @@ class _Row:
     pose: tuple[float, ...] | None
 
 
+#: Recorded times beyond this magnitude are not seconds (a clock in ns, a garbled file).
+MAX_ABS_TIME_S = 1e11
+
+#: A pause in a recording longer than this is replayed as this long (and said so): a
+#: recording whose clock jumps by decades must not leave ``replay`` waiting forever.
+MAX_REPLAY_GAP_S = 2.0
+
+
 def read_pairs_index(folder: str | Path) -> list[_Row]:
     """Rows of ``folder/pairs.csv`` (see the module docstring); :class:`InputError` if bad."""
+    import io
+
+    from ..checks import read_text_file
+
     folder = Path(folder)
     index = folder / PAIRS_FILE
-    if not folder.is_dir():
+    if not folder.exists():
         raise InputError(f"recorded pairs folder not found: {folder}")
+    if not folder.is_dir():
+        raise InputError(f"{folder} is not a folder of recorded pairs (it holds {PAIRS_FILE} and the images)")
     if not index.is_file():
         raise InputError(f"{folder} has no {PAIRS_FILE}; record one with 'stereo-terrain record' or simulate")
+    text = read_text_file(index, "pairs index")
     rows: list[_Row] = []
-    with index.open(newline="") as fh:
-        reader = csv.DictReader(fh)
+    try:
+        reader = csv.DictReader(io.StringIO(text, newline=""))
         need = {"t_left", "t_right", "left", "right"}
         if reader.fieldnames is None or not need <= set(reader.fieldnames):
             raise InputError(f"{index} must have the columns {sorted(need)}, got {reader.fieldnames}")
         has_pose = set(_POSE_KEYS) <= set(reader.fieldnames)
-        for n, rec in enumerate(reader, start=2):
+        for rec in reader:
+            n = reader.line_num
             try:
                 pose = tuple(float(rec[k]) for k in _POSE_KEYS) if has_pose else None
-                rows.append(
-                    _Row(
-                        float(rec["t_left"]),
-                        float(rec["t_right"]),
-                        folder / rec["left"],
-                        folder / rec["right"],
-                        pose,
-                    )
-                )
-            except (TypeError, ValueError):
-                raise InputError(f"{index} line {n}: times and pose must be numbers") from None
+                left, right = rec["left"], rec["right"]
+                if not left or not right or "\x00" in left + right:
+                    raise ValueError("image names")
+                t_left, t_right = float(rec["t_left"]), float(rec["t_right"])
+                rows.append(_Row(t_left, t_right, folder / left, folder / right, pose))
+            except (TypeError, ValueError, OverflowError):
+                raise InputError(
+                    f"{index} line {n}: times and pose must be numbers, left and right image file names"
+                ) from None
             last = rows[-1]
             if not all(math.isfinite(v) for v in (last.t_left, last.t_right, *(last.pose or ()))):
                 raise InputError(f"{index} line {n}: times and pose must be finite numbers")
+            if max(abs(last.t_left), abs(last.t_right)) > MAX_ABS_TIME_S:
+                raise InputError(f"{index} line {n}: times must be seconds (|t| <= {MAX_ABS_TIME_S:g})")
+    except csv.Error as exc:
+        raise InputError(f"{index} is not a readable CSV file: {exc}") from None
     if not rows:
         raise InputError(f"{index} lists no pairs")
     times = [max(r.t_left, r.t_right) for r in rows]
@@ -397,11 +415,32 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
     return rows
 
 
+def _capped_gaps(rows: list[_Row], index: Path) -> list[_Row]:
+    """``rows`` with every pause longer than :data:`MAX_REPLAY_GAP_S` shortened to it (a
+    warning names the first and how many)."""
+    out: list[_Row] = []
+    shift, long_gaps, first = 0.0, 0, ""
+    for i, r in enumerate(rows):
+        if i:
+            gap = max(r.t_left, r.t_right) - max(rows[i - 1].t_left, rows[i - 1].t_right)
+            if gap > MAX_REPLAY_GAP_S:
+                long_gaps += 1
+                first = first or f"line {i + 2}: {gap:.3g} s"
+                shift += gap - MAX_REPLAY_GAP_S
+        out.append(_Row(r.t_left - shift, r.t_right - shift, r.left, r.right, r.pose) if shift else r)
+    if long_gaps:
+        log.warning(
+            "%s: %d pause(s) longer than %.1f s (the first at %s) replayed as %.1f s",
+            index, long_gaps, MAX_REPLAY_GAP_S, first, MAX_REPLAY_GAP_S,
+        )  # fmt: skip
+    return out
+
+
 class FolderPairs:
     """Pairs recorded in a folder (``pairs.csv`` + images), in order, optionally repeated."""
 
     def __init__(self, folder: str | Path, *, loop: bool = False) -> None:
-        self.rows = read_pairs_index(folder)
+        self.rows = _capped_gaps(read_pairs_index(folder), Path(folder) / PAIRS_FILE)
         self.loop = loop
         self._i = 0
         t = [max(r.t_left, r.t_right) for r in self.rows]
@@ -440,11 +479,10 @@ class FolderPairs:
         row, offset = got
         index = self._i
         self._i += 1
-        left = cv2.imread(str(row.left), cv2.IMREAD_UNCHANGED)
-        right = cv2.imread(str(row.right), cv2.IMREAD_UNCHANGED)
-        if left is None or right is None or left.size == 0 or right.size == 0:
-            bad = row.left if left is None or left.size == 0 else row.right
-            return CaptureEvent(UNREADABLE, detail=f"cannot decode {bad.name}")
+        try:  # what libpng/libjpeg print goes into the detail, not to the terminal
+            left, right = read_image(row.left), read_image(row.right)
+        except InputError as exc:
+            return CaptureEvent(UNREADABLE, detail=str(exc))
         odo = rpy = None
         if row.pose is not None:
             x, y, z, roll, pitch, yaw = row.pose

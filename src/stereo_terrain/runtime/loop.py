@@ -23,7 +23,7 @@ from typing import TextIO
 import numpy as np
 
 from ..checks import check_fields
-from ..errors import ConfigError, StereoTerrainError
+from ..errors import ConfigError, InputError, StereoTerrainError
 from ..frames import Rig
 from ..pipeline import Pipeline, TerrainResult
 from ..swing import Odometry, SwingTrigger
@@ -59,6 +59,11 @@ class LoopConfig:
         Stop after this many processed pairs (0: no limit).
     max_duration_s : float
         Stop after this long (0: no limit).
+    max_unusable_start : int
+        Consecutive unusable pairs (unreadable, wrong size, skewed, refused by the pipeline)
+        before the first usable one after which the loop stops with an :class:`InputError`
+        naming the reason (wrong calibration size, wrong sources); later runs of unusable
+        pairs are warned about every ``max_unusable_start`` pairs and the loop goes on.
     """
 
     max_skew_s: float = 0.015
@@ -68,9 +73,12 @@ class LoopConfig:
     poll_s: float = 0.002
     max_frames: int = 0
     max_duration_s: float = 0.0
+    max_unusable_start: int = 10
 
     def __post_init__(self) -> None:
         check_fields(self)
+        if self.max_unusable_start < 1:
+            raise ConfigError(f"LoopConfig.max_unusable_start must be >= 1, got {self.max_unusable_start}")
         for name in ("max_skew_s", "stall_timeout_s", "heartbeat_s", "status_interval_s", "poll_s"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"LoopConfig.{name} must be >= 0 seconds, got {getattr(self, name)}")
@@ -197,6 +205,9 @@ class LiveLoop:
         self._stalled_since: float | None = None
         self._last_status = -math.inf
         self._rpy: tuple[float, float, float] | None = None
+        self._unusable_run = 0  # consecutive unusable pairs
+        self._unusable_detail = ""
+        self._last_failure: Exception | None = None
 
     def warm_up(self) -> None:
         """Run the pipeline once on a rendered staircase of the calibration's size so that the
@@ -220,6 +231,7 @@ class LiveLoop:
         ev = self.capture.read()
         self.summary.skipped += ev.skipped
         if ev.status == END:
+            self._check_anything_usable()
             return False
         if ev.status == FRAME and ev.frame is not None:
             self._process(ev.frame)
@@ -227,6 +239,7 @@ class LiveLoop:
             self.summary.skew_dropped += 1
             self._quality |= terrain_t.QUALITY_SKEW_DROPPED
             log.info("pair dropped: %s", ev.detail)
+            self._unusable(f"pair skewed: {ev.detail}")
         elif ev.status == UNREADABLE:
             self._unreadable(ev.detail)
         elif ev.status == NONE:
@@ -237,10 +250,35 @@ class LiveLoop:
     def _unreadable(self, detail: str) -> None:
         self.summary.unreadable += 1
         self._quality |= terrain_t.QUALITY_UNREADABLE
-        # The first one is said out loud (a wrong calibration size makes every pair
-        # unreadable, and the user must see why); the rest go to the verbose log.
-        level = logging.WARNING if self.summary.unreadable == 1 else logging.INFO
-        log.log(level, "unreadable pair: %s", detail)
+        log.info("unreadable pair: %s", detail)
+        self._unusable(detail)
+
+    def _unusable(self, detail: str) -> None:
+        """Count a pair that gave no terrain; stop (before any usable pair) or say it loudly
+        (after) once ``max_unusable_start`` come in a row: a wrong calibration size or
+        wrong sources make every pair unusable, and the user must see why."""
+        self._unusable_run += 1
+        self._unusable_detail = self._unusable_detail or detail
+        n = self.config.max_unusable_start
+        if self._unusable_run < n:
+            return
+        if self.summary.processed == 0:
+            self._stop_unusable()
+        elif self._unusable_run % n == 0:
+            log.warning("%d pairs in a row gave no terrain; the latest: %s", self._unusable_run, detail)
+
+    def _stop_unusable(self) -> None:
+        if self._last_failure is not None and self._unusable_run == self.summary.failed:
+            raise self._last_failure  # an internal error on every pair: exit 1, not a user error
+        raise InputError(
+            f"none of the first {self._unusable_run} pair(s) was usable, so nothing was processed; "
+            f"the first: {self._unusable_detail}"
+        )
+
+    def _check_anything_usable(self) -> None:
+        """At the source's end: a source all of whose pairs were unusable is an error."""
+        if self.summary.processed == 0 and self._unusable_run > 0:
+            self._stop_unusable()
 
     def _process(self, frame: StereoFrame) -> None:
         size = self.pipeline.calibration.image_size
@@ -252,8 +290,10 @@ class LiveLoop:
                 or (img.shape[1], img.shape[0]) != size
             ):
                 shape = getattr(img, "shape", None)
+                got = f"{shape[1]}x{shape[0]}" if shape is not None and len(shape) >= 2 else repr(shape)
                 self._unreadable(
-                    f"pair {frame.index}: image {shape} is not a {size[0]}x{size[1]} uint8 frame"
+                    f"pair {frame.index}: image {got} {getattr(img, 'dtype', '')} is not a "
+                    f"{size[0]}x{size[1]} uint8 frame like the calibration"
                 )
                 return
         odo, rpy = self.pose(frame)
@@ -272,10 +312,12 @@ class LiveLoop:
         except StereoTerrainError as exc:
             self._unreadable(f"pair {frame.index}: {exc}")
             return
-        except Exception:  # keep running on the robot; the traceback goes to the log
+        except Exception as exc:  # keep running on the robot; the traceback goes to the log
             self.summary.failed += 1
             self._quality |= terrain_t.QUALITY_UNREADABLE
             log.warning("pipeline failed on pair %d", frame.index, exc_info=True)
+            self._last_failure = exc
+            self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
         trig = self.trigger.update(
             odo, result.terrain, camera_z_m=float(result.T_yaw_camera_rect.translation[2])
@@ -304,6 +346,7 @@ class LiveLoop:
         )
         self.publish(msg)
         self._quality = 0
+        self._unusable_run, self._unusable_detail = 0, ""
         s = self.summary
         if self._last_capture is not None:
             s.periods_s.append(frame.t_capture_s - self._last_capture)

@@ -37,6 +37,17 @@ from .messages import terrain_t
 
 MAX_FRAMES = 20_000  # about 11 minutes of a 30 fps camera
 
+# Plausible ranges of the approach's values (a number outside is a typo or a unit mistake,
+# and 1e308 would overflow the frame count).
+_RANGES = {
+    "rise_m": (0.01, 1.0, "m"),
+    "run_m": (0.05, 2.0, "m"),
+    "width_m": (0.1, 20.0, "m"),
+    "start_distance_m": (0.0, 50.0, "m"),
+    "speed_mps": (0.01, 5.0, "m/s"),
+    "gait_period_s": (0.05, 10.0, "s"),
+}
+
 
 @dataclass(frozen=True)
 class ApproachConfig:
@@ -99,15 +110,34 @@ class ApproachConfig:
         for name in ("speed_mps", "fps", "gait_period_s", "rise_m", "run_m", "width_m"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"ApproachConfig.{name} must be > 0, got {getattr(self, name)}")
+        for name, (lo, hi, unit) in _RANGES.items():
+            v = getattr(self, name)
+            if v < lo:
+                raise ConfigError(f"ApproachConfig.{name} must be >= {lo:g} {unit}, got {v:g}")
+            if v > hi:
+                raise ConfigError(f"ApproachConfig.{name} must be <= {hi:g} {unit}, got {v:g}")
+        if not 1 <= self.n_steps <= 50 or not 1 <= self.supersample <= 8:
+            raise ConfigError("ApproachConfig.n_steps must be in [1, 50] and supersample in [1, 8]")
+        try:
+            w, h = (int(v) for v in self.image_size)
+        except (TypeError, ValueError):
+            raise ConfigError(
+                f"ApproachConfig.image_size must be (width, height), got {self.image_size!r}"
+            ) from None
+        if not (32 <= w <= 4096 and 32 <= h <= 4096):
+            raise ConfigError(f"ApproachConfig.image_size must be within 32x32 .. 4096x4096, got {w}x{h}")
         if not self.rear_hip_m < self.front_hip_m:
             raise ConfigError("ApproachConfig.rear_hip_m must lie behind front_hip_m")
         if not 0 <= self.lift_fraction < 0.5:
             raise ConfigError("ApproachConfig.lift_fraction must be in [0, 0.5)")
-        if self.frame_count > MAX_FRAMES:
+        frames = (self.start_distance_m - self.end_distance_m) * self.fps / self.speed_mps
+        if not frames < MAX_FRAMES:  # also inf and NaN
             raise ConfigError(
-                f"the approach would render {self.frame_count} frames (more than {MAX_FRAMES}); "
+                f"the approach would render {frames:.3g} frames (more than {MAX_FRAMES}); "
                 "lower --fps or raise --speed"
             )
+        if self.fps < 1.0:
+            raise ConfigError(f"ApproachConfig.fps must be >= 1 frames/s, got {self.fps:g}")
 
     @property
     def frame_count(self) -> int:

@@ -1,0 +1,170 @@
+"""Hypothesis fuzzing of every reader and of the config dataclasses (issue 12): whatever the
+file or value, the only exceptions are the package's own."""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.calibration import (
+    read_calibration,
+    read_middlebury_calib,
+    read_opencv_yaml,
+    read_stereodemo_json,
+)
+from stereo_terrain.errors import StereoTerrainError
+from stereo_terrain.frames import load_rig
+from stereo_terrain.pipeline import PipelineConfig
+from stereo_terrain.rectify import read_image
+from stereo_terrain.runtime.capture import read_pairs_index
+from stereo_terrain.stereo.io import read_pfm
+
+FUZZ = settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
+
+_YAML_BITS = [
+    "%YAML:1.0\n---\n", "K1: ", "!!opencv-matrix\n", "   rows: 3\n   cols: 3\n   dt: d\n   data: ",
+    "[", "]", "{", "}", ", ", "\n", "image_width: ", "image_height: ", "T: ", "R: ", "D1: ", ".inf", ".nan",
+    "1e300", "-1", "0", "64", "48", "54.4", "abc", "- ", ": ", "# cam0 baseline\n", "<?xml version=\"1.0\"?>",
+    "<opencv_storage>", "</opencv_storage>", "<K1>", "</K1>", "cam0=", "baseline=", "width=", "height=",
+    "ndisp=", "doffs=", "\"fx\": ", "\"width\": ", "NaN", "Infinity", "true", "null", "\xe9", "\x00",
+]  # fmt: skip
+
+text_like = st.one_of(
+    st.lists(st.sampled_from(_YAML_BITS), max_size=40).map("".join).map(lambda t: t.encode("utf-8")),
+    st.binary(max_size=400),
+    st.text(max_size=200).map(lambda t: t.encode("utf-8", errors="surrogatepass")),
+)
+
+
+def _file(data: bytes, name: str) -> Path:
+    d = Path(tempfile.mkdtemp(prefix="fuzz-"))
+    p = d / name
+    p.write_bytes(data)
+    return p
+
+
+def _only_own_errors(fn, *args) -> None:
+    try:
+        fn(*args)
+    except StereoTerrainError:
+        pass
+
+
+@pytest.mark.parametrize(
+    "reader, name",
+    [
+        (read_calibration, "calib.yaml"),
+        (read_calibration, "calib.txt"),
+        (read_calibration, "calib.json"),
+        (read_opencv_yaml, "calib.yaml"),
+        (read_opencv_yaml, "calib.xml"),
+        (read_middlebury_calib, "calib.txt"),
+        (read_stereodemo_json, "calib.json"),
+        (load_rig, "rig.yaml"),
+        (PipelineConfig.from_yaml, "config.yaml"),
+        (read_pfm, "disp.pfm"),
+        (read_image, "image.png"),
+        (read_image, "image.jpg"),
+    ],
+    ids=lambda v: getattr(v, "__qualname__", v),
+)
+@FUZZ
+@given(data=text_like)
+def test_readers_raise_only_their_own_errors(reader, name, data):
+    _only_own_errors(reader, _file(data, name))
+
+
+_PFM_HEADERS = st.tuples(
+    st.sampled_from([b"Pf", b"PF", b"P5", b""]),
+    st.one_of(st.tuples(st.integers(-10, 70), st.integers(-10, 70)).map(lambda t: f"{t[0]} {t[1]}".encode()),
+              st.binary(max_size=12)),
+    st.sampled_from([b"-1.0", b"1.0", b"0", b"nan", b"inf", b"x"]),
+    st.binary(max_size=2000),
+)  # fmt: skip
+
+
+@FUZZ
+@given(parts=_PFM_HEADERS)
+def test_pfm_headers(parts):
+    kind, dims, scale, body = parts
+    _only_own_errors(read_pfm, _file(kind + b"\n" + dims + b"\n" + scale + b"\n" + body, "d.pfm"))
+
+
+@FUZZ
+@given(
+    arr=st.tuples(st.integers(1, 20), st.integers(1, 20), st.sampled_from([1, 3, 4])),
+    ext=st.sampled_from([".png", ".jpg", ".tiff", ".bmp"]),
+    cut=st.floats(0.0, 1.0),
+    depth=st.sampled_from([np.uint8, np.uint16]),
+)
+def test_images_cut_anywhere(arr, ext, cut, depth):
+    h, w, c = arr
+    img = np.random.default_rng(h * w).integers(0, 200, (h, w, c)).astype(depth)
+    ok, buf = cv2.imencode(ext, img if ext != ".jpg" else img.astype(np.uint8))
+    assert ok
+    data = buf.tobytes()
+    _only_own_errors(read_image, _file(data[: int(len(data) * cut)], "i" + ext))
+
+
+_CSV_BITS = ["index,t_left,t_right,left,right", "x,y,z,roll,pitch,yaw", "\n", ",", "0", "1.5", "-1", "nan",
+             "inf", "1e300", "l0.png", "r0.png", "", "\"", "\x00", "\xe9", "a"]  # fmt: skip
+
+
+@FUZZ
+@given(data=st.one_of(st.lists(st.sampled_from(_CSV_BITS), max_size=40).map(lambda b: "".join(b).encode()),
+                      st.binary(max_size=300)))  # fmt: skip
+def test_pairs_csv(data):
+    folder = _file(data, "pairs.csv").parent
+    _only_own_errors(read_pairs_index, folder)
+
+
+# ----------------------------------------------------------------- config dataclasses
+
+
+def _config_classes():
+    from stereo_terrain.calibrate import BoardConfig
+    from stereo_terrain.runtime.loop import LoopConfig
+    from stereo_terrain.runtime.simulate import ApproachConfig
+    from stereo_terrain.swing import TriggerConfig
+
+    classes = [PipelineConfig, LoopConfig, ApproachConfig, TriggerConfig, BoardConfig]
+    defaults = PipelineConfig()
+    classes += [type(getattr(defaults, f.name)) for f in dataclasses.fields(PipelineConfig)]
+    return sorted({c for c in classes if dataclasses.is_dataclass(c)}, key=lambda c: c.__name__)
+
+
+values = st.one_of(
+    st.none(), st.booleans(), st.integers(-(2**70), 2**70), st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=8), st.lists(st.integers(-5, 5), max_size=4), st.tuples(st.integers(), st.integers()),
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("cls", _config_classes(), ids=lambda c: c.__name__)
+@FUZZ
+@given(data=st.data())
+def test_config_dataclasses_raise_only_their_own_errors(cls, data):
+    fields = [f.name for f in dataclasses.fields(cls)]
+    required = [
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    ]
+    chosen = data.draw(st.lists(st.sampled_from(fields), max_size=3, unique=True)) if fields else []
+    kwargs = {name: data.draw(values) for name in {*chosen, *required}}
+    _only_own_errors(lambda: cls(**kwargs))
+
+
+@FUZZ
+@given(data=st.dictionaries(st.sampled_from(["sgbm", "sgm", "cloud", "swing", "method", "min_depth_m",
+                                             "max_disparity_px", "drift", "bogus"]),
+                            st.one_of(values, st.dictionaries(st.text(max_size=12), values, max_size=3)),
+                            max_size=3))  # fmt: skip
+def test_pipeline_config_from_dict(data):
+    _only_own_errors(PipelineConfig.from_dict, data)
