@@ -9,11 +9,19 @@ true up (median, p90, share within 2 deg). Then one line per real scene.
 
     .venv/bin/python benchmarks/bench_real_stairs.py [--scenes 60] [--seed 11]
         [--profiles default,realistic] [--config CFG.yaml] [--real-only]
+    # or on scenes written by `stereo-terrain render [--profile realistic]` (any version
+    # of the package can run this form, so before/after use the same images):
+    .venv/bin/python benchmarks/bench_real_stairs.py --scenes-dir DIR [--scenes-dir DIR2 ...]
+
+Gravity error: the angle between the up of the result's yaw frame and the scene's true
+up, both in the rectified left camera; a result whose gravity did not come from the scene
+(assumed level) counts with its real error.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -22,10 +30,8 @@ import numpy as np
 
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.evaluation import score_result, summarize
-from stereo_terrain.gravity import angle_deg
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import read_image
-from stereo_terrain.synthetic import random_scene_spec, render_scene
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
 
@@ -46,36 +52,61 @@ REAL_SCENES = [
 ]
 
 
-def true_up_camera(scene, pipeline: Pipeline) -> np.ndarray:
-    """Gravity-up in the rectified left camera frame, from the scene's true rig."""
-    T = scene.rig.T_yaw_camera @ pipeline.rectification.T_camera_rect
+def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle between two vectors, degrees (here, not from the package: older versions of it
+    must run this script too)."""
+    c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def _up(T) -> np.ndarray:
+    """Gravity-up in the source frame of ``T`` (``T_yaw_<frame>``)."""
     return T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
 
 
+def run_scene(calibration, rig, left, right, truth, config: PipelineConfig, out: dict[str, list]) -> None:
+    with_rig = Pipeline(calibration, rig, config)
+    out["rig"].append(score_result(with_rig.run(left, right).to_json_dict(), truth))
+    free = Pipeline(calibration, None, config)
+    result = free.run(left, right)
+    out["scene"].append(score_result(result.to_json_dict(), truth))
+    true_up = _up(rig.T_yaw_camera @ free.rectification.T_camera_rect)
+    out["gravity_err"].append(angle_deg(_up(result.T_yaw_camera_rect), true_up))
+
+
 def run_profile(profile: str, n: int, seed: int, config: PipelineConfig) -> dict[str, list]:
+    from stereo_terrain.synthetic import random_scene_spec, render_scene
+
     rng = np.random.default_rng(seed)
-    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": [], "gravity_sigma": []}
+    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": []}
     for i in range(n):
-        spec = random_scene_spec(rng, profile=profile)
-        scene = render_scene(spec)
-        with_rig = Pipeline(scene.calibration, scene.rig, config)
-        out["rig"].append(score_result(with_rig.run(scene.left, scene.right).to_json_dict(), scene.truth))
-        free = Pipeline(scene.calibration, None, config)
-        result = free.run(scene.left, scene.right)
-        out["scene"].append(score_result(result.to_json_dict(), scene.truth))
-        if result.gravity is not None and result.gravity_source == "scene":
-            out["gravity_err"].append(angle_deg(result.gravity.up_camera, true_up_camera(scene, free)))
-            out["gravity_sigma"].append(result.gravity.sigma_deg)
-        else:
-            out["gravity_err"].append(float("inf"))  # not estimated counts as a miss
-            out["gravity_sigma"].append(float("inf"))
+        scene = render_scene(random_scene_spec(rng, profile=profile))
+        run_scene(scene.calibration, scene.rig, scene.left, scene.right, scene.truth, config, out)
         sys.stderr.write(f"\r{profile}: {i + 1}/{n}")
     sys.stderr.write("\n")
     return out
 
 
+def run_folder(folder: Path, config: PipelineConfig) -> dict[str, list]:
+    """Scenes in the layout ``render`` writes (scene_*/left.png, right.png, calib.yaml,
+    rig.yaml, truth.json)."""
+    from stereo_terrain.frames import load_rig
+
+    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": []}
+    dirs = sorted(folder.glob("scene_*"))
+    for i, d in enumerate(dirs):
+        truth = json.loads((d / "truth.json").read_text())
+        left, right = read_image(d / "left.png"), read_image(d / "right.png")
+        run_scene(
+            read_calibration(d / "calib.yaml"), load_rig(d / "rig.yaml"), left, right, truth, config, out
+        )
+        sys.stderr.write(f"\r{folder.name}: {i + 1}/{len(dirs)}")
+    sys.stderr.write("\n")
+    return out
+
+
 def row(name: str, scores, grav=None) -> str:
-    s = summarize(scores)
+    s = {"run_p90_m": float("nan"), "first_distance_p90_m": float("nan"), **summarize(scores)}
     cm = 100.0
 
     def f(x: float) -> str:
@@ -118,8 +149,10 @@ def real_scenes(config: PipelineConfig) -> None:
             for s in data["steps"]
         )
         yaw = "-" if data["yaw"] is None or data["obstacle"] == "none" else f"{np.degrees(data['yaw']):.0f}"
-        g = data["gravity"]
-        grav = g["source"] + (f" +-{g['sigma_deg']:.1f} deg" if g["sigma_deg"] is not None else "")
+        g = data.get("gravity") or {}
+        grav = data["gravity_source"] + (
+            f" +-{g['sigma_deg']:.1f} deg" if g.get("sigma_deg") is not None else ""
+        )
         print(f"| {name} | {expected} | {data['obstacle']} | {steps} | {yaw} | {grav} | {ms:.0f} |")
 
 
@@ -130,13 +163,23 @@ def main() -> None:
     ap.add_argument("--profiles", default="default,realistic")
     ap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")
     ap.add_argument("--real-only", action="store_true", help="only the real scenes")
+    ap.add_argument("--scenes-dir", type=Path, action="append", help="rendered scenes instead of --profiles")
     args = ap.parse_args()
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
-    if not args.real_only:
-        print(
-            "| profile, gravity from | n | detected | false pos. | step count | rise cm med / p90 | "
-            "run cm med / p90 | 1st distance cm med / p90 | gravity err deg med | p90 | within 2 deg |"
-        )
+    header = (
+        "| scenes, gravity from | n | detected | false pos. | step count | rise cm med / p90 | "
+        "run cm med / p90 | 1st distance cm med / p90 | gravity err deg med | p90 | within 2 deg |"
+    )
+    if args.scenes_dir and not args.real_only:
+        print(header)
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        for folder in args.scenes_dir:
+            res = run_folder(folder, config)
+            print(row(f"{folder.name}, rig", res["rig"]))
+            print(row(f"{folder.name}, scene (no rig)", res["scene"], res["gravity_err"]))
+            sys.stdout.flush()
+    elif not args.real_only:
+        print(header)
         print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for profile in args.profiles.split(","):
             res = run_profile(profile, args.scenes, args.seed, config)

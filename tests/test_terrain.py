@@ -179,3 +179,67 @@ def test_parallel_vertical_planes_a_few_cm_apart_do_not_crash():
 def test_obstacle_rise_limit_is_not_below_the_stair_limit():
     with pytest.raises(ConfigError, match="max_obstacle_rise_m"):
         TerrainConfig(max_rise_m=0.35, max_obstacle_rise_m=0.30)
+
+
+@pytest.mark.parametrize(("yaw_deg", "side"), [(45.0, "left"), (-45.0, "right"), (60.0, "left")])
+def test_yawed_stairs_beside_a_wall_the_wall_is_never_a_riser(yaw_deg, side):
+    """Stairs yawed by 45-60 deg running along a tall side wall (with and without a rig):
+    every step is found, at the right rise and distance, and no riser is the wall."""
+    import dataclasses
+    import math
+
+    from stereo_terrain.pipeline import Pipeline
+    from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+    base = default_scene_spec()
+    stairs = dataclasses.replace(
+        base.obstacle, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=1.0, distance_m=1.6
+    )
+    wall = {f"{side}_wall_m": (0.51 if side == "left" else -0.51)}
+    scene = render_scene(dataclasses.replace(base, obstacle=stairs, back_wall_m=None, **wall))
+    assert any(p.get("name") == f"{side}_wall" for p in scene.truth["planes"])
+    axis = np.array([math.cos(stairs.yaw_rad), math.sin(stairs.yaw_rad), 0.0])
+    for rig in (scene.rig, None):
+        result = Pipeline(scene.calibration, rig).run(scene.left, scene.right)
+        steps = result.terrain.steps
+        assert result.terrain.obstacle == "stairs" and len(steps) == len(scene.truth["steps"])
+        for got, want in zip(steps, scene.truth["steps"], strict=True):
+            assert abs(got.rise_m - want["rise"]) < 0.015
+            assert abs(got.distance_m - want["distance"]) < 0.05
+            # A riser faces down the stairs; the wall's normal is across them.
+            assert abs(got.riser.normal @ axis) > math.cos(math.radians(10.0))
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, -30.0])
+def test_stairs_filling_the_view_keep_their_first_step(yaw_deg):
+    """A level camera 0.45 m high, 0.8 m from a wide staircase: the first riser's foot and the floor are
+    below the image. The first step is still reported, at its distance, with its rise
+    inferred from the others. (Two steps, both treads below the camera: a tread above it is not seen
+    and its rise comes from the riser's top edge, a harder case than this test is about.)"""
+    import dataclasses
+    import math
+
+    from stereo_terrain.pipeline import Pipeline
+    from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+    base = default_scene_spec()
+    stairs = dataclasses.replace(
+        base.obstacle, n_steps=2, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=2.5, distance_m=0.8
+    )
+    spec = dataclasses.replace(
+        base,
+        obstacle=stairs,
+        camera_height_m=0.45,
+        pitch_down_rad=0.0,
+        body_rpy=(0.0, 0.0, 0.0),
+        back_wall_m=None,
+    )
+    scene = render_scene(spec)
+    data = Pipeline(scene.calibration).run(scene.left, scene.right).to_json_dict()
+    truth = scene.truth["steps"]
+    assert data["obstacle"] == "stairs" and len(data["steps"]) == len(truth), data["note"]
+    first = data["steps"][0]
+    assert first["rise_inferred"] is True and not any(s["rise_inferred"] for s in data["steps"][1:])
+    assert abs(first["distance"] - truth[0]["distance"]) < 0.03
+    for got, want in zip(data["steps"], truth, strict=True):
+        assert abs(got["rise"] - want["rise"]) < 0.02

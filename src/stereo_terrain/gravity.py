@@ -66,8 +66,10 @@ class GravityConfig:
     score_points : int
         Sample normals each hypothesis is scored on.
     min_support : float
-        Fraction of the scored samples that must fall in a family for the estimate to
-        count (a scene of slopes and clutter has no gravity to see).
+        A family counts when its share of the samples is at least this many times what
+        isotropic clutter would put in it (``1 - cos t`` for the horizontal family, ``sin t``
+        for the vertical one, ``t = refine_tol_deg``); with no family that counts, the scene
+        has no gravity to see (slopes, clutter).
     max_sigma_deg : float
         An estimate less certain than this (e.g. one vertical family and no horizontal
         surface: up is free to turn about the wall's normal) is not used.
@@ -79,10 +81,11 @@ class GravityConfig:
     min_floor_drop_m : float
         Without a rig the frame's origin goes on the floor below the camera when the floor
         (lowest large horizontal plane) is at least this far below it; else at the camera.
-    reextract_deg : float
-        Without a rig, planes are extracted again in the levelled frame when the planes'
-        own up differs from the coarse one by more than this (planes near the orientation
-        tolerance may have been missed).
+    levelling_tol_deg : float
+        Without a rig, the frame is levelled on planes extracted with this orientation
+        tolerance around the local normals' estimate (wider than the plane stage's, so that
+        a start a few degrees off still finds the planes), then the plane stage runs in the
+        levelled frame.
     blocks : int
         Image blocks per side for the jackknife uncertainty of the coarse stage.
     seed : int
@@ -94,12 +97,12 @@ class GravityConfig:
     refine_tol_deg: float = 6.0
     hypotheses: int = 300
     score_points: int = 2000
-    min_support: float = 0.2
+    min_support: float = 3.0
     max_sigma_deg: float = 4.0
     structure_sigma_deg: float = 0.3
     rig_tolerance_deg: float = 3.0
     min_floor_drop_m: float = 0.1
-    reextract_deg: float = 1.5
+    levelling_tol_deg: float = 12.0
     blocks: int = 4
     seed: int = 0
 
@@ -107,15 +110,20 @@ class GravityConfig:
         check_fields(self)
         check_min(self, 1, "hypotheses", "score_points")
         check_min(self, 2, "blocks")
-        check_min(self, 0, "min_floor_drop_m", "min_support")
-        for name in ("prior_cone_deg", "prior_sigma_deg", "family_tol_deg", "refine_tol_deg"):
+        check_min(self, 0, "min_floor_drop_m")
+        check_min(self, 1, "min_support")
+        for name in (
+            "prior_cone_deg",
+            "prior_sigma_deg",
+            "family_tol_deg",
+            "refine_tol_deg",
+            "levelling_tol_deg",
+        ):
             if not 0 < getattr(self, name) <= 60:
                 raise ConfigError(f"GravityConfig.{name} must be in (0, 60] deg, got {getattr(self, name)}")
-        for name in ("max_sigma_deg", "structure_sigma_deg", "rig_tolerance_deg", "reextract_deg"):
+        for name in ("max_sigma_deg", "structure_sigma_deg", "rig_tolerance_deg"):
             if not 0 < getattr(self, name) <= 90:
                 raise ConfigError(f"GravityConfig.{name} must be in (0, 90] deg, got {getattr(self, name)}")
-        if self.min_support > 1:
-            raise ConfigError(f"GravityConfig.min_support must be in [0, 1], got {self.min_support}")
 
 
 @dataclass(frozen=True)
@@ -301,11 +309,13 @@ def estimate_up(
     h_frac, v_frac = float(horiz.mean()), float(vert.mean())
     if u @ prior < cone:
         return _failed(frame, "the scene's up is outside the prior cone", h_frac, v_frac)
-    if h_frac + v_frac < config.min_support:
+    t = math.radians(config.refine_tol_deg)
+    chance_h, chance_v = 1.0 - math.cos(t), math.sin(t)
+    if h_frac < config.min_support * chance_h and v_frac < config.min_support * chance_v:
         return _failed(
             frame,
-            f"only {h_frac + v_frac:.0%} of the surfaces are horizontal or vertical "
-            f"(need {config.min_support:.0%})",
+            f"no plane family stands out of the clutter ({h_frac:.0%} horizontal, {v_frac:.0%} vertical "
+            f"surfaces; chance alone gives {chance_h:.0%} and {chance_v:.0%})",
             h_frac,
             v_frac,
         )

@@ -256,7 +256,13 @@ class TerrainResult:
             "frame": "yaw",
             "obstacle": t.obstacle,
             "steps": [
-                {"rise": r(s.rise_m), "run": r(s.run_m), "distance": r(s.distance_m), "width": r(s.width_m)}
+                {
+                    "rise": r(s.rise_m),
+                    "run": r(s.run_m),
+                    "distance": r(s.distance_m),
+                    "width": r(s.width_m),
+                    "rise_inferred": s.rise_inferred,
+                }
                 for s in t.steps
             ],
             "yaw": r(t.yaw_rad),
@@ -397,27 +403,19 @@ class Pipeline:
         coarse = estimate_up(cam_sample, cfg.gravity, prior_up=prior)
         if rig_T is not None:
             T, source = rig_T, "rig"
-        elif coarse.ok:
-            T, source = yaw_frame_from_up(coarse.up, "camera_rect"), "scene"
-        else:  # nothing in view fixes gravity: assume a level camera at the origin
-            T, source = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect"), "assumed-level"
+        else:
+            T, source = self._level_from_scene(cam_sample, coarse, pair.left)
         samples = transform_sample(cam_sample, T)
         lap("cloud")
         planes = self._extract_planes(samples, pair.left)
         fine = refine_up_from_planes(planes, cfg.gravity)
         if source == "scene" and fine.ok:
-            # Level on the planes (more exact than the local normals); a correction larger
-            # than the orientation method's slack may have cost planes: extract again.
-            level = rotation_between(fine.up, [0.0, 0.0, 1.0])
-            correction = Transform.from_rt(level, np.zeros(3), "yaw", "yaw")
+            # The last, small correction from the final planes (more of them, tighter).
+            correction = Transform.from_rt(
+                rotation_between(fine.up, [0.0, 0.0, 1.0]), np.zeros(3), "yaw", "yaw"
+            )
             T = correction @ T
-            if angle_deg(fine.up, [0.0, 0.0, 1.0]) > cfg.gravity.reextract_deg:
-                samples = transform_sample(cam_sample, T)
-                planes = self._extract_planes(samples, pair.left)
-                fine2 = refine_up_from_planes(planes, cfg.gravity)
-                fine = fine2 if fine2.ok else fine
-            else:
-                planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
+            planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
         if source != "rig":
             planes, T = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
         gravity = _gravity_report(source, T, coarse, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
@@ -439,6 +437,32 @@ class Pipeline:
             choice,
             self.config.method,
         )
+
+    def _level_from_scene(
+        self, cam_sample: GridSample, coarse: GravityEstimate, image: np.ndarray
+    ) -> tuple[Transform, str]:
+        """``T_yaw_camera_rect`` and its source without a rig.
+
+        The local normals' estimate (``coarse``, or a level camera when it failed) is only
+        a start: planes are extracted in that frame with a wide orientation tolerance
+        (``gravity.levelling_tol_deg``), and their normals, fitted to many points each,
+        level the frame (:func:`refine_up_from_planes`). Noisy disparities (JPEG, weak or
+        horizontal texture) bias local normals by degrees; plane fits much less.
+        """
+        cfg = self.config
+        level = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect")
+        T = yaw_frame_from_up(coarse.up, "camera_rect") if coarse.ok else level
+        wide = dataclasses.replace(
+            cfg.orientation, angle_tol_deg=max(cfg.orientation.angle_tol_deg, cfg.gravity.levelling_tol_deg)
+        )
+        planes = extract_planes_orientation(transform_sample(cam_sample, T), wide)
+        fine = refine_up_from_planes(planes, cfg.gravity)
+        if fine.ok:
+            correction = Transform.from_rt(
+                rotation_between(fine.up, [0.0, 0.0, 1.0]), np.zeros(3), "yaw", "yaw"
+            )
+            return correction @ T, "scene"
+        return T, "scene" if coarse.ok else "assumed-level"
 
     def _extract_planes(self, samples: GridSample, image: np.ndarray) -> PlaneSet:
         """The primary plane set: the contour method's when asked for, else the

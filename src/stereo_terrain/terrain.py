@@ -118,6 +118,9 @@ class Step:
     riser : Plane
     tread : Plane or None
         None when the tread was not seen (height from the riser's top edge).
+    rise_inferred : bool
+        True for a first step whose foot is out of view (stairs filling the image, no floor
+        in front): its rise is the median of the other steps' rises.
     """
 
     rise_m: float
@@ -128,6 +131,7 @@ class Step:
     axis_position_m: float
     riser: Plane = field(repr=False)
     tread: Plane | None = field(repr=False, default=None)
+    rise_inferred: bool = False
 
 
 @dataclass(frozen=True)
@@ -175,25 +179,42 @@ class _Riser:
     v_lo: float
     v_hi: float
     touches_border: bool
+    foot_hidden: bool = False  # its inliers reach the image's last rows: its foot is out of view
 
 
 def _riser_edges(
-    P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float
+    P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float, seed_z: float
 ) -> tuple[float, float] | None:
     """Bottom and top edge heights of a riser from every sample on its plane (None when no
     sample is on it).
 
     Inliers alone stop short of the edges (normals there mix two faces); any sample within
     ``thr`` of the plane and inside its lateral extent is on the riser or on the surface
-    meeting it at the edge, whose height is the edge's.
+    meeting it at the edge, whose height is the edge's. Only the samples connected in
+    height to the riser's own (``seed_z``, its inliers' median height: no gap over
+    :data:`_EDGE_GAP_M`) count: stray matches that happen to lie on the plane far above or
+    below it (a textureless sky, a wall's far end) are not its edges.
     """
     near = plane.residuals(P) < thr
     lat = P[near] @ v
-    z = P[near, 2][(lat > v_lo) & (lat < v_hi)]
+    z = np.sort(P[near, 2][(lat > v_lo) & (lat < v_hi)])
     if len(z) == 0:
         return None
-    lo, hi = np.percentile(z, [2, 98])
+    k = int(np.clip(np.searchsorted(z, seed_z), 0, len(z) - 1))
+    gaps = np.flatnonzero(np.diff(z) > _EDGE_GAP_M)
+    lo_i = int(gaps[gaps < k].max()) + 1 if np.any(gaps < k) else 0
+    hi_i = int(gaps[gaps >= k].min()) + 1 if np.any(gaps >= k) else len(z)
+    lo, hi = np.percentile(z[lo_i:hi_i], [2, 98])
     return float(lo), float(hi)
+
+
+#: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
+#: orientation method's tolerance) was two different faces.
+_MAX_MERGED_RISER_TILT = 0.1
+
+#: Largest gap in height between the samples of one riser face (the spacing of grid
+#: samples on a riser 3 m away is about 3 cm).
+_EDGE_GAP_M = 0.05
 
 
 def _tread_front(
@@ -272,6 +293,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
 
     # Candidate risers: short vertical planes facing the camera.
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
+    row_hi = samples.rows.max()
     border = 2 * samples.stride_px
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
     cands: list[_Riser] = []
@@ -290,7 +312,9 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
         v_lo, v_hi = np.percentile(lat, [2, 98])
         if v_hi - v_lo < config.min_riser_width_m:
             continue
-        edges = _riser_edges(P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m)
+        edges = _riser_edges(
+            P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(pts[:, 2]))
+        )
         if edges is None:
             continue
         z_lo, z_hi = edges
@@ -298,6 +322,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             continue
         cols = samples.cols[seg.indices]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
+        foot_hidden = bool(samples.rows[seg.indices].max() >= row_hi - border)
         cands.append(
             _Riser(
                 seg.plane,
@@ -308,6 +333,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
                 float(v_lo),
                 float(v_hi),
                 touches,
+                foot_hidden,
             )
         )
     if not cands:
@@ -341,9 +367,12 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             plane = (Plane.estimate(P[idx]) or a.plane).oriented_toward(cam)
             lat = P[idx] @ v
             v_lo, v_hi = np.percentile(lat, [2, 98])
-            edges = _riser_edges(P, plane, v, v_lo, v_hi, thr=config.edge_band_m)
-            if edges is None:
-                # Parallel planes a few cm apart, not one riser split in two: keep the larger.
+            edges = _riser_edges(
+                P, plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(P[idx, 2]))
+            )
+            if edges is None or abs(plane.normal[2]) > _MAX_MERGED_RISER_TILT:
+                # Parallel planes a few cm apart, or two faces whose union is no vertical
+                # plane, not one riser split in two: keep the larger.
                 if len(r.idx) > len(a.idx):
                     merged[-1] = r
                 continue
@@ -357,6 +386,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
                 float(v_lo),
                 float(v_hi),
                 a.touches_border or r.touches_border,
+                a.foot_hidden or r.foot_hidden,
             )
         else:
             merged.append(r)
@@ -430,6 +460,30 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
         chain.append((cand, top, riser_plane, tread_plane, s_pos))
         level, last_s = top, s_pos
 
+    # Stairs filling the view: the first riser's foot (and the floor before it) is below
+    # the image, so the first tread was taken for the ground. A riser in front of the
+    # chain, cut by the image's bottom edge, whose top is that "ground", is the first step;
+    # its rise is not seen and is taken as the median of the others (a staircase's rises
+    # are equal), and said so.
+    inferred_first = False
+    if chain and chain[0][0] is not None:
+        first_s = chain[0][4]
+        front = [
+            r
+            for r in merged
+            if r.foot_hidden
+            and r.s < first_s - config.merge_distance_m
+            and abs(r.z_hi - ground_z) <= config.tread_height_tolerance_m
+        ]
+        if front:
+            r0 = max(front, key=lambda r: r.s)  # the one just before the chain
+            ground_tread = _tread_between(horizontals, h_z, s_h, ground_z, r0.s, first_s)
+            chain.insert(0, (r0, ground_z, r0.plane, ground_tread, r0.s))
+            inferred_first = True
+    rises_seen = [chain[i][1] - chain[i - 1][1] for i in range(1, len(chain))]
+    if inferred_first:
+        ground_z = ground_z - float(np.median(rises_seen)) if rises_seen else ground_z - config.min_rise_m
+
     steps: list[Step] = []
     prev_top = ground_z
     for i, (cand, top, riser_plane, tread_plane, s_pos) in enumerate(chain):
@@ -448,6 +502,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
                 s_pos,
                 riser_plane,
                 tread_plane,
+                rise_inferred=inferred_first and i == 0,
             )
         )
         prev_top = top
@@ -459,10 +514,23 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
+    if inferred_first:
+        note += "; the first riser's foot is out of view: its rise is the median of the others"
     if len(steps) == 1:
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)
     return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
+
+
+def _tread_between(horizontals, h_z, s_h, z: float, s_lo: float, s_hi: float) -> Plane | None:
+    """The horizontal plane at height ``z`` with most inliers between ``s_lo`` and ``s_hi``
+    along the stair axis, or None."""
+    best, best_count = None, 0
+    for h, hz, sh in zip(horizontals, h_z, s_h, strict=True):
+        count = int(np.sum((sh > s_lo) & (sh < s_hi)))
+        if abs(hz - z) < 1e-9 and count > best_count:
+            best, best_count = h.plane, count
+    return best
 
 
 def _classify_single_step(
