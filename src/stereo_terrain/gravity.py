@@ -41,7 +41,8 @@ from .checks import check_fields, check_min
 from .cloud import GridSample
 from .errors import ConfigError
 from .frames import Transform
-from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from .planes.msac import Plane, planes_from_triplets
+from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, grid_lookup, local_triplets
 
 
 @dataclass(frozen=True)
@@ -331,6 +332,52 @@ def estimate_up(
             f"the surfaces fix up only to {sigma:.1f} deg (one wall family and no floor?)",
         )
     return GravityEstimate(u, frame, sigma, True, h_frac, v_frac, "plane families of the scene")
+
+
+def floor_up(
+    samples: GridSample,
+    *,
+    prior_up: np.ndarray | None = None,
+    max_tilt_deg: float = 45.0,
+    min_drop_m: float = 0.1,
+    hypotheses: int = 400,
+    rng: np.random.Generator | int = 0,
+) -> np.ndarray | None:
+    """Up as the normal of the floor, or None: the plane with most inliers (points within
+    their depth noise whose local normal agrees) among those at least ``min_drop_m`` below
+    the camera and within ``max_tilt_deg`` of ``prior_up``. Fitted to points, not to local
+    normals, so it stays exact when the normals are noisy; a start for the levelling (the
+    pipeline's only levelling before issue 11)."""
+    if len(samples) < 50:
+        return None
+    rng = np.random.default_rng(rng)
+    prior = _unit(np.asarray((0.0, -1.0, 0.0) if prior_up is None else prior_up, dtype=np.float64))
+    lut, gr, gc = grid_lookup(samples)
+    everyone = np.ones(len(samples), dtype=bool)
+    trip = local_triplets(lut, gr, gc, np.arange(len(samples)), everyone, 5, hypotheses, rng)
+    pts = samples.points.astype(np.float64)
+    normals, offsets, ok = planes_from_triplets(pts[trip[:, 0]], pts[trip[:, 1]], pts[trip[:, 2]])
+    flip = normals @ prior < 0
+    normals[flip] *= -1.0
+    offsets[flip] *= -1.0
+    cam = samples.camera_position
+    ok &= (normals @ prior >= math.cos(math.radians(max_tilt_deg))) & (normals @ cam + offsets > min_drop_m)
+    if not ok.any():
+        return None
+    normals, offsets = normals[ok], offsets[ok]
+    sub = rng.choice(len(pts), size=min(2000, len(pts)), replace=False)
+    thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
+    resid = np.abs(normals @ pts[sub].T + offsets[:, None])
+    agree = np.abs(normals @ samples.normals[sub].T.astype(np.float64)) >= 0.9
+    best = int(np.argmax(((resid < thr[sub]) & agree).sum(axis=1)))
+    plane = Plane(normals[best], offsets[best])
+    inl = (plane.residuals(pts) < thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
+    if inl.sum() < 30:
+        return None
+    plane = Plane.estimate(pts[inl]) or plane
+    if plane.normal @ prior < 0:
+        plane = Plane(-plane.normal, -plane.offset)
+    return plane.normal if float(plane.signed_distance(cam)) > min_drop_m else None
 
 
 def _jackknife_sigma_deg(

@@ -45,6 +45,7 @@ from .gravity import (
     GravityReport,
     angle_deg,
     estimate_up,
+    floor_up,
     refine_up_from_planes,
     rotation_between,
     yaw_frame_from_up,
@@ -53,6 +54,7 @@ from .planes.auto import combine_plane_sets
 from .planes.contour import ContourConfig, extract_planes_contour
 from .planes.orientation import (
     HORIZONTAL,
+    VERTICAL,
     OrientationConfig,
     PlaneSet,
     extract_planes_orientation,
@@ -443,26 +445,39 @@ class Pipeline:
     ) -> tuple[Transform, str]:
         """``T_yaw_camera_rect`` and its source without a rig.
 
-        The local normals' estimate (``coarse``, or a level camera when it failed) is only
-        a start: planes are extracted in that frame with a wide orientation tolerance
-        (``gravity.levelling_tol_deg``), and their normals, fitted to many points each,
-        level the frame (:func:`refine_up_from_planes`). Noisy disparities (JPEG, weak or
-        horizontal texture) bias local normals by degrees; plane fits much less.
+        Two starts: the local normals' estimate (``coarse``) and the floor's normal
+        (:func:`floor_up`: a plane fitted to points, exact where normals are noisy but
+        blind without a floor). From each, planes are extracted with a wide orientation
+        tolerance (``gravity.levelling_tol_deg``) and their normals, fitted to many points
+        each, level the frame (:func:`refine_up_from_planes`). The start whose levelled
+        frame puts most samples on horizontal and vertical planes wins (Manhattan
+        structure). With neither, a level camera is assumed.
         """
         cfg = self.config
-        level = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect")
-        T = yaw_frame_from_up(coarse.up, "camera_rect") if coarse.ok else level
+        starts = [coarse.up] if coarse.ok else []
+        floor = floor_up(cam_sample)
+        if floor is not None and not any(angle_deg(floor, u) < 1.0 for u in starts):
+            starts.append(floor)
+        if not starts:
+            return Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect"), "assumed-level"
         wide = dataclasses.replace(
             cfg.orientation, angle_tol_deg=max(cfg.orientation.angle_tol_deg, cfg.gravity.levelling_tol_deg)
         )
-        planes = extract_planes_orientation(transform_sample(cam_sample, T), wide)
-        fine = refine_up_from_planes(planes, cfg.gravity)
-        if fine.ok:
-            correction = Transform.from_rt(
-                rotation_between(fine.up, [0.0, 0.0, 1.0]), np.zeros(3), "yaw", "yaw"
-            )
-            return correction @ T, "scene"
-        return T, "scene" if coarse.ok else "assumed-level"
+        best: tuple[int, Transform] | None = None
+        for up in starts:
+            T = yaw_frame_from_up(up, "camera_rect")
+            planes = extract_planes_orientation(transform_sample(cam_sample, T), wide)
+            fine = refine_up_from_planes(planes, cfg.gravity)
+            if fine.ok:
+                level = Transform.from_rt(
+                    rotation_between(fine.up, [0.0, 0.0, 1.0]), np.zeros(3), "yaw", "yaw"
+                )
+                T = level @ T
+            explained = sum(s.count for s in planes.segments if s.kind in (HORIZONTAL, VERTICAL))
+            if best is None or explained > best[0]:
+                best = (explained, T)
+        assert best is not None
+        return best[1], "scene"
 
     def _extract_planes(self, samples: GridSample, image: np.ndarray) -> PlaneSet:
         """The primary plane set: the contour method's when asked for, else the
