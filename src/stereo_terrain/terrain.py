@@ -198,8 +198,8 @@ def _riser_edges(
       gap over :data:`_EDGE_GAP_M`) count;
     * a newel post, a baluster or a door frame standing on the riser's line: the edges come
       from :data:`_EDGE_BINS` lateral slices of the riser (a high percentile of the slices'
-      top edges, a low one of their bottoms), so that something narrow, standing in one or
-      two slices, does not move them.
+      top edges, a low one of their bottoms), so that something narrow standing on the
+      riser, in one or two slices, does not raise its top.
     """
     near = plane.residuals(P) < thr
     lat = P[near] @ v
@@ -225,15 +225,18 @@ def _riser_edges(
     if not lows:
         lo, hi = np.percentile(z, [2, 98])
         return float(lo), float(hi)
-    # Not the medians: a slice at the riser's ends may see less of it (occluded, cut by
-    # the image); two slices of eight may hold a post.
-    return float(np.percentile(lows, 100 - _EDGE_QUANTILE)), float(np.percentile(highs, _EDGE_QUANTILE))
+    # The top: a high percentile (a slice at the riser's ends may see less of it, two
+    # slices of eight may hold a post). The bottom: the lowest slices (nothing stands
+    # below a riser on its plane, while something in front, a box, may hide the bottom of
+    # a wall behind it in the middle slices and make it look like a riser on the box).
+    return float(np.percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(np.percentile(highs, _EDGE_QUANTILE))
 
 
-#: Lateral slices of a riser over which its edge heights are taken, and the percentile of
-#: the slices' top edges (bottom: 100 minus it) that is the riser's.
+#: Lateral slices of a riser over which its edge heights are taken, and the percentiles
+#: of the slices' top and bottom edges that are the riser's.
 _EDGE_BINS = 8
 _EDGE_QUANTILE = 70.0
+_EDGE_BOTTOM_QUANTILE = 10.0
 
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
