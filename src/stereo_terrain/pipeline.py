@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -404,9 +405,9 @@ class Pipeline:
         prior = None if rig_T is None else rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
         coarse = estimate_up(cam_sample, cfg.gravity, prior_up=prior)
         if rig_T is not None:
-            T, source = rig_T, "rig"
-        else:
-            T, source = self._level_from_scene(cam_sample, coarse, pair.left)
+            T, source, before_planes = rig_T, "rig", coarse
+        else:  # before_planes: what levelled the frame (its up is in the start's frame)
+            T, source, before_planes = self._level_from_scene(cam_sample, coarse, pair.left)
         samples = transform_sample(cam_sample, T)
         lap("cloud")
         planes = self._extract_planes(samples, pair.left)
@@ -420,7 +421,7 @@ class Pipeline:
             planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
         if source != "rig":
             planes, T = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
-        gravity = _gravity_report(source, T, coarse, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
+        gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
         planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap)
         swing = plan_swing(terrain, self.config.swing)
         lap("polytope")
@@ -442,8 +443,8 @@ class Pipeline:
 
     def _level_from_scene(
         self, cam_sample: GridSample, coarse: GravityEstimate, image: np.ndarray
-    ) -> tuple[Transform, str]:
-        """``T_yaw_camera_rect`` and its source without a rig.
+    ) -> tuple[Transform, str, GravityEstimate]:
+        """``T_yaw_camera_rect``, its source and the estimate behind it, without a rig.
 
         Two starts: the local normals' estimate (``coarse``) and the floor's normal
         (:func:`floor_up`: a plane fitted to points, exact where normals are noisy but
@@ -459,11 +460,15 @@ class Pipeline:
         if floor is not None and not any(angle_deg(floor, u) < 1.0 for u in starts):
             starts.append(floor)
         if not starts:
-            return Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect"), "assumed-level"
+            return (
+                Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect"),
+                "assumed-level",
+                coarse,
+            )
         wide = dataclasses.replace(
             cfg.orientation, angle_tol_deg=max(cfg.orientation.angle_tol_deg, cfg.gravity.levelling_tol_deg)
         )
-        best: tuple[int, Transform] | None = None
+        best: tuple[int, Transform, GravityEstimate] | None = None
         for up in starts:
             T = yaw_frame_from_up(up, "camera_rect")
             planes = extract_planes_orientation(transform_sample(cam_sample, T), wide)
@@ -474,10 +479,16 @@ class Pipeline:
                 )
                 T = level @ T
             explained = sum(s.count for s in planes.segments if s.kind in (HORIZONTAL, VERTICAL))
+            if fine.ok:
+                why = fine
+            elif coarse.ok and up is coarse.up:
+                why = coarse
+            else:  # sigma unknown: a floor that no other plane confirmed
+                why = GravityEstimate(up, "camera_rect", math.inf, True, reason="the floor plane alone")
             if best is None or explained > best[0]:
-                best = (explained, T)
+                best = (explained, T, why)
         assert best is not None
-        return best[1], "scene"
+        return best[1], "scene", best[2]
 
     def _extract_planes(self, samples: GridSample, image: np.ndarray) -> PlaneSet:
         """The primary plane set: the contour method's when asked for, else the
@@ -548,7 +559,11 @@ def _gravity_report(
 ) -> GravityReport:
     """What the result says about gravity: where it came from, how sure, and with a rig
     how far the scene's own estimate is from it (the planes' estimate when the rig is close
-    enough for the planes to have been found, else the local normals')."""
+    enough for the planes to have been found, else the local normals').
+
+    ``coarse`` is, with a rig, the local normals' estimate in the camera frame; without
+    one, the estimate that levelled the frame (only its sigma and reason are used).
+    """
     up_cam = T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
     if source == "rig":
         # Planes were found in the rig's frame: the fine estimate measures small
