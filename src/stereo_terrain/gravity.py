@@ -66,6 +66,10 @@ class GravityConfig:
         Up hypotheses drawn (half from single normals, half from pairs).
     score_points : int
         Sample normals each hypothesis is scored on.
+    rig_check_hypotheses : int
+        With a rig, the local normals' estimate only has to catch a rig that is off by more
+        than the orientation tolerance (smaller disagreements are measured on the planes):
+        this many hypotheses, scored on half the points, are enough and cost a third.
     min_support : float
         A family counts when its share of the samples is at least this many times what
         isotropic clutter would put in it (``1 - cos t`` for the horizontal family, ``sin t``
@@ -98,6 +102,7 @@ class GravityConfig:
     refine_tol_deg: float = 6.0
     hypotheses: int = 300
     score_points: int = 2000
+    rig_check_hypotheses: int = 100
     min_support: float = 3.0
     max_sigma_deg: float = 4.0
     structure_sigma_deg: float = 0.3
@@ -109,7 +114,7 @@ class GravityConfig:
 
     def __post_init__(self) -> None:
         check_fields(self)
-        check_min(self, 1, "hypotheses", "score_points")
+        check_min(self, 1, "hypotheses", "score_points", "rig_check_hypotheses")
         check_min(self, 2, "blocks")
         check_min(self, 0, "min_floor_drop_m")
         check_min(self, 1, "min_support")
@@ -285,16 +290,17 @@ def estimate_up(
         return _failed(frame, "no surface near horizontal or vertical for any plausible up")
     U = np.vstack(hyps)
     score_idx = rng.choice(n, size=min(config.score_points, n), replace=False)
-    D = N[score_idx] @ U.T  # (S, H) cosines
-    s2 = math.sin(math.radians(config.family_tol_deg)) ** 2
-    err = np.minimum(1.0 - D * D, D * D)  # squared sine to the nearest family
+    D2 = np.square(N[score_idx].astype(np.float32) @ U.T.astype(np.float32))  # (S, H) cos^2
+    s2 = np.float32(math.sin(math.radians(config.family_tol_deg)) ** 2)
+    err = np.minimum(1.0 - D2, D2)  # squared sine to the nearest family
     # The weak prior "camera roughly upright": a broad Gaussian on the angle to the prior
     # up breaks ties between families that a slanted surface (the envelope of a noisy
     # staircase, a ramp) can make look vertical when up turns far.
     prior_w = np.exp(
         -0.5 * (np.arccos(np.clip(U @ prior, -1.0, 1.0)) / math.radians(config.prior_sigma_deg)) ** 2
     )
-    score = np.sum(s2 - np.minimum(err, s2), axis=0) * prior_w
+    np.minimum(err, s2, out=err)
+    score = (len(score_idx) * s2 - err.sum(axis=0)) * prior_w
     u = U[int(np.argmax(score))]
     # Refinement: least squares on the family members, tolerance tightened; a step that
     # leaves the prior cone is not taken.

@@ -403,7 +403,12 @@ class Pipeline:
         )
         rig_T = self.T_yaw_camera_rect
         prior = None if rig_T is None else rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
-        coarse = estimate_up(cam_sample, cfg.gravity, prior_up=prior)
+        gcfg = cfg.gravity
+        if rig_T is not None:  # a check of the rig: a cheaper coarse estimate will do
+            gcfg = dataclasses.replace(
+                gcfg, hypotheses=gcfg.rig_check_hypotheses, score_points=max(1, gcfg.score_points // 2)
+            )
+        coarse = estimate_up(cam_sample, gcfg, prior_up=prior)
         if rig_T is not None:
             T, source, before_planes = rig_T, "rig", coarse
         else:  # before_planes: what levelled the frame (its up is in the start's frame)

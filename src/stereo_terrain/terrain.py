@@ -217,14 +217,12 @@ def _riser_edges(
     bins = np.clip(((lat - v_lo) / max(v_hi - v_lo, 1e-9) * _EDGE_BINS).astype(int), 0, _EDGE_BINS - 1)
     lows, highs = [], []
     for b in range(_EDGE_BINS):
-        zb = z[bins == b]
+        zb = z[bins == b]  # still sorted: quantiles are look-ups
         if len(zb) >= 3:
-            lo_b, hi_b = np.percentile(zb, [2, 98])
-            lows.append(lo_b)
-            highs.append(hi_b)
+            lows.append(zb[int(0.02 * (len(zb) - 1) + 0.5)])
+            highs.append(zb[int(0.98 * (len(zb) - 1) + 0.5)])
     if not lows:
-        lo, hi = np.percentile(z, [2, 98])
-        return float(lo), float(hi)
+        return float(z[int(0.02 * (len(z) - 1) + 0.5)]), float(z[int(0.98 * (len(z) - 1) + 0.5)])
     # The top: a high percentile (a slice at the riser's ends may see less of it, two
     # slices of eight may hold a post). The bottom: the lowest slices (nothing stands
     # below a riser on its plane, while something in front, a box, may hide the bottom of
