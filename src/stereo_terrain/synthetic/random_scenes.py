@@ -111,6 +111,21 @@ _KINDS = ("stairs", "box", "none")
 _DEFAULT_GROUPS = ("ground", "tread", "riser", "side", "wall")
 
 
+def _random_box(
+    rng: np.random.Generator, distance: float, yaw: float, lateral: float, ob_over: dict[str, Any]
+) -> BoxSpec:
+    """A box of both profiles (the same draws, in the same order, as ever)."""
+    params = {
+        "height_m": float(rng.uniform(0.10, 0.30)),
+        "depth_m": float(rng.uniform(0.3, 0.8)),
+        "width_m": float(rng.uniform(0.4, 1.2)),
+        "distance_m": distance,
+        "yaw_rad": yaw,
+        "lateral_m": lateral,
+    }
+    return BoxSpec(**{**params, **ob_over})
+
+
 def random_scene_spec(
     rng: np.random.Generator,
     *,
@@ -248,15 +263,7 @@ def random_scene_spec(
             }
             ob = StairSpec(**{**params, **ob_over})
         elif kind == "box":
-            params = {
-                "height_m": float(rng.uniform(0.10, 0.30)),
-                "depth_m": float(rng.uniform(0.3, 0.8)),
-                "width_m": float(rng.uniform(0.4, 1.2)),
-                "distance_m": distance,
-                "yaw_rad": yaw,
-                "lateral_m": lateral,
-            }
-            ob = BoxSpec(**{**params, **ob_over})
+            ob = _random_box(rng, distance, yaw, lateral, ob_over)
         else:
             ob = None
         geometry: dict[str, Any] = {
@@ -587,15 +594,7 @@ def _random_realistic_spec(
             }
             ob = StairSpec(**{**params, **ob_over})
         elif kind == "box":
-            params = {
-                "height_m": float(rng.uniform(0.10, 0.30)),
-                "depth_m": float(rng.uniform(0.3, 0.8)),
-                "width_m": float(rng.uniform(0.4, 1.2)),
-                "distance_m": distance,
-                "yaw_rad": yaw,
-                "lateral_m": lateral,
-            }
-            ob = BoxSpec(**{**params, **ob_over})
+            ob = _random_box(rng, distance, yaw, lateral, ob_over)
         else:
             ob = None
         pitch = math.radians(rng.uniform(-5.0, 3.0) if fill else rng.uniform(-5.0, 10.0))
