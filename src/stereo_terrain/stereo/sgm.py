@@ -54,12 +54,13 @@ import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cpu as numba_cpu
-from numba.extending import intrinsic, register_jitable
+from numba.extending import intrinsic
 
 from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
 from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity, invalidate_sourceless
+from .subpixel import parabola_peak
 
 
 def _allow_noalias_option() -> bool:
@@ -532,18 +533,6 @@ def aggregate_sweep(
                 y = _in_sweep_order(g0 + r, h, forward)
                 _select_row(out, y, uniqueness, lr_max_diff, disp, conf, work, sub)
     return (prev1, prev2, cur, min1, min2, cur_min)
-
-
-@register_jitable
-def parabola_peak(arg, a, b, c):  # pragma: no cover - compiled
-    """The winner ``arg`` refined by the parabola through its cost ``b`` and its
-    neighbours' ``a`` (arg - 1) and ``c`` (arg + 1); float64. Shared by the CPU and the
-    CUDA selection. Scalars, not the volume: a jitted call with an array argument counts
-    references, measured as a third of the selection's time."""
-    den = float(a) - 2.0 * float(b) + float(c)
-    if den > 0:
-        return arg + 0.5 * (float(a) - float(c)) / den
-    return float(arg)
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -35,7 +35,7 @@ import numpy as np
 from numba import cuda, int16, int32
 
 from ..errors import ConfigError
-from .sgm import parabola_peak
+from .subpixel import parabola_peak
 
 MAX_DISPARITIES = 256
 _SHARED = MAX_DISPARITIES  # shared-memory row of one aggregation block
