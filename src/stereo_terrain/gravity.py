@@ -91,6 +91,9 @@ class GravityConfig:
         tolerance around the local normals' estimate (wider than the plane stage's, so that
         a start a few degrees off still finds the planes), then the plane stage runs in the
         levelled frame.
+    corroborated_deg : float
+        When the local normals' estimate and the floor's normal agree within this angle,
+        the levelling pass is skipped (the plane stage's final correction remains).
     blocks : int
         Image blocks per side for the jackknife uncertainty of the coarse stage.
     seed : int
@@ -109,6 +112,7 @@ class GravityConfig:
     rig_tolerance_deg: float = 3.0
     min_floor_drop_m: float = 0.1
     levelling_tol_deg: float = 12.0
+    corroborated_deg: float = 1.0
     blocks: int = 4
     seed: int = 0
 
@@ -124,6 +128,7 @@ class GravityConfig:
             "family_tol_deg",
             "refine_tol_deg",
             "levelling_tol_deg",
+            "corroborated_deg",
         ):
             if not 0 < getattr(self, name) <= 60:
                 raise ConfigError(f"GravityConfig.{name} must be in (0, 60] deg, got {getattr(self, name)}")

@@ -462,7 +462,11 @@ class Pipeline:
         cfg = self.config
         starts = [coarse.up] if coarse.ok else []
         floor = floor_up(cam_sample)
-        if floor is not None and not any(angle_deg(floor, u) < 1.0 for u in starts):
+        if floor is not None and coarse.ok and angle_deg(floor, coarse.up) < cfg.gravity.corroborated_deg:
+            # Two independent estimates (local normals, the floor's points) agree: the plane
+            # stage's own tolerance covers what is left; no levelling pass needed.
+            return yaw_frame_from_up(coarse.up, "camera_rect"), "scene", coarse
+        if floor is not None:
             starts.append(floor)
         if not starts:
             return (
