@@ -547,6 +547,11 @@ def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.eye(3) + K + K @ K * ((1.0 - c) / (s * s))
 
 
+def levelling(up: np.ndarray, frame: str = "yaw") -> Transform:
+    """``T_<frame>_<frame>``: the smallest rotation that takes ``up`` (in ``frame``) to +z."""
+    return Transform.from_rt(rotation_between(up, [0.0, 0.0, 1.0]), np.zeros(3), frame, frame)
+
+
 def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     """Angle between two vectors, degrees."""
     c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))

@@ -47,8 +47,8 @@ from .gravity import (
     angle_deg,
     estimate_up,
     floor_up,
+    levelling,
     refine_up_from_planes,
-    rotation_between,
     yaw_frame_from_up,
 )
 from .planes.auto import combine_plane_sets
@@ -401,6 +401,7 @@ class Pipeline:
         cam_sample = sample_disparity(
             disp, Transform.identity("camera_rect"), cfg.cloud, target_points=cfg.orientation.target_points
         )
+        lap("cloud")
         rig_T = self.T_yaw_camera_rect
         prior = None if rig_T is None else rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
         gcfg = cfg.gravity
@@ -413,15 +414,13 @@ class Pipeline:
             T, source, before_planes = rig_T, "rig", coarse
         else:  # before_planes: what levelled the frame (its up is in the start's frame)
             T, source, before_planes = self._level_from_scene(cam_sample, coarse, pair.left)
+        lap("gravity")
         samples = transform_sample(cam_sample, T)
-        lap("cloud")
         planes = self._extract_planes(samples, pair.left)
         fine = refine_up_from_planes(planes, cfg.gravity)
         if source == "scene" and fine.ok:
             # The last, small correction from the final planes (more of them, tighter).
-            correction = Transform.from_rt(
-                rotation_between(fine.up, [0.0, 0.0, 1.0]), np.zeros(3), "yaw", "yaw"
-            )
+            correction = levelling(fine.up)
             T = correction @ T
             planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
         if source != "rig":
@@ -483,10 +482,7 @@ class Pipeline:
             planes = extract_planes_orientation(transform_sample(cam_sample, T), wide)
             fine = refine_up_from_planes(planes, cfg.gravity)
             if fine.ok:
-                level = Transform.from_rt(
-                    rotation_between(fine.up, [0.0, 0.0, 1.0]), np.zeros(3), "yaw", "yaw"
-                )
-                T = level @ T
+                T = levelling(fine.up) @ T
             explained = sum(s.count for s in planes.segments if s.kind in (HORIZONTAL, VERTICAL))
             if fine.ok:
                 why = fine
