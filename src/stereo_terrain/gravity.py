@@ -401,6 +401,17 @@ def _jackknife_sigma_deg(
     blocks: int,
 ) -> float:
     """1-sigma of ``u`` (degrees) by a delete-one-block jackknife over image blocks."""
+    # The jackknife misses a direction that no block constrains (one wall family and no
+    # floor: up is free to turn about the wall's normal). Up is fixed only by a
+    # horizontal family or by two vertical families at a clear angle to each other.
+    if horiz.sum() < _MIN_FAMILY_SAMPLES:
+        nt = N[vert] @ _tangent_basis(u).T
+        theta = np.arctan2(nt[:, 1], nt[:, 0]) % np.pi  # direction of the normal, mod 180
+        hist = np.bincount((theta / np.pi * 36).astype(int) % 36, minlength=36)
+        main = (int(np.argmax(hist)) + 0.5) * np.pi / 36
+        off = np.abs((theta - main + np.pi / 2) % np.pi - np.pi / 2)
+        if np.sum(off > math.radians(30.0)) < max(_MIN_FAMILY_SAMPLES, 0.05 * vert.sum()):
+            return math.inf
     gh, gw = samples.grid_shape
     gr, gc = samples.grid_index // gw, samples.grid_index % gw
     block = (gr * blocks // max(gh, 1)) * blocks + (gc * blocks // max(gw, 1))
@@ -421,21 +432,6 @@ def _jackknife_sigma_deg(
     dev = np.array(angles)
     k = len(used)
     var = (k - 1) / k * float(np.sum(dev * dev))
-    # The jackknife misses a direction that no block constrains (one wall family and no
-    # floor: up is free to turn about the wall's normal). Up is fixed only by a
-    # horizontal family or by two vertical families at a clear angle to each other.
-    if horiz.sum() < _MIN_FAMILY_SAMPLES:
-        a = np.cross(u, [1.0, 0.0, 0.0])
-        if np.linalg.norm(a) < 0.5:
-            a = np.cross(u, [0.0, 1.0, 0.0])
-        a /= np.linalg.norm(a)
-        nt = N[vert] @ np.vstack([a, np.cross(u, a)]).T
-        theta = np.arctan2(nt[:, 1], nt[:, 0]) % np.pi  # direction of the normal, mod 180
-        hist = np.bincount((theta / np.pi * 36).astype(int) % 36, minlength=36)
-        main = (int(np.argmax(hist)) + 0.5) * np.pi / 36
-        off = np.abs((theta - main + np.pi / 2) % np.pi - np.pi / 2)
-        if np.sum(off > math.radians(30.0)) < max(_MIN_FAMILY_SAMPLES, 0.05 * vert.sum()):
-            return math.inf
     return math.degrees(math.sqrt(var))
 
 

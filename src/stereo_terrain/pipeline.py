@@ -413,7 +413,7 @@ class Pipeline:
         if rig_T is not None:
             T, source, before_planes = rig_T, "rig", coarse
         else:  # before_planes: what levelled the frame (its up is in the start's frame)
-            T, source, before_planes = self._level_from_scene(cam_sample, coarse, pair.left)
+            T, source, before_planes = self._level_from_scene(cam_sample, coarse)
         lap("gravity")
         samples = transform_sample(cam_sample, T)
         planes = self._extract_planes(samples, pair.left)
@@ -446,7 +446,7 @@ class Pipeline:
         )
 
     def _level_from_scene(
-        self, cam_sample: GridSample, coarse: GravityEstimate, image: np.ndarray
+        self, cam_sample: GridSample, coarse: GravityEstimate
     ) -> tuple[Transform, str, GravityEstimate]:
         """``T_yaw_camera_rect``, its source and the estimate behind it, without a rig.
 
@@ -481,10 +481,9 @@ class Pipeline:
             T = yaw_frame_from_up(up, "camera_rect")
             planes = extract_planes_orientation(transform_sample(cam_sample, T), wide)
             fine = refine_up_from_planes(planes, cfg.gravity)
-            if fine.ok:
-                T = levelling(fine.up) @ T
             explained = sum(s.count for s in planes.segments if s.kind in (HORIZONTAL, VERTICAL))
             if fine.ok:
+                T = levelling(fine.up) @ T
                 why = fine
             elif coarse.ok and up is coarse.up:
                 why = coarse
