@@ -84,7 +84,7 @@ def bench_realistic(n: int) -> None:
 
 
 def bench_middlebury(root: Path) -> None:
-    from stereo_terrain.cli import _pair_disparity
+    from stereo_terrain.cli.scene import _pair_disparity
     from stereo_terrain.evaluation import disparity_errors, middlebury_scene_dirs, read_middlebury_scene
 
     scenes = []

@@ -81,10 +81,10 @@ def test_real_chessboard_rectifies_to_small_vertical_feature_disparity(chessboar
 
 
 def test_cli_calibrate_writes_yaml_report_and_figure(board_dir, tmp_path, capsys, monkeypatch):
-    import stereo_terrain.cli
+    import stereo_terrain.cli.outputs
 
     monkeypatch.setattr(
-        stereo_terrain.cli, "_is_terminal", lambda stream: True
+        stereo_terrain.cli.outputs, "is_terminal", lambda stream: True
     )  # progress drawn on a terminal only
     out, fig = tmp_path / "calib.yaml", tmp_path / "c.png"
     code = main(

@@ -44,9 +44,10 @@ def test_replay_without_lcm(recording, tmp_path, capsys):
 
 
 def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
-    import stereo_terrain.cli
+    import stereo_terrain.cli.live
 
-    monkeypatch.setattr(stereo_terrain.cli, "_is_terminal", lambda stream: True)  # drawn on a terminal only
+    # the status line is drawn on a terminal only
+    monkeypatch.setattr(stereo_terrain.cli.live, "is_terminal", lambda stream: True)
     code, out, err = _run(["replay", recording, "--no-lcm", "--as-fast", "--frames", "2"], capsys)
     assert code == 0 and "\r" in err and "pairs" in err and out.startswith("done: 2 pairs")
 

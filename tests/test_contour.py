@@ -16,6 +16,7 @@ from stereo_terrain.cloud import (
 )
 from stereo_terrain.errors import ConfigError, InputError
 from stereo_terrain.evaluation import score_result
+from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.planes.auto import combine_plane_sets
 from stereo_terrain.planes.contour import (
@@ -25,7 +26,6 @@ from stereo_terrain.planes.contour import (
     extract_planes_contour,
     find_regions,
 )
-from stereo_terrain.planes.msac import Plane
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, extract_planes_orientation
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 

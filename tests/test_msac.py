@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 
 from stereo_terrain.errors import InputError
 from stereo_terrain.frames import rotation_from_rpy
-from stereo_terrain.planes.msac import Plane, msac, plane_msac, required_trials
+from stereo_terrain.msac import Plane, msac, plane_msac, required_trials
 
 NORMAL_TOL_DEG = 1.0
 # arccos near 1 loses precision: ~1e-6 deg is round-off, 1e-4 deg is still exact for a fit.

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.planes.msac import Plane
+from stereo_terrain.msac import Plane
 from stereo_terrain.swing import SwingConfig, plan_swing, should_raise_swing
 from stereo_terrain.terrain import NONE, STAIRS, Polytope, StairModel, Step
 

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.planes.msac import Plane
+from stereo_terrain.msac import Plane
 from stereo_terrain.swing import (
     PHASE_APPROACH,
     PHASE_BLOCKED,

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from stereo_terrain.cloud import GridSample
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.planes.msac import Plane
+from stereo_terrain.msac import Plane
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
 from stereo_terrain.terrain import BOX, NONE, STAIRS, TerrainConfig, build_terrain
 

@@ -41,7 +41,7 @@ from .checks import check_fields, check_min
 from .cloud import GridSample
 from .errors import ConfigError
 from .frames import Transform
-from .planes.msac import Plane, planes_from_triplets
+from .msac import Plane, planes_from_triplets
 from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, grid_lookup, local_triplets
 
 

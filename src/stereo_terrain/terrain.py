@@ -20,7 +20,7 @@ import numpy as np
 
 from .checks import check_fields, check_min
 from .errors import ConfigError
-from .planes.msac import Plane
+from .msac import Plane
 from .planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
 
 STAIRS, BOX, NONE = "stairs", "box", "none"

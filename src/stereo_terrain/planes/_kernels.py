@@ -1,8 +1,6 @@
-"""Compiled inner loops of the plane stage (Numba).
-
-Scoring K plane hypotheses against M points is a K x M loop with a truncated quadratic
-and a normal-agreement test per pair; in NumPy it builds several (K, M) temporaries, here
-it is one pass with no allocation. Compiled on first use and cached on disk.
+"""Compiled inner loops of the plane stage (Numba): per-region MSAC of the contour method
+and the oriented hypotheses of the orientation method. The per-point cost and the plane
+through three points come from ``msac._kernels``. Compiled on first use and cached on disk.
 """
 
 from __future__ import annotations
@@ -10,66 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True, nogil=True, inline="always")
-def _point_cost(
-    nx, ny, nz, d, points, point_normals, inv_threshold, m, agreement_cos, use_normals
-):  # pragma: no cover
-    """MSAC cost of point ``m`` for the plane ``(nx, ny, nz) . x + d = 0``: its truncated
-    squared residual in threshold units, 1 when its normal disagrees (``use_normals``)."""
-    if use_normals:
-        c = nx * point_normals[m, 0] + ny * point_normals[m, 1] + nz * point_normals[m, 2]
-        if abs(c) < agreement_cos:
-            return 1.0
-    r = (nx * points[m, 0] + ny * points[m, 1] + nz * points[m, 2] + d) * inv_threshold[m]
-    r2 = r * r
-    return r2 if r2 < 1.0 else 1.0
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _plane_through(points, i, j, k):  # pragma: no cover
-    """Unit normal and offset of the plane through points ``i, j, k`` (differences taken in
-    the points' dtype, products in float64); ``valid`` False when they are collinear."""
-    p0 = points[i]
-    a = points[j] - p0
-    b = points[k] - p0
-    nx = float(a[1]) * b[2] - float(a[2]) * b[1]
-    ny = float(a[2]) * b[0] - float(a[0]) * b[2]
-    nz = float(a[0]) * b[1] - float(a[1]) * b[0]
-    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
-    if norm <= 1e-9:
-        return 0.0, 0.0, 0.0, 0.0, False
-    nx, ny, nz = nx / norm, ny / norm, nz / norm
-    return nx, ny, nz, -(nx * p0[0] + ny * p0[1] + nz * p0[2]), True
-
-
-@njit(cache=True, nogil=True)  # no fastmath: same sums on every CPU
-def msac_costs(
-    normals: np.ndarray,
-    offsets: np.ndarray,
-    points: np.ndarray,
-    inv_threshold: np.ndarray,
-    point_normals: np.ndarray,
-    agreement_cos: float,
-) -> np.ndarray:  # pragma: no cover - compiled
-    """MSAC cost of each hypothesis: ``sum_m min((r_km / t_m)^2, 1)``, where a point whose
-    normal disagrees with the hypothesis (``|n_k . n_m| < agreement_cos``) costs 1.
-
-    ``point_normals`` with zero rows disables the agreement test.
-    """
-    k_count = normals.shape[0]
-    m_count = points.shape[0]
-    use_normals = point_normals.shape[0] == m_count
-    costs = np.empty(k_count, dtype=np.float32)
-    for k in range(k_count):
-        nx, ny, nz, d = normals[k, 0], normals[k, 1], normals[k, 2], offsets[k]
-        acc = np.float32(0.0)
-        for m in range(m_count):
-            acc += _point_cost(
-                nx, ny, nz, d, points, point_normals, inv_threshold, m, agreement_cos, use_normals
-            )
-        costs[k] = acc
-    return costs
+from ..msac._kernels import plane_through, point_cost
 
 
 @njit(cache=True, nogil=True)
@@ -137,14 +76,14 @@ def region_msac(
                 js[t] = j
             if not ok or js[0] == js[1]:
                 continue
-            nx, ny, nz, d, valid = _plane_through(points, i0, js[0], js[1])
+            nx, ny, nz, d, valid = plane_through(points, i0, js[0], js[1])
             if not valid:
                 continue
             trials += 1
             cost = 0.0
             inl = 0
             for k in range(m_count):
-                c = _point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[k], agreement_cos, True)
+                c = point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[k], agreement_cos, True)
                 cost += c
                 if c < 1.0:
                     inl += 1
@@ -190,7 +129,7 @@ def best_oriented_hypothesis(
     best_d = 0.0
     best_cost = np.inf
     for k in range(triplets.shape[0]):
-        nx, ny, nz, d, valid = _plane_through(points, triplets[k, 0], triplets[k, 1], triplets[k, 2])
+        nx, ny, nz, d, valid = plane_through(points, triplets[k, 0], triplets[k, 1], triplets[k, 2])
         if not valid:
             continue
         c = abs(nx * up[0] + ny * up[1] + nz * up[2])
@@ -198,7 +137,7 @@ def best_oriented_hypothesis(
             continue
         cost = 0.0
         for m in range(score.shape[0]):
-            cost += _point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos, True)
+            cost += point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos, True)
         if cost < best_cost:
             best_cost = cost
             best_n[0], best_n[1], best_n[2] = nx, ny, nz

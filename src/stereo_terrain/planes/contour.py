@@ -33,7 +33,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..cloud import GridSample
 from ..errors import ConfigError, InputError
-from .msac import Plane
+from ..msac import Plane
 from .orientation import (
     HORIZONTAL,
     VERTICAL,

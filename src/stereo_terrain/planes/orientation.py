@@ -21,7 +21,7 @@ from ..checks import check_fields, check_min
 from ..cloud import GridSample, PointCloud, sample_grid, transform_sample
 from ..errors import ConfigError, FrameError
 from ..frames import Transform
-from .msac import Plane, required_trials
+from ..msac import Plane, required_trials
 
 HORIZONTAL, VERTICAL, OTHER = "horizontal", "vertical", "other"
 

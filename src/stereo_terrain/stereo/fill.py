@@ -37,7 +37,7 @@ import numpy as np
 
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
-from ..planes.msac import plane_msac
+from ..msac import plane_msac
 
 TEXTURE_MODES = ("total", "horizontal")
 

@@ -1,0 +1,89 @@
+"""Command line: ``stereo-terrain demo | reconstruct | render | disparity | eval-disparity |
+calibrate | check-calib | record | run | replay | simulate``.
+
+Thin: parses arguments, calls the stages, and maps every error to an exit code in one
+place (:func:`main`, through :func:`stereo_terrain.errors.exit_code`): 0 success, 2 bad
+input or usage with one line on stderr, 1 internal error.
+
+One module per command family: ``scene`` (single pairs and offline sets), ``calib``
+(calibration and drift), ``live`` (cameras, recordings, the simulated approach);
+``options`` holds the argument types and ``outputs`` what every command shares about its
+outputs: checked before any work, written whole or not at all, optional packages named by
+their extra, progress bars only on a terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+from ..errors import EXIT_INTERNAL, EXIT_USAGE, exit_code
+from . import calib, live, scene
+from .options import Parser
+from .outputs import CREATED, end_progress, remove_created
+
+log = logging.getLogger("stereo_terrain")
+
+_FAMILIES = (scene, calib, live)
+COMMANDS = {name: cmd for family in _FAMILIES for name, cmd in family.COMMANDS.items()}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = Parser(
+        prog="stereo-terrain",
+        description="Stairs and boxes ahead of a legged robot from a calibrated stereo pair.",
+    )
+    p.add_argument("-v", "--verbose", action="store_true", help="log what each stage does")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for family in _FAMILIES:
+        family.add_parsers(sub)
+    return p
+
+
+def _error_line(command: str, exc: BaseException) -> str:
+    """The one line a failed command prints."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "stereo-terrain: interrupted"
+    code = exit_code(exc)
+    if code == EXIT_USAGE and isinstance(exc, OSError):
+        return f"stereo-terrain {command}: error: cannot use {exc.filename}: {exc.strerror or exc}"
+    text = " ".join(str(exc).split())  # one line, whatever the message held
+    if code == EXIT_USAGE:
+        return f"stereo-terrain {command}: error: {text}"
+    return (
+        f"stereo-terrain {command}: internal error: {type(exc).__name__}: {text[:500]} "
+        "(please report it; run with -v for details)"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s"
+    )
+    # Python warnings go through logging (one format), and only with -v.
+    logging.captureWarnings(True)
+    logging.getLogger("py.warnings").setLevel(logging.WARNING if args.verbose else logging.ERROR)
+    from ..native import silence_opencv_logging
+
+    silence_opencv_logging()
+    CREATED.clear()
+    end_progress()
+    try:
+        return COMMANDS[args.command](args)
+    except (Exception, KeyboardInterrupt) as exc:
+        code = exit_code(exc)
+        end_progress()
+        remove_created()
+        if code == EXIT_INTERNAL:
+            log.debug("internal error", exc_info=True)
+        sys.stderr.write(_error_line(args.command, exc) + "\n")
+        if code == EXIT_INTERNAL and args.verbose:
+            import traceback
+
+            traceback.print_exc()
+        return code
+    finally:
+        CREATED.clear()

@@ -1,0 +1,157 @@
+"""What a command writes, checked before any work, and what it draws on the terminal.
+
+Files are written to a temporary name and renamed, so an existing file is replaced only by
+a whole new one; folders a command created are removed again when it fails; optional
+packages are checked before any work, naming the extra that installs them; progress bars
+(tqdm) are drawn only on a terminal.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+
+# Folders this command created (removed again, when still empty, if it fails).
+CREATED: list[Path] = []
+# The progress bar now drawn, if any (an error must close it and start on a fresh line).
+_BAR: list[Any] = []
+
+
+def is_terminal(stream: Any) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+def check_output_file(path: Path | None, option: str) -> None:
+    """Refuse, before any work, an output file that cannot be written."""
+    if path is None or str(path) == "-":
+        return
+    if path.is_dir():
+        raise InputError(f"cannot write {option} {path}: it is a folder; give a file name")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(f"cannot write {option} {path}: the folder {parent} does not exist; create it first")
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise InputError(f"cannot write {option} {path}: permission denied")
+
+
+def check_output_dir(path: Path, option: str) -> None:
+    """Refuse, before any work, an output folder that cannot be created or written."""
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{option} {path} exists and is not a folder")
+    existing = path
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"{option} {path}: {existing} is a file, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"{option} {path}: {existing} is not writable")
+
+
+def make_dir(path: Path, option: str) -> None:
+    """Create an output folder (and its parents); remembered so a failure removes them."""
+    check_output_dir(path, option)
+    top = path
+    while not top.parent.exists() and top.parent != top:
+        top = top.parent
+    created = not top.exists()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create {option} folder {path}: {exc.strerror}") from None
+    if created:
+        CREATED.append(top)
+
+
+def remove_created() -> None:
+    """Remove the folders this command created when they hold no file."""
+    while CREATED:
+        top = CREATED.pop()
+        try:
+            for root, dirs, files in os.walk(top, topdown=False):
+                if files:
+                    return
+                for d in dirs:
+                    (Path(root) / d).rmdir()
+            top.rmdir()
+        except OSError:
+            pass
+
+
+def replace_from_temp(target: Path, write: Any) -> None:
+    """``write(tmp_path)`` then rename onto ``target``: an existing file is replaced only by a
+    whole new one, and a failed write leaves nothing behind."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent or ".")
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, target)
+    except OSError as exc:
+        raise InputError(f"cannot write {target}: {exc.strerror}") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def require(module: str, extra: str, what: str, skip: str = "") -> None:
+    """An optional dependency, checked before any work."""
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        alt = f", or pass {skip}" if skip else ""
+        raise InputError(
+            f"{what} needs the Python package '{module}', which is not installed: "
+            f"pip install 'stereo-terrain[{extra}]'{alt}"
+        ) from None
+
+
+def require_viz(what: str, skip: str = "") -> None:
+    require("matplotlib", "viz", what, skip)
+
+
+def require_lcm(what: str, skip: str = "") -> None:
+    require("lcm", "lcm", what, skip)
+
+
+def write_json(data: dict[str, Any], target: Path) -> None:
+    """``data`` as indented JSON to ``target`` (replaced whole), or to stdout for ``-``."""
+    text = json.dumps(data, indent=2)
+    if str(target) == "-":
+        print(text)
+        return
+    replace_from_temp(target, lambda tmp: tmp.write_text(text + "\n"))
+
+
+def progress(done: int, total: int, text: str = "") -> None:
+    """Advance the progress bar to ``done`` of ``total`` (tqdm, on stderr, only when it is a
+    terminal); the bar opens on the first call and closes when ``done == total``."""
+    if not is_terminal(sys.stderr):
+        return
+    if not _BAR or _BAR[0].total != total:
+        end_progress()
+        from tqdm import tqdm
+
+        _BAR.append(tqdm(total=total, file=sys.stderr, leave=True, dynamic_ncols=True))
+    bar = _BAR[0]
+    bar.n = done
+    bar.set_postfix_str(text[:60], refresh=False)
+    bar.refresh()
+    if done >= total:
+        end_progress()
+
+
+def end_progress() -> None:
+    """Close an open progress bar (before an error line, or when the work ends)."""
+    while _BAR:
+        _BAR.pop().close()
