@@ -27,6 +27,9 @@ from ..errors import ConfigError, InputError, StereoTerrainError
 from ..frames import Rig
 from ..pipeline import Pipeline, TerrainResult
 from ..swing import Odometry, SwingTrigger
+from ..terrain import NONE as NO_OBSTACLE
+from ..terrain import StairModel
+from ..tracking import TRACK_NONE, StairTracker
 from .capture import END, FRAME, NONE, SKEW, UNREADABLE, Capture, Clock, StereoFrame
 from .messages import terrain_message, terrain_t
 
@@ -166,6 +169,12 @@ class LiveLoop:
         Injectable for tests (a fake clock makes a 2 s stall instant).
     status : text stream or None
         Where the live status line goes (stderr in the CLI).
+    tracker : StairTracker or None, optional
+        Fuses the frames into one staircase (issue 14); by default one with the pipeline
+        config's ``tracking`` section when ``tracking.enabled`` (the default), else none
+        (single frames). Once its track is confirmed (or coasting) the messages carry the
+        tracked staircase and the swing trigger follows it; before that the messages carry
+        the frame's model and the trigger sees nothing ahead.
     """
 
     def __init__(
@@ -181,6 +190,7 @@ class LiveLoop:
         sleep: Callable[[float], None] = time.sleep,
         status: TextIO | None = None,
         on_result: Callable[[StereoFrame, TerrainResult], None] | None = None,
+        tracker: StairTracker | None = None,
     ) -> None:
         self.config = config or LoopConfig()
         self.capture = capture
@@ -193,6 +203,12 @@ class LiveLoop:
         self.sleep = sleep
         self.status = status
         self.on_result = on_result
+        tracking = pipeline.config.tracking
+        self.tracker = (
+            tracker if tracker is not None else (StairTracker(tracking) if tracking.enabled else None)
+        )
+        self._last_model: StairModel | None = None  # what the last message carried
+        self._last_track_state = TRACK_NONE
         self.summary = LoopSummary()
         self.epoch_offset_s = time.time() - time.monotonic() if clock is time.monotonic else 0.0
         self._quality = 0
@@ -319,9 +335,15 @@ class LiveLoop:
             self._last_failure = exc
             self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
-        trig = self.trigger.update(
-            odo, result.terrain, camera_z_m=float(result.T_yaw_camera_rect.translation[2])
-        )
+        model, track_state, ahead = result.terrain, TRACK_NONE, result.terrain
+        if self.tracker is not None:
+            tracked = self.tracker.update(result.terrain, odo, frame.t_capture_s)
+            track_state = tracked.state
+            if tracked.established and tracked.model is not None:
+                model = ahead = tracked.model
+            else:  # nothing confirmed ahead yet: the trigger waits for the track
+                ahead = dataclasses.replace(result.terrain, obstacle=NO_OBSTACLE, steps=())
+        trig = self.trigger.update(odo, ahead, camera_z_m=float(result.T_yaw_camera_rect.translation[2]))
         now = self.clock()
         latency = now - frame.t_capture_s
         if self._stalled_since is not None:
@@ -333,7 +355,7 @@ class LiveLoop:
         if odo is None:
             quality |= terrain_t.QUALITY_POSE_MISSING
         msg = terrain_message(
-            result.terrain,
+            model,
             trig,
             capture_s=frame.t_capture_s,
             publish_s=now,
@@ -343,8 +365,10 @@ class LiveLoop:
             quality=quality,
             stale=latency > self.config.stall_timeout_s,
             epoch_offset_s=self.epoch_offset_s,
+            track_state=track_state,
         )
         self.publish(msg)
+        self._last_model, self._last_track_state = model, track_state
         self._quality = 0
         self._unusable_run, self._unusable_detail = 0, ""
         s = self.summary
@@ -379,7 +403,7 @@ class LiveLoop:
         capture = self._last_capture if self._last_capture is not None else self._last_fresh
         assert capture is not None
         msg = terrain_message(
-            None if result is None else result.terrain,
+            self._last_model,
             trig,
             capture_s=capture,
             publish_s=now,
@@ -389,6 +413,7 @@ class LiveLoop:
             quality=self._quality | (terrain_t.QUALITY_POSE_MISSING if odo is None else 0),
             stale=True,
             epoch_offset_s=self.epoch_offset_s,
+            track_state=self._last_track_state,
         )
         self.publish(msg)
         self.summary.published += 1
