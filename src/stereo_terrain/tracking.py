@@ -79,6 +79,12 @@ class TrackingConfig:
         A track no frame supports for this long is dropped.
     max_steps : int
         Largest number of tracked steps.
+    shared_error_fraction : float
+        Share of a frame's error variance that every frame of one staircase has in common
+        (the same faces seen from nearly the same place: fusing frames does not reduce
+        it); the tracked sigmas keep this share of the best frame's variance. Measured on
+        the simulated approaches (``benchmarks/bench_tracking.py``): the per-approach
+        mean error is about half the single-frame sigma, a share near 0.25.
     """
 
     enabled: bool = True
@@ -97,6 +103,7 @@ class TrackingConfig:
     new_track_frames: int = 4
     drop_after_s: float = 2.0
     max_steps: int = 20
+    shared_error_fraction: float = 0.25
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -115,6 +122,10 @@ class TrackingConfig:
                 raise ConfigError(f"TrackingConfig.{name} must be >= 0, got {getattr(self, name)}")
         if self.min_gate_m > self.max_gate_m:
             raise ConfigError("TrackingConfig needs min_gate_m <= max_gate_m")
+        if not 0 <= self.shared_error_fraction <= 1:
+            raise ConfigError(
+                f"TrackingConfig.shared_error_fraction must be in [0, 1], got {self.shared_error_fraction}"
+            )
         if self.max_inflation < 1:
             raise ConfigError(f"TrackingConfig.max_inflation must be >= 1, got {self.max_inflation}")
         for name in ("confirm_frames", "tentative_misses", "new_track_frames", "max_steps"):
@@ -256,14 +267,25 @@ def _measure(model: StairModel, odo: Odometry | None, yaw_w: float | None) -> _M
 class _Track:
     """The fused state of one staircase (world frame)."""
 
-    def __init__(self, m: _Measured, t_s: float, xy: np.ndarray, track_id: int) -> None:
-        self.s = m.s.copy()
-        self.P = np.diag(m.s_sigma**2)
+    def __init__(self, m: _Measured, t_s: float, xy: np.ndarray, track_id: int, cfg: TrackingConfig) -> None:
+        # State: the risers' positions and, last, the odometry's drift rate (metres of
+        # apparent riser motion per metre travelled: a scale error of the odometry).
+        n = len(m.s)
+        self.x = np.append(m.s, 0.0)
+        self.P = np.zeros((n + 1, n + 1))
+        self.P[:n, :n] = np.diag(m.s_sigma**2)
+        self.P[n, n] = cfg.drift_fraction**2 + 1e-8
         self.rise = m.rise.copy()
         self.rise_var = m.rise_sigma**2
         self.width = [w for w in m.width]
         self.width_var = [None if w is None else w * w for w in m.width_sigma]
         self.yaw, self.yaw_var = m.yaw, m.yaw_sigma**2
+        # The smallest variance each quantity was measured with: a share of it
+        # (``shared_error_fraction``) is common to every frame and does not average out.
+        self.rise_floor = m.rise_sigma**2
+        self.pos_floor = m.s_sigma**2
+        self.width_floor = [None if w is None else w * w for w in m.width_sigma]
+        self.yaw_floor = m.yaw_sigma**2
         self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
         self.counts = np.ones(len(self.s), dtype=int)
         self.hits, self.misses, self.outliers = 1, 0, 0
@@ -271,14 +293,28 @@ class _Track:
         self.last_xy = xy.copy()  # body position at the last prediction
         self.fused_xy = xy.copy()  # ... and at the last fused frame
         self.track_id = track_id
+        self.rival_hits = 0  # as a candidate: the track's supporting frames when it started
 
     # -------------------------------------------------------------- prediction
 
+    @property
+    def s(self) -> np.ndarray:
+        """Riser positions along the stair axis (world frame)."""
+        return self.x[:-1]
+
     def predict(self, xy: np.ndarray, cfg: TrackingConfig, have_odometry: bool) -> None:
-        """Odometry drift since the last prediction: a common shift of every riser."""
+        """Odometry drift since the last prediction: every riser moves by the drift rate
+        times the distance travelled (one common shift), plus what the rate does not
+        explain (a quarter of ``drift_fraction``) and a slow change of the rate."""
         travel = float(np.linalg.norm(xy - self.last_xy))
-        q = cfg.drift_fraction * travel + 1e-4 if have_odometry else cfg.max_gate_m
-        self.P = self.P + q * q * np.ones_like(self.P)
+        n = len(self.s)
+        F = np.eye(n + 1)
+        F[:n, n] = travel
+        self.x = F @ self.x
+        self.P = F @ self.P @ F.T
+        q = 0.25 * cfg.drift_fraction * travel + 1e-4 if have_odometry else cfg.max_gate_m
+        self.P[:n, :n] += q * q
+        self.P[n, n] += (0.2 * cfg.drift_fraction) ** 2 * travel
         self.yaw_var += (cfg.yaw_drift_rad_per_m * travel) ** 2
         self.last_xy = xy.copy()
 
@@ -334,13 +370,14 @@ class _Track:
         # Riser positions: one Kalman update over every matched riser.
         js = [j for j, _ in pairs]
         ks = [k for _, k in pairs]
-        H = np.zeros((len(pairs), len(self.s)))
+        H = np.zeros((len(pairs), len(self.x)))
         H[np.arange(len(pairs)), ks] = 1.0
         R = np.diag(m.s_sigma[js] ** 2 * inflation)
         S = H @ self.P @ H.T + R
         K = self.P @ H.T @ np.linalg.inv(S)
-        self.s = self.s + K @ (m.s[js] - self.s[ks])
-        self.P = (np.eye(len(self.s)) - K @ H) @ self.P
+        self.x = self.x + K @ (m.s[js] - self.s[ks])
+        IKH = np.eye(len(self.x)) - K @ H
+        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
         self.P = 0.5 * (self.P + self.P.T)
         shift = float(np.mean(self.s[ks] - m.s[js]))  # the frame's offset from the track
         for j, k in pairs:
@@ -348,6 +385,7 @@ class _Track:
                 self.rise[k], self.rise_var[k] = _fuse(
                     self.rise[k], self.rise_var[k], m.rise[j], m.rise_sigma[j] ** 2 * inflation
                 )
+                self.rise_floor[k] = min(self.rise_floor[k], m.rise_sigma[j] ** 2)
                 self.counts[k] += 1
             w, ws = m.width[j], m.width_sigma[j]
             if w is not None and ws is not None:
@@ -356,7 +394,12 @@ class _Track:
                     self.width[k], self.width_var[k] = w, ws * ws
                 else:
                     self.width[k], self.width_var[k] = _fuse(old, old_var, w, ws * ws * inflation)
+                floor = self.width_floor[k]
+                self.width_floor[k] = ws * ws if floor is None else min(floor, ws * ws)
         self.yaw, self.yaw_var = _fuse_angle(self.yaw, self.yaw_var, m.yaw, m.yaw_sigma**2 * inflation)
+        self.yaw_floor = min(self.yaw_floor, m.yaw_sigma**2)
+        for j, k in pairs:
+            self.pos_floor[k] = min(self.pos_floor[k], m.s_sigma[j] ** 2)
         if offset == 0:  # the frame's ground is the track's
             self.ground, self.ground_var = _fuse(
                 self.ground, self.ground_var, m.ground_z, m.ground_sigma**2 * inflation
@@ -377,49 +420,53 @@ class _Track:
         self.fused_xy = xy.copy()
 
     def _insert(self, at: int, m: _Measured, j: int, shift: float) -> None:
-        n = len(self.s)
+        n = len(self.x)  # risers and the drift rate
         P = np.zeros((n + 1, n + 1))
         keep = [i for i in range(n + 1) if i != at]
         P[np.ix_(keep, keep)] = self.P
-        P[at, at] = m.s_sigma[j] ** 2 + (float(np.min(np.diag(self.P))) if n else 0.0)
+        P[at, at] = m.s_sigma[j] ** 2 + float(np.min(np.diag(self.P)[:-1]))
         self.P = P
-        self.s = np.insert(self.s, at, m.s[j] + shift)
+        self.x = np.insert(self.x, at, m.s[j] + shift)
         self.rise = np.insert(self.rise, at, m.rise[j])
         self.rise_var = np.insert(self.rise_var, at, m.rise_sigma[j] ** 2)
+        self.rise_floor = np.insert(self.rise_floor, at, m.rise_sigma[j] ** 2)
+        self.pos_floor = np.insert(self.pos_floor, at, m.s_sigma[j] ** 2)
         self.width.insert(at, m.width[j])
         ws = m.width_sigma[j]
         self.width_var.insert(at, None if ws is None else ws * ws)
+        self.width_floor.insert(at, None if ws is None else ws * ws)
         self.counts = np.insert(self.counts, at, 1)
 
     # -------------------------------------------------------------- output
 
-    def summary(self, state: str, odo: Odometry | None) -> TrackedStaircase:
+    def summary(self, state: str, odo: Odometry | None, cfg: TrackingConfig) -> TrackedStaircase:
+        c = cfg.shared_error_fraction
         steps = []
         n = len(self.s)
+        rise_var = self.rise_var + c * self.rise_floor
         for k in range(n):
             run = run_sigma = None
             if k + 1 < n:
                 run = float(self.s[k + 1] - self.s[k])
                 var = self.P[k, k] + self.P[k + 1, k + 1] - 2.0 * self.P[k, k + 1]
-                run_sigma = math.sqrt(max(var, 0.0))
-            w, wv = self.width[k], self.width_var[k]
+                run_sigma = math.sqrt(max(var, 0.0) + c * (self.pos_floor[k] + self.pos_floor[k + 1]))
+            w, wv, wf = self.width[k], self.width_var[k], self.width_floor[k]
+            width_sigma = None if wv is None else math.sqrt(wv + c * (wf or 0.0))
             steps.append(
                 TrackedStep(
-                    float(self.rise[k]), math.sqrt(self.rise_var[k]), run, run_sigma,
-                    float(self.s[k]), math.sqrt(max(self.P[k, k], 0.0)),
-                    None if w is None else float(w), None if wv is None else math.sqrt(wv),
-                    int(self.counts[k]),
+                    float(self.rise[k]), math.sqrt(rise_var[k]), run, run_sigma,
+                    float(self.s[k]), math.sqrt(max(self.P[k, k], 0.0) + c * self.pos_floor[k]),
+                    None if w is None else float(w), width_sigma, int(self.counts[k]),
                 )
             )  # fmt: skip
-        landing = float(np.sum(self.rise))
         tracked = TrackedStaircase(
             state=state,
             steps=tuple(steps),
             yaw_rad=float(self.yaw),
-            yaw_sigma_rad=math.sqrt(self.yaw_var),
+            yaw_sigma_rad=math.sqrt(self.yaw_var + c * self.yaw_floor),
             ground_z_m=float(self.ground),
-            landing_height_m=landing,
-            landing_sigma_m=math.sqrt(float(np.sum(self.rise_var))),
+            landing_height_m=float(np.sum(self.rise)),
+            landing_sigma_m=math.sqrt(float(np.sum(rise_var))),
             frames=self.hits,
             outliers=self.outliers,
             last_support_s=self.last_support_s,
@@ -506,7 +553,7 @@ class StairTracker:
 
     def _new(self, m: _Measured, t_s: float, xy: np.ndarray) -> _Track:
         self._ids += 1
-        return _Track(m, t_s, xy, self._ids)
+        return _Track(m, t_s, xy, self._ids, self.config)
 
     def update(self, model: StairModel | None, odometry: Odometry | None, t_s: float) -> TrackedStaircase:
         """Advance by one frame; returns the tracked staircase (``model`` in the body's yaw
@@ -526,21 +573,24 @@ class StairTracker:
                 if got is not None:
                     track.update(m, got[0], got[1], xy, t_s, cfg)
                     supported = True
-                    self._candidate = None
                 else:
                     track.outliers += 1
-                    self._feed_candidate(model, odometry, t_s, xy)
+                    self._feed_candidate(model, odometry, t_s, xy, track.hits)
             if not supported:
                 track.misses += 1
         elif seen:
             assert model is not None
             self._track = track = self._new(_measure(model, odometry, None), t_s, xy)
             supported = True
-        # A candidate confirmed while the track went unsupported: the stairs changed.
+        # A candidate that more frames supported than the track since it started: the
+        # stairs changed, or the track started from a bad frame.
         cand = self._candidate
-        if cand is not None and cand.hits >= cfg.new_track_frames and not supported:
-            self._track, self._candidate = cand, None
-            track, supported = cand, True
+        if cand is not None and track is not None:
+            if t_s - cand.last_support_s > cfg.drop_after_s:
+                self._candidate = cand = None
+            elif cand.hits >= cfg.new_track_frames and cand.hits > track.hits - cand.rival_hits:
+                self._track, self._candidate = cand, None
+                track, supported = cand, cand.last_support_s == t_s
         if track is not None:
             tentative = track.hits < cfg.confirm_frames
             if (tentative and track.misses >= cfg.tentative_misses) or (
@@ -554,21 +604,21 @@ class StairTracker:
             state = TRACK_TENTATIVE
         else:
             state = TRACK_CONFIRMED if supported else TRACK_COASTING
-        self._last = track.summary(state, odometry)
+        self._last = track.summary(state, odometry, cfg)
         return self._last
 
     def _feed_candidate(
-        self, model: StairModel, odometry: Odometry | None, t_s: float, xy: np.ndarray
+        self, model: StairModel, odometry: Odometry | None, t_s: float, xy: np.ndarray, track_hits: int
     ) -> None:
+        """An outlier frame of the track: it supports the candidate track, or starts one."""
         cfg = self.config
         cand = self._candidate
-        if cand is None:
-            self._candidate = self._new(_measure(model, odometry, None), t_s, xy)
-            return
-        cand.predict(xy, cfg, odometry is not None)
-        m = _measure(model, odometry, cand.yaw)
-        got = cand.associate(m, cfg)
-        if got is None:
-            self._candidate = self._new(_measure(model, odometry, None), t_s, xy)
-        else:
-            cand.update(m, got[0], got[1], xy, t_s, cfg)
+        if cand is not None:
+            cand.predict(xy, cfg, odometry is not None)
+            m = _measure(model, odometry, cand.yaw)
+            got = cand.associate(m, cfg)
+            if got is not None:
+                cand.update(m, got[0], got[1], xy, t_s, cfg)
+                return
+        self._candidate = cand = self._new(_measure(model, odometry, None), t_s, xy)
+        cand.rival_hits = track_hits  # the track's support when the candidate started

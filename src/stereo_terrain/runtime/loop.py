@@ -26,7 +26,7 @@ from ..checks import check_fields
 from ..errors import ConfigError, InputError, StereoTerrainError
 from ..frames import Rig
 from ..pipeline import Pipeline, TerrainResult
-from ..swing import Odometry, SwingTrigger
+from ..swing import Odometry, SwingTrigger, TriggerState
 from ..terrain import NONE as NO_OBSTACLE
 from ..terrain import StairModel
 from ..tracking import TRACK_NONE, StairTracker
@@ -148,6 +148,32 @@ def rig_pose(rig: Rig | None) -> PoseProvider:
         return None, (None if rig is None else rig.body_rpy)
 
     return pose
+
+
+def track_and_trigger(
+    tracker: StairTracker | None,
+    trigger: SwingTrigger,
+    terrain: StairModel,
+    odometry: Odometry | None,
+    t_s: float,
+    *,
+    camera_z_m: float | None = None,
+) -> tuple[StairModel, str, TriggerState]:
+    """One frame's terrain through the tracker (when there is one) and the swing trigger.
+
+    Returns the model to publish (the tracked staircase while there is a track, also a
+    tentative one, else the frame's), the track state and the trigger's decision. With a
+    tracker, the trigger sees only an established (confirmed or coasting) track, and
+    nothing ahead before that.
+    """
+    if tracker is None:
+        return terrain, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m)
+    tracked = tracker.update(terrain, odometry, t_s)
+    model = terrain if tracked.model is None else tracked.model
+    ahead = model
+    if not tracked.established:  # nothing confirmed ahead yet: the trigger waits for the track
+        ahead = dataclasses.replace(terrain, obstacle=NO_OBSTACLE, steps=())
+    return model, tracked.state, trigger.update(odometry, ahead, camera_z_m=camera_z_m)
 
 
 class LiveLoop:
@@ -335,15 +361,14 @@ class LiveLoop:
             self._last_failure = exc
             self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
-        model, track_state, ahead = result.terrain, TRACK_NONE, result.terrain
-        if self.tracker is not None:
-            tracked = self.tracker.update(result.terrain, odo, frame.t_capture_s)
-            track_state = tracked.state
-            if tracked.established and tracked.model is not None:
-                model = ahead = tracked.model
-            else:  # nothing confirmed ahead yet: the trigger waits for the track
-                ahead = dataclasses.replace(result.terrain, obstacle=NO_OBSTACLE, steps=())
-        trig = self.trigger.update(odo, ahead, camera_z_m=float(result.T_yaw_camera_rect.translation[2]))
+        model, track_state, trig = track_and_trigger(
+            self.tracker,
+            self.trigger,
+            result.terrain,
+            odo,
+            frame.t_capture_s,
+            camera_z_m=float(result.T_yaw_camera_rect.translation[2]),
+        )
         now = self.clock()
         latency = now - frame.t_capture_s
         if self._stalled_since is not None:
