@@ -119,13 +119,16 @@ def summarize(per_approach: list[dict[str, list]]) -> dict[str, dict[str, float]
         a = np.array([r[:4] for rows in per_approach for r in rows[mode]], dtype=float)
         ok = np.isfinite(a[:, 0])
         a = a[ok]
-        jit_r, jit_d = [], []
+        jit_r, jit_d, f2f_r, f2f_d = [], [], [], []
         for rows in per_approach:
             b = np.array([r[:4] for r in rows[mode]], dtype=float)
             b = b[np.isfinite(b[:, 0])]
             if len(b) > 2:
                 jit_r.append(np.std(b[:, 0]))
                 jit_d.append(np.std(b[:, 2]))
+                # frame to frame: the change between consecutive frames, rms / sqrt(2)
+                f2f_r.append(np.sqrt(np.mean(np.diff(b[:, 0]) ** 2) / 2))
+                f2f_d.append(np.sqrt(np.mean(np.diff(b[:, 2]) ** 2) / 2))
         out[mode] = {
             "frames": int(len(a)),
             "rise_med_cm": 100 * float(np.median(np.abs(a[:, 0]))),
@@ -134,11 +137,20 @@ def summarize(per_approach: list[dict[str, list]]) -> dict[str, dict[str, float]
             "dist_p90_cm": 100 * float(np.percentile(np.abs(a[:, 2]), 90)),
             "rise_jitter_cm": 100 * float(np.median(jit_r)),
             "dist_jitter_cm": 100 * float(np.median(jit_d)),
+            "rise_f2f_cm": 100 * float(np.median(f2f_r)),
+            "dist_f2f_cm": 100 * float(np.median(f2f_d)),
             "rise_cov": float(np.mean(np.abs(a[:, 0]) <= 2 * a[:, 1])),
             "dist_cov": float(np.mean(np.abs(a[:, 2]) <= 2 * a[:, 3])),
             "flips": int(sum(flips(rows[mode], mode == "tracked") for rows in per_approach)),
         }
     return out
+
+
+def _brief(m: dict[str, float]) -> str:
+    return (
+        f"[rise err {m['rise_med_cm']:.2f} jit {m['rise_f2f_cm']:.2f} cov {m['rise_cov']:.0%}; "
+        f"dist err {m['dist_med_cm']:.2f} jit {m['dist_f2f_cm']:.2f} cov {m['dist_cov']:.0%}]"
+    )
 
 
 def main() -> None:
@@ -156,13 +168,13 @@ def main() -> None:
         )  # fmt: skip
         rows = run_approach(cfg, noise)
         per.append(rows)
-        s = summarize([rows])
-        cov = f"cov rise {s['single']['rise_cov']:.0%}->{s['tracked']['rise_cov']:.0%} dist {s['single']['dist_cov']:.0%}->{s['tracked']['dist_cov']:.0%}"
+        one = summarize([rows])
         print(
             f"rise {rise:.2f} yaw {yaw_deg:4.1f} drift {100 * drift:+.0f}% {size[0]}x{size[1]}: "
-            f"{len(rows['single'])} frames; rise jitter {s['single']['rise_jitter_cm']:.2f} -> "
-            f"{s['tracked']['rise_jitter_cm']:.2f} cm, distance jitter {s['single']['dist_jitter_cm']:.2f} -> "
-            f"{s['tracked']['dist_jitter_cm']:.2f} cm",
+            f"{len(rows['single'])} frames; single -> tracked: "
+            + _brief(one["single"])
+            + " -> "
+            + _brief(one["tracked"]),
             flush=True,
         )
     s = summarize(per)
@@ -175,6 +187,8 @@ def main() -> None:
         ("dist_p90_cm", "distance error p90 (cm)", "{:.2f}"),
         ("rise_jitter_cm", "rise jitter, std over frames (cm)", "{:.2f}"),
         ("dist_jitter_cm", "distance jitter, std over frames (cm)", "{:.2f}"),
+        ("rise_f2f_cm", "rise jitter, frame to frame (cm)", "{:.2f}"),
+        ("dist_f2f_cm", "distance jitter, frame to frame (cm)", "{:.2f}"),
         ("rise_cov", "rise coverage, abs(error) <= 2 sigma", "{:.0%}"),
         ("dist_cov", "distance coverage, abs(error) <= 2 sigma", "{:.0%}"),
         ("flips", "swing-decision flips", "{:d}"),
@@ -182,7 +196,7 @@ def main() -> None:
     print("| | single frames | tracked |\n| --- | --- | --- |")
     for key, label, fmt in keys:
         print(f"| {label} | {fmt.format(s['single'][key])} | {fmt.format(s['tracked'][key])} |")
-    for key in ("rise_jitter_cm", "dist_jitter_cm"):
+    for key in ("rise_jitter_cm", "dist_jitter_cm", "rise_f2f_cm", "dist_f2f_cm"):
         ratio = s["single"][key] / max(s["tracked"][key], 1e-9)
         print(f"{key}: single / tracked = {ratio:.1f}x")
     if noise:

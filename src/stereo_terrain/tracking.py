@@ -79,6 +79,14 @@ class TrackingConfig:
         A track no frame supports for this long is dropped.
     max_steps : int
         Largest number of tracked steps.
+    min_run_m : float
+        A step is added to the track only this far beyond its last (or before its first).
+    min_visible_m : float
+        A tracked riser nearer than this (along the stair axis) may have left the view: a
+        frame that does not see it does not count against it.
+    step_misses : int
+        Frames in a row that should have seen a tracked riser and did not, before it is
+        removed (a riser a bad frame made up).
     shared_error_fraction : float
         Share of a frame's error variance that every frame of one staircase has in common
         (the same faces seen from nearly the same place: fusing frames does not reduce
@@ -104,6 +112,9 @@ class TrackingConfig:
     drop_after_s: float = 2.0
     max_steps: int = 20
     shared_error_fraction: float = 0.25
+    min_visible_m: float = 0.9
+    min_run_m: float = 0.1
+    step_misses: int = 3
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -128,7 +139,9 @@ class TrackingConfig:
             )
         if self.max_inflation < 1:
             raise ConfigError(f"TrackingConfig.max_inflation must be >= 1, got {self.max_inflation}")
-        for name in ("confirm_frames", "tentative_misses", "new_track_frames", "max_steps"):
+        if self.min_visible_m < 0 or self.min_run_m < 0:
+            raise ConfigError("TrackingConfig.min_visible_m and min_run_m must be >= 0")
+        for name in ("confirm_frames", "tentative_misses", "new_track_frames", "max_steps", "step_misses"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"TrackingConfig.{name} must be >= 1, got {getattr(self, name)}")
 
@@ -144,7 +157,8 @@ class TrackedStep:
         From this riser to the next; None for the last step (the landing's depth is not
         tracked).
     position_m, position_sigma_m : float
-        Riser along the stair axis in the world frame (``u . p_world``).
+        Riser along the stair axis in the world frame, from the track's anchor
+        (``u . (p_world - anchor)``).
     width_m, width_sigma_m : float or None
         None until a frame saw the whole riser.
     frames : int
@@ -184,6 +198,9 @@ class TrackedStaircase:
     last_support_s : float
     track_id : int
         Counts the tracks started (a new staircase gets a new id).
+    anchor_xy_m : (2,) float
+        World (x, y) the riser positions count from (where the body's x axis met the first
+        riser when the track started).
     model : StairModel or None
         The track in the current yaw frame (distances from the body now), None without a
         track.
@@ -200,6 +217,7 @@ class TrackedStaircase:
     outliers: int = 0
     last_support_s: float = math.nan
     track_id: int = 0
+    anchor_xy_m: tuple[float, float] = (0.0, 0.0)
     model: StairModel | None = field(default=None, repr=False)
 
     @property
@@ -240,16 +258,24 @@ class _Measured:
     ground_sigma: float
 
 
-def _measure(model: StairModel, odo: Odometry | None, yaw_w: float | None) -> _Measured:
-    """``model``'s steps in the world frame, along the axis of ``yaw_w`` (the model's own
-    when None). Unknown sigmas become 5 cm (rises: 2 cm), so that a model without them
-    still fuses, weakly."""
+def _first_riser_point(model: StairModel, odo: Odometry | None) -> np.ndarray:
+    """World (x, y) where the body's x axis meets the model's first riser."""
+    xy, _, body_yaw = _pose(odo)
+    return xy + model.steps[0].distance_m * np.array([math.cos(body_yaw), math.sin(body_yaw)])
+
+
+def _measure(model: StairModel, odo: Odometry | None, yaw_w: float | None, anchor: np.ndarray) -> _Measured:
+    """``model``'s steps in the world frame: positions along the axis of ``yaw_w`` (the
+    model's own when None) from the point ``anchor`` (world x, y), so that a change of the
+    yaw estimate turns the risers about a point near them, not about the world origin.
+    Unknown sigmas become 5 cm (rises: 2 cm), so that a model without them still fuses,
+    weakly."""
     xy, z, body_yaw = _pose(odo)
     yaw_meas = _wrap(model.yaw_rad + body_yaw)
     yaw = yaw_meas if yaw_w is None else yaw_w
     u = np.array([math.cos(yaw), math.sin(yaw)])
     rel = _wrap(yaw - body_yaw)
-    base = float(u @ xy)
+    base = float(u @ (xy - anchor))
     steps = model.steps
     s = np.array([base + st.distance_m * math.cos(rel) for st in steps])
     s_sig = np.array([_finite(st.distance_sigma_m, 0.05) * abs(math.cos(rel)) for st in steps])
@@ -267,7 +293,10 @@ def _measure(model: StairModel, odo: Odometry | None, yaw_w: float | None) -> _M
 class _Track:
     """The fused state of one staircase (world frame)."""
 
-    def __init__(self, m: _Measured, t_s: float, xy: np.ndarray, track_id: int, cfg: TrackingConfig) -> None:
+    def __init__(
+        self, m: _Measured, anchor: np.ndarray, t_s: float, xy: np.ndarray, track_id: int, cfg: TrackingConfig
+    ) -> None:
+        self.anchor = anchor  # world (x, y) the riser positions are measured from
         # State: the risers' positions and, last, the odometry's drift rate (metres of
         # apparent riser motion per metre travelled: a scale error of the odometry).
         n = len(m.s)
@@ -288,6 +317,7 @@ class _Track:
         self.yaw_floor = m.yaw_sigma**2
         self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
         self.counts = np.ones(len(self.s), dtype=int)
+        self.step_misses = np.zeros(len(self.s), dtype=int)
         self.hits, self.misses, self.outliers = 1, 0, 0
         self.last_support_s = t_s
         self.last_xy = xy.copy()  # body position at the last prediction
@@ -405,19 +435,52 @@ class _Track:
                 self.ground, self.ground_var, m.ground_z, m.ground_sigma**2 * inflation
             )
         # Steps the track does not have yet: after its last, or before its first.
+        # (in order along the axis, a run apart at least)
         for j in range(len(m.s)):
             k = j + offset
-            if k >= len(self.s) and len(self.s) < cfg.max_steps and k == len(self.s):
+            if k == len(self.s) < cfg.max_steps and m.s[j] + shift > self.s[-1] + cfg.min_run_m:
                 self._insert(len(self.s), m, j, shift)
+        added = 0
         for j in range(len(m.s) - 1, -1, -1):
-            if j + offset < 0 and len(self.s) < cfg.max_steps:
+            if j + offset < 0 and len(self.s) < cfg.max_steps and m.s[j] + shift < self.s[0] - cfg.min_run_m:
                 self._insert(0, m, j, shift)
+                added += 1
+        self._count_step_misses([k + added for k in ks], xy, cfg)
         if offset < 0:  # a nearer riser than the track's first: the frame's ground is before it
             self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
         self.hits += 1
         self.misses = 0
         self.last_support_s = t_s
         self.fused_xy = xy.copy()
+
+    def _count_step_misses(self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig) -> None:
+        """A tracked riser that a frame should have seen and did not (between two it
+        matched, or nearer than those and still far enough to be in view) is missed; one
+        missed ``step_misses`` frames in a row was never there (a bad frame started it)
+        and is removed."""
+        lo, hi = min(ks), max(ks)
+        u = np.array([math.cos(self.yaw), math.sin(self.yaw)])
+        here = float(u @ (xy - self.anchor))
+        for k in range(len(self.s)):
+            if k in ks:
+                self.step_misses[k] = 0
+            elif lo < k < hi or (k < lo and self.s[k] - here > cfg.min_visible_m):
+                self.step_misses[k] += 1
+        gone = [k for k in range(len(self.s)) if self.step_misses[k] >= cfg.step_misses]
+        for k in reversed(gone):
+            if len(self.s) > 1:
+                self._remove(k)
+
+    def _remove(self, k: int) -> None:
+        keep = [i for i in range(len(self.x)) if i != k]
+        self.x = self.x[keep]
+        self.P = self.P[np.ix_(keep, keep)]
+        if k == 0:  # the ground before the first step was the removed riser's: re-learn it
+            self.ground_var = max(self.ground_var, 1.0)
+        for name in ("rise", "rise_var", "rise_floor", "pos_floor", "counts", "step_misses"):
+            setattr(self, name, np.delete(getattr(self, name), k))
+        for name in ("width", "width_var", "width_floor"):
+            getattr(self, name).pop(k)
 
     def _insert(self, at: int, m: _Measured, j: int, shift: float) -> None:
         n = len(self.x)  # risers and the drift rate
@@ -436,6 +499,7 @@ class _Track:
         self.width_var.insert(at, None if ws is None else ws * ws)
         self.width_floor.insert(at, None if ws is None else ws * ws)
         self.counts = np.insert(self.counts, at, 1)
+        self.step_misses = np.insert(self.step_misses, at, 0)
 
     # -------------------------------------------------------------- output
 
@@ -471,6 +535,7 @@ class _Track:
             outliers=self.outliers,
             last_support_s=self.last_support_s,
             track_id=self.track_id,
+            anchor_xy_m=(float(self.anchor[0]), float(self.anchor[1])),
         )
         return dataclasses.replace(tracked, model=tracked_model(tracked, odo))
 
@@ -497,7 +562,7 @@ def tracked_model(track: TrackedStaircase, odometry: Odometry | None, frame: str
     c = math.cos(rel)
     c_safe = c if abs(c) > 0.2 else math.copysign(0.2, c or 1.0)
     u_w = np.array([math.cos(track.yaw_rad), math.sin(track.yaw_rad)])
-    base = float(u_w @ xy)
+    base = float(u_w @ (xy - np.asarray(track.anchor_xy_m)))
     u = np.array([math.cos(rel), math.sin(rel), 0.0])
     ground = track.ground_z_m - z
     steps = []
@@ -551,9 +616,11 @@ class StairTracker:
         """The latest result."""
         return self._last
 
-    def _new(self, m: _Measured, t_s: float, xy: np.ndarray) -> _Track:
+    def _new(self, model: StairModel, odometry: Odometry | None, t_s: float) -> _Track:
         self._ids += 1
-        return _Track(m, t_s, xy, self._ids, self.config)
+        anchor = _first_riser_point(model, odometry)
+        xy, _, _ = _pose(odometry)
+        return _Track(_measure(model, odometry, None, anchor), anchor, t_s, xy, self._ids, self.config)
 
     def update(self, model: StairModel | None, odometry: Odometry | None, t_s: float) -> TrackedStaircase:
         """Advance by one frame; returns the tracked staircase (``model`` in the body's yaw
@@ -568,7 +635,7 @@ class StairTracker:
             track.predict(xy, cfg, have_odo)
             if seen:
                 assert model is not None
-                m = _measure(model, odometry, track.yaw)
+                m = _measure(model, odometry, track.yaw, track.anchor)
                 got = track.associate(m, cfg)
                 if got is not None:
                     track.update(m, got[0], got[1], xy, t_s, cfg)
@@ -580,7 +647,7 @@ class StairTracker:
                 track.misses += 1
         elif seen:
             assert model is not None
-            self._track = track = self._new(_measure(model, odometry, None), t_s, xy)
+            self._track = track = self._new(model, odometry, t_s)
             supported = True
         # A candidate that more frames supported than the track since it started: the
         # stairs changed, or the track started from a bad frame.
@@ -615,10 +682,10 @@ class StairTracker:
         cand = self._candidate
         if cand is not None:
             cand.predict(xy, cfg, odometry is not None)
-            m = _measure(model, odometry, cand.yaw)
+            m = _measure(model, odometry, cand.yaw, cand.anchor)
             got = cand.associate(m, cfg)
             if got is not None:
                 cand.update(m, got[0], got[1], xy, t_s, cfg)
                 return
-        self._candidate = cand = self._new(_measure(model, odometry, None), t_s, xy)
+        self._candidate = cand = self._new(model, odometry, t_s)
         cand.rival_hits = track_hits  # the track's support when the candidate started
