@@ -76,6 +76,11 @@ class TerrainConfig:
         1-sigma of an edge found from the samples (a riser's top edge, a tread's front
         edge, a riser's lateral ends) in grid cells: the samples are a grid of
         ``stride_px`` pixels, so an edge is known to about a cell.
+    width_loss_cells : float
+        A riser's inliers stop up to this many grid cells short of each lateral end (local
+        normals there mix the riser with the side faces and the wall; the orientation
+        method's ``sample_radius_cells``), so its width is short by up to twice that: part
+        of ``width_sigma_m``.
     face_bias_correlation : float
         Correlation of the shared disparity error of neighbouring faces (a tread and the
         surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
@@ -101,11 +106,12 @@ class TerrainConfig:
     matching_window_px: float = 5.0
     edge_sigma_cells: float = 0.7
     face_bias_correlation: float = 0.9
+    width_loss_cells: float = 5.0
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "min_riser_points", "min_tread_points")
-        check_min(self, 0, "disparity_sigma_px", "disparity_bias_px", "edge_sigma_cells")
+        check_min(self, 0, "disparity_sigma_px", "disparity_bias_px", "edge_sigma_cells", "width_loss_cells")
         if not 0 <= self.face_bias_correlation <= 1:
             raise ConfigError(
                 f"TerrainConfig.face_bias_correlation must be in [0, 1], got {self.face_bias_correlation}"
@@ -699,6 +705,10 @@ def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) ->
 # --------------------------------------------------------------------------- uncertainty (issue 14)
 
 
+def _wrap_angle(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
 @dataclass(frozen=True)
 class _FaceError:
     """What the samples on one face say about its uncertainty."""
@@ -756,7 +766,8 @@ def estimate_step_sigmas(
     * the yaw: each riser's normal turns when its two ends move by their position sigma
       independently (``sqrt(2) sigma / extent``), and by its fit (spread over sqrt(n)
       and the lateral spread); the risers are combined as the stage combines them
-      (weighted by inliers).
+      (weighted by inliers), and their weighted spread about the stair yaw is added (a
+      riser plane fitted a few degrees off pulls the mean).
 
     Parameters
     ----------
@@ -820,7 +831,7 @@ def estimate_step_sigmas(
     positions: list[float] = []  # 1-sigma of each riser's position along the axis
     tops: list[tuple[float, float]] = []  # each step's top height: (independent var, bias coef)
     widths: list[float | None] = []
-    yaw_info: list[tuple[float, float]] = []  # (weight, 1-sigma of the riser normal's yaw)
+    yaw_info: list[tuple[float, float, float]] = []  # (weight, 1-sigma of the riser's yaw, its yaw)
     s_prev = -np.inf
     for i, st in enumerate(steps):
         s_next = steps[i + 1].axis_position_m if i + 1 < len(steps) else np.inf
@@ -847,7 +858,8 @@ def estimate_step_sigmas(
                     # itself adds its spread over sqrt(n) and the lateral spread.
                     turn = math.sqrt(2.0) * sig_pos / float(hi - lo)
                     fit = riser.rms_m / math.sqrt(riser.n_eff) / max(float(np.std(lat)), 1e-3)
-                    yaw_info.append((float(riser.count), math.hypot(turn, fit)))
+                    riser_yaw = math.atan2(-st.riser.normal[1], -st.riser.normal[0])
+                    yaw_info.append((float(riser.count), math.hypot(turn, fit), riser_yaw))
         elif tread_face is not None:  # at a tread's front edge: an edge on the ground grid
             ground_cell = cell_m(tread_face) / max(abs(float(tread_face.ray[2])), 0.1)
             sig_pos = math.hypot(config.edge_sigma_cells * ground_cell, shift_sigma(tread_face))
@@ -864,7 +876,10 @@ def estimate_step_sigmas(
         if st.width_m is None:
             widths.append(None)
         elif riser is not None:
-            widths.append(math.sqrt(2.0) * config.edge_sigma_cells * cell_m(riser))
+            # Two edges of the grid, and the inliers' shortfall at both ends (up to
+            # width_loss_cells each; uniform: 1/sqrt(3) of it as a sigma).
+            loss = 2.0 * config.width_loss_cells * cell_m(riser) / math.sqrt(3.0)
+            widths.append(math.hypot(math.sqrt(2.0) * config.edge_sigma_cells * cell_m(riser), loss))
         else:
             widths.append(math.nan)
         s_prev = s_pos
@@ -911,9 +926,14 @@ def estimate_step_sigmas(
             )
         )
     if yaw_info:
-        w = np.array([a for a, _ in yaw_info])
-        sig = np.array([b for _, b in yaw_info])
-        yaw_sigma = float(np.sqrt(np.sum((w / w.sum()) ** 2 * sig**2)))
+        w = np.array([a for a, _, _ in yaw_info])
+        w = w / w.sum()
+        sig = np.array([b for _, b, _ in yaw_info])
+        dev = np.array([_wrap_angle(c - model.yaw_rad) for _, _, c in yaw_info])
+        # The risers' own disagreement (one riser plane fitted a few degrees off pulls the
+        # weighted mean): their weighted spread about the stair yaw.
+        spread = float(np.sqrt(np.sum(w * dev**2)))
+        yaw_sigma = math.hypot(float(np.sqrt(np.sum(w**2 * sig**2))), spread)
     else:
         yaw_sigma = math.nan
     return dataclasses.replace(model, steps=tuple(out), yaw_sigma_rad=yaw_sigma)
