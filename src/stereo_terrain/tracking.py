@@ -90,9 +90,10 @@ class TrackingConfig:
     shared_error_fraction : float
         Share of a frame's error variance that every frame of one staircase has in common
         (the same faces seen from nearly the same place: fusing frames does not reduce
-        it); the tracked sigmas keep this share of the best frame's variance. Measured on
-        the simulated approaches (``benchmarks/bench_tracking.py``): the per-approach
-        mean error is about half the single-frame sigma, a share near 0.25.
+        it); the tracked sigmas keep this share of the fused frames' variance (weighted as
+        the fusion weighs them). On the simulated approaches
+        (``benchmarks/bench_tracking.py``) the mean error of an approach's frames is
+        about half their sigma, a share near 0.25.
     """
 
     enabled: bool = True
@@ -309,12 +310,12 @@ class _Track:
         self.width = [w for w in m.width]
         self.width_var = [None if w is None else w * w for w in m.width_sigma]
         self.yaw, self.yaw_var = m.yaw, m.yaw_sigma**2
-        # The smallest variance each quantity was measured with: a share of it
-        # (``shared_error_fraction``) is common to every frame and does not average out.
-        self.rise_floor = m.rise_sigma**2
-        self.pos_floor = m.s_sigma**2
-        self.width_floor = [None if w is None else w * w for w in m.width_sigma]
-        self.yaw_floor = m.yaw_sigma**2
+        # The error a share of which (``shared_error_fraction``) every frame has in common
+        # and fusing does not reduce, per quantity (see _Shared).
+        self.rise_floor = [_Shared(v) for v in m.rise_sigma]
+        self.pos_floor = [_Shared(v) for v in m.s_sigma]
+        self.width_floor = [None if w is None else _Shared(w) for w in m.width_sigma]
+        self.yaw_floor = _Shared(m.yaw_sigma)
         self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
         self.counts = np.ones(len(self.s), dtype=int)
         self.step_misses = np.zeros(len(self.s), dtype=int)
@@ -415,7 +416,7 @@ class _Track:
                 self.rise[k], self.rise_var[k] = _fuse(
                     self.rise[k], self.rise_var[k], m.rise[j], m.rise_sigma[j] ** 2 * inflation
                 )
-                self.rise_floor[k] = min(self.rise_floor[k], m.rise_sigma[j] ** 2)
+                self.rise_floor[k].add(m.rise_sigma[j])
                 self.counts[k] += 1
             w, ws = m.width[j], m.width_sigma[j]
             if w is not None and ws is not None:
@@ -425,11 +426,14 @@ class _Track:
                 else:
                     self.width[k], self.width_var[k] = _fuse(old, old_var, w, ws * ws * inflation)
                 floor = self.width_floor[k]
-                self.width_floor[k] = ws * ws if floor is None else min(floor, ws * ws)
+                if floor is None:
+                    self.width_floor[k] = _Shared(ws)
+                else:
+                    floor.add(ws)
         self.yaw, self.yaw_var = _fuse_angle(self.yaw, self.yaw_var, m.yaw, m.yaw_sigma**2 * inflation)
-        self.yaw_floor = min(self.yaw_floor, m.yaw_sigma**2)
+        self.yaw_floor.add(m.yaw_sigma)
         for j, k in pairs:
-            self.pos_floor[k] = min(self.pos_floor[k], m.s_sigma[j] ** 2)
+            self.pos_floor[k].add(m.s_sigma[j])
         if offset == 0:  # the frame's ground is the track's
             self.ground, self.ground_var = _fuse(
                 self.ground, self.ground_var, m.ground_z, m.ground_sigma**2 * inflation
@@ -477,9 +481,9 @@ class _Track:
         self.P = self.P[np.ix_(keep, keep)]
         if k == 0:  # the ground before the first step was the removed riser's: re-learn it
             self.ground_var = max(self.ground_var, 1.0)
-        for name in ("rise", "rise_var", "rise_floor", "pos_floor", "counts", "step_misses"):
+        for name in ("rise", "rise_var", "counts", "step_misses"):
             setattr(self, name, np.delete(getattr(self, name), k))
-        for name in ("width", "width_var", "width_floor"):
+        for name in ("width", "width_var", "width_floor", "rise_floor", "pos_floor"):
             getattr(self, name).pop(k)
 
     def _insert(self, at: int, m: _Measured, j: int, shift: float) -> None:
@@ -492,12 +496,12 @@ class _Track:
         self.x = np.insert(self.x, at, m.s[j] + shift)
         self.rise = np.insert(self.rise, at, m.rise[j])
         self.rise_var = np.insert(self.rise_var, at, m.rise_sigma[j] ** 2)
-        self.rise_floor = np.insert(self.rise_floor, at, m.rise_sigma[j] ** 2)
-        self.pos_floor = np.insert(self.pos_floor, at, m.s_sigma[j] ** 2)
+        self.rise_floor.insert(at, _Shared(m.rise_sigma[j]))
+        self.pos_floor.insert(at, _Shared(m.s_sigma[j]))
         self.width.insert(at, m.width[j])
         ws = m.width_sigma[j]
         self.width_var.insert(at, None if ws is None else ws * ws)
-        self.width_floor.insert(at, None if ws is None else ws * ws)
+        self.width_floor.insert(at, None if ws is None else _Shared(ws))
         self.counts = np.insert(self.counts, at, 1)
         self.step_misses = np.insert(self.step_misses, at, 0)
 
@@ -507,19 +511,20 @@ class _Track:
         c = cfg.shared_error_fraction
         steps = []
         n = len(self.s)
-        rise_var = self.rise_var + c * self.rise_floor
+        rise_var = self.rise_var + c * np.array([f.var for f in self.rise_floor])
+        pos_floor = [f.var for f in self.pos_floor]
         for k in range(n):
             run = run_sigma = None
             if k + 1 < n:
                 run = float(self.s[k + 1] - self.s[k])
                 var = self.P[k, k] + self.P[k + 1, k + 1] - 2.0 * self.P[k, k + 1]
-                run_sigma = math.sqrt(max(var, 0.0) + c * (self.pos_floor[k] + self.pos_floor[k + 1]))
+                run_sigma = math.sqrt(max(var, 0.0) + c * (pos_floor[k] + pos_floor[k + 1]))
             w, wv, wf = self.width[k], self.width_var[k], self.width_floor[k]
-            width_sigma = None if wv is None else math.sqrt(wv + c * (wf or 0.0))
+            width_sigma = None if wv is None else math.sqrt(wv + c * (0.0 if wf is None else wf.var))
             steps.append(
                 TrackedStep(
                     float(self.rise[k]), math.sqrt(rise_var[k]), run, run_sigma,
-                    float(self.s[k]), math.sqrt(max(self.P[k, k], 0.0) + c * self.pos_floor[k]),
+                    float(self.s[k]), math.sqrt(max(self.P[k, k], 0.0) + c * pos_floor[k]),
                     None if w is None else float(w), width_sigma, int(self.counts[k]),
                 )
             )  # fmt: skip
@@ -527,7 +532,7 @@ class _Track:
             state=state,
             steps=tuple(steps),
             yaw_rad=float(self.yaw),
-            yaw_sigma_rad=math.sqrt(self.yaw_var + c * self.yaw_floor),
+            yaw_sigma_rad=math.sqrt(self.yaw_var + c * self.yaw_floor.var),
             ground_z_m=float(self.ground),
             landing_height_m=float(np.sum(self.rise)),
             landing_sigma_m=math.sqrt(float(np.sum(rise_var))),
@@ -538,6 +543,27 @@ class _Track:
             anchor_xy_m=(float(self.anchor[0]), float(self.anchor[1])),
         )
         return dataclasses.replace(tracked, model=tracked_model(tracked, odo))
+
+
+class _Shared:
+    """The part of the frames' errors they all share, as fusion weighs them: with weights
+    ``1 / sigma_i**2``, a fully shared error of ``sigma_i`` in each frame gives the fused
+    value an error of ``sum(sigma_i / sigma_i**2) / sum(1 / sigma_i**2)``."""
+
+    __slots__ = ("_inv", "_inv2")
+
+    def __init__(self, sigma: float) -> None:
+        self._inv = self._inv2 = 0.0
+        self.add(sigma)
+
+    def add(self, sigma: float) -> None:
+        sigma = max(float(sigma), 1e-9)
+        self._inv += 1.0 / sigma
+        self._inv2 += 1.0 / (sigma * sigma)
+
+    @property
+    def var(self) -> float:
+        return (self._inv / self._inv2) ** 2
 
 
 def _fuse(x: float, var: float, z: float, z_var: float) -> tuple[float, float]:
