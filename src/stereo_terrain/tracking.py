@@ -86,7 +86,8 @@ class TrackingConfig:
         frame that does not see it does not count against it.
     step_misses : int
         Frames in a row that should have seen a tracked riser and did not, before it is
-        removed (a riser a bad frame made up).
+        removed (a riser a bad frame made up); at least one more than the frames that saw
+        it.
     shared_error_fraction : float
         Share of a frame's error variance that every frame of one staircase has in common
         (the same faces seen from nearly the same place: fusing frames does not reduce
@@ -460,8 +461,8 @@ class _Track:
     def _count_step_misses(self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig) -> None:
         """A tracked riser that a frame should have seen and did not (between two it
         matched, or nearer than those and still far enough to be in view) is missed; one
-        missed ``step_misses`` frames in a row was never there (a bad frame started it)
-        and is removed."""
+        missed ``step_misses`` frames in a row, and more often than frames saw it, was
+        never there (a bad frame made it up) and is removed."""
         lo, hi = min(ks), max(ks)
         u = np.array([math.cos(self.yaw), math.sin(self.yaw)])
         here = float(u @ (xy - self.anchor))
@@ -470,7 +471,9 @@ class _Track:
                 self.step_misses[k] = 0
             elif lo < k < hi or (k < lo and self.s[k] - here > cfg.min_visible_m):
                 self.step_misses[k] += 1
-        gone = [k for k in range(len(self.s)) if self.step_misses[k] >= cfg.step_misses]
+        gone = [
+            k for k in range(len(self.s)) if self.step_misses[k] >= max(cfg.step_misses, self.counts[k] + 1)
+        ]
         for k in reversed(gone):
             if len(self.s) > 1:
                 self._remove(k)
