@@ -36,6 +36,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .checks import check_fields, check_min
 from .cloud import GridSample
@@ -524,19 +525,21 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
     return GravityEstimate(u, frame, sigma, ok, h_frac, v_frac, why)
 
 
-def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def rotation_between(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """The smallest rotation taking unit vector ``a`` to unit vector ``b``."""
-    a = np.asarray(a, dtype=np.float64) / np.linalg.norm(a)
-    b = np.asarray(b, dtype=np.float64) / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(a @ b)
+    ua = np.asarray(a, dtype=np.float64)
+    ua = ua / np.linalg.norm(ua)
+    ub = np.asarray(b, dtype=np.float64)
+    ub = ub / np.linalg.norm(ub)
+    v = np.cross(ua, ub)
+    c = float(ua @ ub)
     s = float(np.linalg.norm(v))
     if s < 1e-12:
         if c > 0:
             return np.eye(3)
-        axis = np.cross(a, [1.0, 0.0, 0.0])
+        axis = np.cross(ua, [1.0, 0.0, 0.0])
         if np.linalg.norm(axis) < 1e-6:
-            axis = np.cross(a, [0.0, 1.0, 0.0])
+            axis = np.cross(ua, [0.0, 1.0, 0.0])
         axis /= np.linalg.norm(axis)
         return 2.0 * np.outer(axis, axis) - np.eye(3)
     K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
@@ -548,7 +551,7 @@ def levelling(up: np.ndarray, frame: str = "yaw") -> Transform:
     return Transform.from_rt(rotation_between(up, [0.0, 0.0, 1.0]), np.zeros(3), frame, frame)
 
 
-def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+def angle_deg(a: ArrayLike, b: ArrayLike) -> float:
     """Angle between two vectors, degrees."""
     c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
