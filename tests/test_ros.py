@@ -404,3 +404,79 @@ def test_mcap_opens_in_rerun(png_mcap, tmp_path):
         ("/stereo_terrain/disparity", "Image"),
     ):
         assert any(component in ln for ln in text.splitlines() if f"- {topic} -" in ln), topic
+
+
+def test_reconstruct_without_rig_mcap_and_view_save(rec, tmp_path, capsys):
+    folder, _ = rec
+    out, rrd = tmp_path / "h.mcap", tmp_path / "h.rrd"
+    argv = [
+        "reconstruct",
+        folder / "left_000000.png",
+        folder / "right_000000.png",
+        "--calib",
+        folder / "calib.yaml",
+    ]
+    code, _, err = _run([*argv, "--mcap", out, "--view-save", rrd], capsys)
+    assert code == 0, err
+    decoded = read_mcap(out)
+    assert len(decoded["/stereo_terrain/stairs"]) == 1 and rrd.stat().st_size > 10_000
+    # Without a rig the body frame is the levelled yaw frame: yaw -> body is the identity.
+    _, tf = decoded["/tf"][0]
+    yaw_body = [t.transform for t in tf.transforms if t.child_frame_id == "body"][0]
+    assert yaw_body.rotation.w == pytest.approx(1.0) and yaw_body.translation.z == 0.0
+
+
+def test_stale_heartbeat_goes_on_the_terrain_topic(rec, tmp_path):
+    from stereo_terrain.ros.mcap_out import McapSink
+    from stereo_terrain.runtime.capture import StereoFrame
+    from stereo_terrain.runtime.messages import terrain_message
+    from stereo_terrain.swing import SwingTrigger
+
+    folder, _ = rec
+    pipeline = Pipeline(read_calibration(folder / "calib.yaml"), load_rig(folder / "rig.yaml"))
+    left, right = read_image(folder / "left_000000.png"), read_image(folder / "right_000000.png")
+    result = pipeline.run(left, right)
+    trig = SwingTrigger(pipeline.config.swing).update(None, result.terrain)
+
+    def msg(publish_s, stale):
+        return terrain_message(
+            result.terrain, trig, capture_s=10.0, publish_s=publish_s, frame_index=0, latency_s=0.05,
+            density=0.9, quality=0, stale=stale, epoch_offset_s=T0_S,
+        )  # fmt: skip
+
+    out = tmp_path / "hb.mcap"
+    with McapSink(out, epoch_offset_s=T0_S) as sink:
+        sink.publish(msg(10.05, False))
+        sink.on_result(StereoFrame(left, right, 10.0, 10.0, 0), result)
+        sink.publish(msg(10.7, True))  # a heartbeat: no result follows
+    terrain = [m for _, m in read_mcap(out)["/stereo_terrain/terrain"]]
+    assert [m.stale for m in terrain] == [False, True]
+    assert all(m.header.stamp.sec == int(T0_S + 10.0) for m in terrain)
+    from mcap.reader import make_reader
+
+    with out.open("rb") as fh:
+        times = [
+            msg.log_time for _, ch, msg in make_reader(fh).iter_messages() if ch.topic.endswith("terrain")
+        ]
+    assert times[1] - times[0] == pytest.approx(0.7e9, abs=1e3)
+
+
+def test_humble_definitions(rec, tmp_path):
+    from mcap.reader import make_reader
+
+    from stereo_terrain.ros.mcap_out import McapSink
+
+    folder, _ = rec
+    pipeline = Pipeline(read_calibration(folder / "calib.yaml"))
+    result = pipeline.run(read_image(folder / "left_000000.png"), read_image(folder / "right_000000.png"))
+    schemas = {}
+    for distro in ("humble", "jazzy"):
+        with McapSink(tmp_path / f"{distro}.mcap", distro=distro) as sink:
+            sink.write_result(result, 1)
+        with (tmp_path / f"{distro}.mcap").open("rb") as fh:
+            schemas[distro] = {
+                s.name: s.data.decode() for s in make_reader(fh).get_summary().schemas.values()
+            }
+        assert len(read_mcap(tmp_path / f"{distro}.mcap")["/stereo_terrain/stairs"]) == 1
+    marker = "visualization_msgs/msg/MarkerArray"
+    assert "ARROW_STRIP" in schemas["jazzy"][marker] and "ARROW_STRIP" not in schemas["humble"][marker]

@@ -1,5 +1,5 @@
 """The ROS 2 / Rerun outputs shared by ``run``, ``replay`` and ``reconstruct``: ``--mcap``,
-``--ros-distro``, ``--view`` and ``--view-save``; and the bag inputs of ``replay``.
+``--view`` and ``--view-save``; and the bag inputs of ``replay``.
 
 Options are checked (and the extras they need named) before any work; the outputs are
 closed whole at the end (also after Ctrl-C) and dropped when the command fails.
@@ -16,14 +16,9 @@ from typing import Any
 from ..errors import InputError
 from .outputs import check_output_file, require
 
-DISTROS = ("jazzy", "humble")  # stereo_terrain.ros.DISTROS, not imported at parse time
-
 
 def add_output_options(q: argparse.ArgumentParser) -> None:
     q.add_argument("--mcap", type=Path, help="also write ROS 2 messages (cloud, markers, tf, images) here")
-    q.add_argument(
-        "--ros-distro", choices=DISTROS, default="jazzy", help="message definitions to write (default jazzy)"
-    )
     q.add_argument("--view", action="store_true", help="show everything live in a Rerun viewer")
     q.add_argument("--view-save", type=Path, help="save a Rerun recording (.rrd) here instead of a viewer")
 
@@ -114,7 +109,6 @@ def open_sinks(
             sinks.append(
                 McapSink(
                     args.mcap,
-                    distro=args.ros_distro,
                     body_rpy=body_rpy,
                     pose=pose,
                     epoch_offset_s=epoch_offset_s,

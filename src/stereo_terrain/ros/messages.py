@@ -1,10 +1,12 @@
 """ROS 2 message definitions and the messages of one processed pair.
 
 The standard definitions (``sensor_msgs``, ``visualization_msgs``, ``tf2_msgs``, ...) are
-those of ``rosbags``' type store for a ROS 2 distribution (:data:`~stereo_terrain.ros.DISTROS`;
-only ``visualization_msgs/msg/Marker`` differs between the two: Jazzy added texture and
-mesh-file fields), so the schemas written into an MCAP file are the distribution's own,
-field for field. The package's own ``stereo_terrain_msgs/msg/Terrain`` is built from the LCM
+those of ``rosbags``' type store for a ROS 2 distribution (:data:`~stereo_terrain.ros.DISTROS`),
+so the schemas written into an MCAP file are the distribution's own, field for field. For
+the types written here Humble and Jazzy differ only in one constant (``Marker.ARROW_STRIP``,
+Jazzy's), not in their fields, so a file of either plays on both.
+
+The package's own ``stereo_terrain_msgs/msg/Terrain`` is built from the LCM
 ``terrain_t`` (:func:`terrain_msgdef`): a ``std_msgs/Header`` followed by every field of
 ``terrain_t`` in its order, with its constants and the comments of ``terrain_t.lcm``, so a
 field added to the LCM type appears in the ROS message without a change here.
