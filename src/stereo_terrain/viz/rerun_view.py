@@ -159,15 +159,17 @@ class RerunView:
         self.pairs += 1
 
     def _plane_image(self, result: Any, shape: tuple[int, int]) -> np.ndarray:
-        """(H, W) uint8: plane k + 1 on a square of one grid cell around each inlier sample."""
+        """(H, W) uint8: plane k + 1 on a square of one grid cell around each inlier sample
+        (where two squares meet, the higher label)."""
+        import cv2
+
         out = np.zeros(shape, dtype=np.uint8)
         samples = result.planes.samples
-        r = max(1, int(samples.stride_px) // 2)
         labels = plane_labels(result.planes)
-        for row, col, lab in zip(samples.rows, samples.cols, labels, strict=True):
-            if lab >= 0:
-                out[max(0, row - r) : row + r + 1, max(0, col - r) : col + r + 1] = lab % 255 + 1
-        return out
+        has = labels >= 0
+        out[samples.rows[has], samples.cols[has]] = (labels[has] % 255 + 1).astype(np.uint8)
+        size = 2 * max(1, int(samples.stride_px) // 2) + 1
+        return cv2.dilate(out, np.ones((size, size), dtype=np.uint8))
 
     def _log_polytope(self, result: Any) -> None:
         rr, rec = self.rr, self.rec
