@@ -137,12 +137,14 @@ def bag_messages(
     return ts, out
 
 
-def write_rosbag2(path: Path, ts: Any, messages: list) -> None:
-    """A rosbag2 folder (MCAP storage) written by ``rosbags``."""
+def write_rosbag2(path: Path, ts: Any, messages: list, *, sqlite: bool = False) -> None:
+    """A rosbag2 folder (MCAP storage, or SQLite as ``ros2 bag record`` on Humble) written by
+    ``rosbags``."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     conns: dict[str, Any] = {}
-    with Writer(path, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
+    plugin = StoragePlugin.SQLITE3 if sqlite else StoragePlugin.MCAP
+    with Writer(path, version=8, storage_plugin=plugin) as writer:
         for topic, typ, t, msg in messages:
             if topic not in conns:
                 conns[topic] = writer.add_connection(topic, typ, typestore=ts)

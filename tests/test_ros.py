@@ -230,13 +230,13 @@ def test_failed_replay_leaves_no_mcap(rec, tmp_path, capsys):
 # --------------------------------------------------------------------------- bags as input
 
 
-@pytest.mark.parametrize("kind", ["rosbag2", "mcap-compressed"])
+@pytest.mark.parametrize("kind", ["rosbag2", "rosbag2-sqlite", "mcap-compressed"])
 def test_bag_written_by_another_tool_replays_like_the_png_recording(rec, png_mcap, tmp_path, capsys, kind):
     folder, scene = rec
     ts, msgs = bag_messages(scene, N_PAIRS, compressed=kind == "mcap-compressed", odom=True)
-    if kind == "rosbag2":
+    if kind.startswith("rosbag2"):
         bag = tmp_path / "bag"
-        write_rosbag2(bag, ts, msgs)
+        write_rosbag2(bag, ts, msgs, sqlite=kind.endswith("sqlite"))
         left, right = "/stereo/left/image_raw", "/stereo/right/image_raw"
     else:
         bag = tmp_path / "bag.mcap"
@@ -480,3 +480,16 @@ def test_humble_definitions(rec, tmp_path):
         assert len(read_mcap(tmp_path / f"{distro}.mcap")["/stereo_terrain/stairs"]) == 1
     marker = "visualization_msgs/msg/MarkerArray"
     assert "ARROW_STRIP" in schemas["jazzy"][marker] and "ARROW_STRIP" not in schemas["humble"][marker]
+
+
+def test_mcap_figure_is_drawn_from_the_file(png_mcap, tmp_path):
+    pytest.importorskip("matplotlib")
+    from stereo_terrain.viz.mcap_figure import read_pair, save_mcap_figure, transform_between
+
+    out = tmp_path / "fig.png"
+    save_mcap_figure(png_mcap, out, pair=1)
+    assert out.stat().st_size > 20_000
+    tf = read_pair(png_mcap, 1)["/tf"]
+    T = transform_between(tf, "camera_rect", "yaw") @ transform_between(tf, "yaw", "camera_rect")
+    assert np.allclose(T, np.eye(4), atol=1e-9)
+    assert np.allclose(transform_between(tf, "world", "yaw")[:3, 3], [0.05, 0.0, 0.0])

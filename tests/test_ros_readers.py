@@ -78,7 +78,9 @@ def test_camera_info_good_pair_and_swapped_topics():
 
 
 @given(
-    encoding=st.sampled_from(["mono8", "mono16", "bgr8", "rgb8", "bgra8", "rgba8", "8UC3", "yuv422", "x"]),
+    encoding=st.sampled_from(
+        ["mono8", "mono16", "bgr8", "rgb8", "bgra8", "rgba8", "8UC3", "yuv422", "yuv422_yuy2", "nv12", "x"]
+    ),
     height=st.integers(-2, 9),
     width=st.integers(-2, 9),
     step=st.integers(-2, 40),
@@ -213,3 +215,30 @@ def test_missing_extra_is_one_line_before_any_work(tiny_rec, tmp_path, hidden, o
     assert done.returncode == 2
     assert f"pip install 'stereo-terrain[{extra}]'" in done.stderr and done.stderr.count("\n") == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_viz_extra_for_plot(tiny_rec, tmp_path):
+    argv = ["reconstruct", str(tiny_rec / "left_000000.png"), str(tiny_rec / "right_000000.png")]
+    done = _without(
+        ["matplotlib"], [*argv, "--calib", str(tiny_rec / "calib.yaml"), "--plot", str(tmp_path / "p.png")]
+    )
+    assert done.returncode == 2 and "pip install 'stereo-terrain[viz]'" in done.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_yuv422_and_rgb_decode_to_the_same_grey():
+    import cv2
+
+    rng = np.random.default_rng(0)
+    bgr = cv2.GaussianBlur(rng.integers(0, 255, (8, 12, 3), dtype=np.uint8), (3, 3), 0)
+    yuyv = cv2.cvtColor(bgr, cv2.COLOR_BGR2YUV_YUYV) if hasattr(cv2, "COLOR_BGR2YUV_YUYV") else None
+    rgb = Msg(
+        encoding="rgb8", height=8, width=12, step=36, is_bigendian=False, data=bgr[:, :, ::-1].reshape(-1)
+    )
+    assert np.array_equal(decode_image(rgb, "sensor_msgs/msg/Image"), bgr)
+    if yuyv is None:
+        pytest.skip("this OpenCV cannot encode YUYV")
+    msg = Msg(encoding="yuv422_yuy2", height=8, width=12, step=24, is_bigendian=False, data=yuyv.reshape(-1))
+    got = decode_image(msg, "sensor_msgs/msg/Image")
+    grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY).astype(int)
+    assert got.shape == (8, 12, 3) and np.abs(cv2.cvtColor(got, cv2.COLOR_BGR2GRAY) - grey).max() <= 12

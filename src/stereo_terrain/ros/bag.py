@@ -2,9 +2,10 @@
 
 :class:`BagPairs` is a recorded pair source for :class:`~stereo_terrain.runtime.capture.Paced`
 and the live loop (``replay BAG --left-topic T --right-topic T``). The images are
-``sensor_msgs/msg/Image`` (``mono8``, ``mono16``, ``bgr8``, ``rgb8``, ``bgra8``, ``rgba8`` and
-their ``8UC1``/``8UC3``/``16UC1`` names) or ``sensor_msgs/msg/CompressedImage`` (whatever
-OpenCV decodes: JPEG, PNG). Pairs are formed from the header stamps
+``sensor_msgs/msg/Image`` (``mono8``, ``mono16``, ``bgr8``, ``rgb8``, ``bgra8``, ``rgba8``,
+their ``8UC1``/``8UC3``/``16UC1`` names, and the packed 4:2:2 ``yuv422``/``yuv422_yuy2``)
+or ``sensor_msgs/msg/CompressedImage`` (whatever OpenCV decodes: JPEG, PNG). Pairs are formed
+from the header stamps
 (:func:`~stereo_terrain.runtime.capture.match_stamps`: each image with its nearest partner),
 and the live cameras' skew rule then drops pairs further apart than ``--max-skew-ms``. A
 stream whose header stamps are all zero is timed by the bag's receive times instead.
@@ -50,6 +51,10 @@ MAX_ODOMETRY_GAP_S = 0.1
 
 _CHANNELS = {"mono8": 1, "8UC1": 1, "mono16": 1, "16UC1": 1, "bgr8": 3, "rgb8": 3, "8UC3": 3}
 _CHANNELS.update({"bgra8": 4, "rgba8": 4, "8UC4": 4})
+# Packed 4:2:2 (2 bytes a pixel): ROS's "yuv422" is UYVY, "yuv422_yuy2" is YUYV.
+_YUV422 = {"yuv422": cv2.COLOR_YUV2BGR_UYVY, "uyvy": cv2.COLOR_YUV2BGR_UYVY}
+_YUV422.update({"yuv422_yuy2": cv2.COLOR_YUV2BGR_YUYV, "yuyv": cv2.COLOR_YUV2BGR_YUYV})
+_CHANNELS.update(dict.fromkeys(_YUV422, 2))
 
 
 def _bag_error(path: Path, exc: BaseException) -> InputError:
@@ -133,6 +138,10 @@ def decode_image(msg: Any, msgtype: str) -> np.ndarray:
         img16 = np.ascontiguousarray(rows).view(f"{order}u2").reshape(h, w)
         return (img16 >> 8).astype(np.uint8)
     img = np.ascontiguousarray(rows).reshape(h, w, ch) if ch > 1 else np.ascontiguousarray(rows)
+    if enc in _YUV422:
+        if w % 2:
+            raise InputError(f"image {w}x{h} {enc}: a 4:2:2 image needs an even width")
+        return cv2.cvtColor(img, _YUV422[enc])
     if enc == "rgb8":
         img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
     elif enc == "rgba8":
@@ -258,7 +267,10 @@ class BagPairs:
             values = [float(v) for v in (p.x, p.y, p.z)]
             if not all(math.isfinite(v) for v in values):
                 continue  # the loop would ignore it anyway
-            rpy = _rpy_from_quaternion(float(q.x), float(q.y), float(q.z), float(q.w))
+            try:
+                rpy = _rpy_from_quaternion(float(q.x), float(q.y), float(q.z), float(q.w))
+            except InputError:
+                continue  # a bad orientation: no pose for the pairs near it, as for NaN positions
             poses.append(_Pose(_header_s(msg), Odometry((values[0], values[1], values[2]), rpy[2]), rpy))
         poses.sort(key=lambda p: p.t_s)
         return poses
