@@ -493,3 +493,29 @@ def test_mcap_figure_is_drawn_from_the_file(png_mcap, tmp_path):
     T = transform_between(tf, "camera_rect", "yaw") @ transform_between(tf, "yaw", "camera_rect")
     assert np.allclose(T, np.eye(4), atol=1e-9)
     assert np.allclose(transform_between(tf, "world", "yaw")[:3, 3], [0.05, 0.0, 0.0])
+
+
+def test_a_field_added_to_terrain_t_follows_into_the_ros_message(monkeypatch):
+    """What another change adds to the LCM type (e.g. rise_sigma_m[num_steps], track_state)
+    appears in the ROS 2 message with no change to stereo_terrain.ros."""
+    import stereo_terrain.ros.messages as rm
+
+    class Extended(terrain_t):
+        __slots__ = [*terrain_t.__slots__, "rise_sigma_m", "track_state"]
+        __typenames__ = [*terrain_t.__typenames__, "float", "int8_t"]
+        __dimensions__ = [*terrain_t.__dimensions__, ["num_steps"], None]
+        TRACK_LOST = 3
+
+    monkeypatch.setattr(rm, "terrain_t", Extended)
+    text = rm.terrain_msgdef()
+    assert text.rstrip().endswith("float32[] rise_sigma_m\nint8 track_state") and "TRACK_LOST=3" in text
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    store.register(get_types_from_msg(text, TERRAIN_TYPE))
+    msg = Extended()
+    msg.num_steps, msg.rise_m, msg.run_m, msg.distance_m, msg.width_m = 1, [0.2], [0.3], [1.5], [1.0]
+    msg.rise_sigma_m, msg.track_state, msg.p0_m = [0.01], 2, [0.0, 0.0, 0.0]
+    ros = rm.terrain_ros_message(store, msg, 5)
+    back = store.deserialize_cdr(store.serialize_cdr(ros, TERRAIN_TYPE), TERRAIN_TYPE)
+    assert back.track_state == 2 and np.allclose(back.rise_sigma_m, [0.01])

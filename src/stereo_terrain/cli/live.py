@@ -66,7 +66,7 @@ def add_parsers(sub: Any) -> None:
         type=Path,
         help="folder with pairs.csv (record, simulate --record), or a ROS 2 bag / MCAP file",
     )
-    rp.add_argument("--calib", type=Path, help="default: FOLDER/calib.yaml")
+    rp.add_argument("--calib", type=Path, help="default: FOLDER/calib.yaml, or a bag's CameraInfo topics")
     rp.add_argument("--rig", type=Path, help="default: FOLDER/rig.yaml if present")
     rp.add_argument("--as-fast", action="store_true", help="every pair, as fast as it goes (no pacing)")
     rp.add_argument("--speed", type=nonneg_float, default=1.0, help="playback speed (real time = 1)")
