@@ -519,3 +519,22 @@ def test_a_field_added_to_terrain_t_follows_into_the_ros_message(monkeypatch):
     ros = rm.terrain_ros_message(store, msg, 5)
     back = store.deserialize_cdr(store.serialize_cdr(ros, TERRAIN_TYPE), TERRAIN_TYPE)
     assert back.track_state == 2 and np.allclose(back.rise_sigma_m, [0.01])
+
+
+def test_msg_package_for_colcon(tmp_path):
+    from rosbags.typesys import get_types_from_msg
+
+    from stereo_terrain.ros.messages import write_msg_package
+
+    files = write_msg_package(tmp_path / "stereo_terrain_msgs")
+    assert sorted(p.name for p in files) == ["CMakeLists.txt", "Terrain.msg", "package.xml"]
+    msg = (tmp_path / "stereo_terrain_msgs" / "msg" / "Terrain.msg").read_text()
+    assert get_types_from_msg(msg, TERRAIN_TYPE)[TERRAIN_TYPE][1][0][0] == "header"
+    import re
+    import xml.etree.ElementTree as ET
+
+    assert ET.parse(tmp_path / "stereo_terrain_msgs" / "package.xml").getroot().find("name").text == (
+        "stereo_terrain_msgs"
+    )
+    fields = [ln.split()[1] for ln in msg.splitlines() if ln and not ln.startswith("#") and "=" not in ln]
+    assert all(re.fullmatch(r"[a-z][a-z0-9]*(_[a-z0-9]+)*", f) for f in fields)  # ROS 2 field-name rule

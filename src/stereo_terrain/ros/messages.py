@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 import re
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -482,3 +483,52 @@ def terrain_ros_message(store: Any, msg: terrain_t, stamp_ns: int, frame_id: str
         else:
             values[name] = float(value) if base.startswith("float") else int(value)
     return make(store, TERRAIN_TYPE, **values)
+
+
+# --------------------------------------------------------------------------- ROS 2 package
+
+_PACKAGE_XML = """<?xml version="1.0"?>
+<package format="3">
+  <name>stereo_terrain_msgs</name>
+  <version>0.1.0</version>
+  <description>The terrain message of stereo-terrain (generated from its LCM terrain_t).</description>
+  <maintainer email="stereo-terrain@example.invalid">stereo-terrain</maintainer>
+  <license>MIT</license>
+  <buildtool_depend>ament_cmake</buildtool_depend>
+  <buildtool_depend>rosidl_default_generators</buildtool_depend>
+  <depend>std_msgs</depend>
+  <exec_depend>rosidl_default_runtime</exec_depend>
+  <member_of_group>rosidl_interface_packages</member_of_group>
+  <export>
+    <build_type>ament_cmake</build_type>
+  </export>
+</package>
+"""
+
+_CMAKELISTS = """cmake_minimum_required(VERSION 3.8)
+project(stereo_terrain_msgs)
+find_package(ament_cmake REQUIRED)
+find_package(rosidl_default_generators REQUIRED)
+find_package(std_msgs REQUIRED)
+rosidl_generate_interfaces(${PROJECT_NAME} "msg/Terrain.msg" DEPENDENCIES std_msgs)
+ament_export_dependencies(rosidl_default_runtime)
+ament_package()
+"""
+
+
+def write_msg_package(folder: str | Path) -> list[Path]:
+    """Write the ROS 2 package ``stereo_terrain_msgs`` (``package.xml``, ``CMakeLists.txt``,
+    ``msg/Terrain.msg``) into ``folder``, e.g. ``ws/src/stereo_terrain_msgs``, so that
+    ``colcon build`` gives ROS the type and ``ros2 bag play`` can publish
+    ``/stereo_terrain/terrain`` (the other topics need only ROS's own packages). Returns the
+    files written."""
+    folder = Path(folder)
+    (folder / "msg").mkdir(parents=True, exist_ok=True)
+    files = {
+        folder / "package.xml": _PACKAGE_XML,
+        folder / "CMakeLists.txt": _CMAKELISTS,
+        folder / "msg" / "Terrain.msg": terrain_msgdef(),
+    }
+    for path, text in files.items():
+        path.write_text(text)
+    return list(files)
