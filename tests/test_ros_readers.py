@@ -242,3 +242,72 @@ def test_yuv422_and_rgb_decode_to_the_same_grey():
     got = decode_image(msg, "sensor_msgs/msg/Image")
     grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY).astype(int)
     assert got.shape == (8, 12, 3) and np.abs(cv2.cvtColor(got, cv2.COLOR_BGR2GRAY) - grey).max() <= 12
+
+
+# --------------------------------------------------------------------------- pairing
+
+
+@given(
+    tl=st.lists(st.floats(0, 100, allow_nan=False), max_size=30),
+    tr=st.lists(st.floats(0, 100, allow_nan=False), max_size=30),
+)
+def test_match_stamps_pairs_mutual_nearest_one_to_one(tl, tr):
+    from stereo_terrain.runtime.capture import match_stamps
+
+    a, b = np.sort(np.array(tl)), np.sort(np.array(tr))
+    pairs = match_stamps(a, b)
+    assert len({i for i, _ in pairs}) == len(pairs) == len({j for _, j in pairs})
+    assert [i for i, _ in pairs] == sorted(i for i, _ in pairs)
+    for i, j in pairs:  # each is (one of) the other's nearest
+        assert abs(a[i] - b[j]) <= np.min(np.abs(b - a[i])) + 1e-12
+        assert abs(a[i] - b[j]) <= np.min(np.abs(a - b[j])) + 1e-12
+    if len(a) and len(b):
+        assert pairs  # the globally closest pair is always mutual
+
+
+class _Scene:
+    rng = np.random.default_rng(1)
+    left = rng.integers(0, 255, (24, 32), dtype=np.uint8)
+    right = rng.integers(0, 255, (24, 32), dtype=np.uint8)
+
+
+def _rosbag(tmp_path, msgs, ts, *, big_endian=False):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    conns = {}
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.MCAP) as writer:
+        for topic, typ, t, msg in msgs:
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, typ, typestore=ts)
+            writer.write(conns[topic], t, ts.serialize_cdr(msg, typ, little_endian=not big_endian))
+    return tmp_path / "bag"
+
+
+def _frames(bag):
+    pairs = BagPairs(bag, "/stereo/left/image_raw", "/stereo/right/image_raw")
+    out = []
+    while (ev := pairs.read()).status != "end":
+        out.append(ev.frame)
+    pairs.close()
+    return pairs, out
+
+
+@pytest.mark.parametrize("big_endian", [False, True])
+def test_bag_pairs_dropped_image_and_byte_order(tmp_path, big_endian):
+    ts, msgs = bag_messages(_Scene, 4)
+    msgs = [m for m in msgs if not (m[0].startswith("/stereo/right") and m is msgs[5])]  # drop one right
+    bag = _rosbag(tmp_path, msgs, ts, big_endian=big_endian)
+    pairs, frames = _frames(bag)
+    assert len(frames) == 3 and all(np.array_equal(f.left, _Scene.left) for f in frames)
+    assert all(abs(f.t_right_s - f.t_left_s - 0.002) < 1e-6 for f in frames)
+    assert [f.stamp_s for f in frames] == sorted(f.stamp_s for f in frames)
+
+
+def test_zero_header_stamps_use_receive_times(tmp_path):
+    ts, msgs = bag_messages(_Scene, 3)
+    for _, _, _, msg in msgs:
+        msg.header.stamp.sec, msg.header.stamp.nanosec = 0, 0
+    _, frames = _frames(_rosbag(tmp_path, msgs, ts))
+    from .ros_bags import T0_S
+
+    assert len(frames) == 3 and abs(frames[0].t_left_s - T0_S) < 1e-6

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import math
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,15 +96,29 @@ def _connections(reader: Any, topic: str, types: tuple[str, ...], option: str, p
     return conns
 
 
-def _messages(reader: Any, conns: list[Any], path: Path) -> Iterator[tuple[Any, int, Any]]:
-    """(connection, receive time ns, decoded message) in the bag's order."""
+def _messages(
+    reader: Any, conns: list[Any], path: Path, *, decode: bool = True
+) -> Iterator[tuple[Any, int, Any]]:
+    """(connection, receive time ns, decoded message, or its raw CDR bytes when not
+    ``decode``) in the bag's order."""
     try:
         for conn, t_ns, raw in reader.messages(connections=conns):
-            yield conn, int(t_ns), reader.deserialize(raw, conn.msgtype)
+            yield conn, int(t_ns), reader.deserialize(raw, conn.msgtype) if decode else raw
     except InputError:
         raise
     except Exception as exc:
         raise _bag_error(path, exc) from None
+
+
+def _raw_stamp(raw: bytes | memoryview) -> float | None:
+    """The header stamp of a CDR message whose first field is a ``std_msgs/Header``, read
+    from its first bytes (encapsulation, ``int32 sec``, ``uint32 nanosec``) without decoding
+    the image behind it; None when the encapsulation is not plain CDR."""
+    b = bytes(raw[:12])
+    if len(b) < 12 or b[0] != 0 or b[1] not in (0, 1):
+        return None
+    sec, nanosec = struct.unpack_from("<iI" if b[1] == 1 else ">iI", b, 4)
+    return float(sec) + 1e-9 * float(nanosec)
 
 
 def _header_s(msg: Any) -> float:
@@ -248,8 +263,11 @@ class BagPairs:
     def _match(self, left_topic: str, right_topic: str) -> list[tuple[int, int, float, float]]:
         items: dict[str, list[tuple[int, float]]] = {"l": [], "r": []}
         left_ids = {id(c) for c in self._left}
-        for conn, t_ns, msg in _messages(self._reader, self._left + self._right, self.path):
-            items["l" if id(conn) in left_ids else "r"].append((t_ns, _header_s(msg)))
+        for conn, t_ns, raw in _messages(self._reader, self._left + self._right, self.path, decode=False):
+            stamp = _raw_stamp(raw)
+            if stamp is None:
+                stamp = _header_s(self._deserialize(raw, conn))
+            items["l" if id(conn) in left_ids else "r"].append((t_ns, stamp))
         tl, tr = _stamps(items["l"], left_topic), _stamps(items["r"], right_topic)
         if not (np.all(np.isfinite(tl)) and np.all(np.isfinite(tr))):
             raise InputError(f"{self.path}: image header stamps are not finite")
@@ -259,6 +277,12 @@ class BagPairs:
             for i, j in match_stamps(tl[ol], tr[orr])
         ]
         return pairs
+
+    def _deserialize(self, raw: Any, conn: Any) -> Any:
+        try:
+            return self._reader.deserialize(raw, conn.msgtype)
+        except Exception as exc:  # a malformed message
+            raise InputError(f"a {conn.msgtype} message on {conn.topic} does not decode: {exc}") from None
 
     def _read_poses(self, conns: list[Any]) -> list[_Pose]:
         poses = []
@@ -273,12 +297,13 @@ class BagPairs:
                 continue  # a bad orientation: no pose for the pairs near it, as for NaN positions
             poses.append(_Pose(_header_s(msg), Odometry((values[0], values[1], values[2]), rpy[2]), rpy))
         poses.sort(key=lambda p: p.t_s)
+        self._pose_times = np.array([p.t_s for p in poses], dtype=np.float64)
         return poses
 
     def _pose_at(self, t_s: float) -> _Pose | None:
         if not self._poses:
             return None
-        times = [p.t_s for p in self._poses]
+        times = self._pose_times
         k = int(np.searchsorted(times, t_s))
         best = min((c for c in (k - 1, k) if 0 <= c < len(times)), key=lambda c: abs(times[c] - t_s))
         return self._poses[best] if abs(times[best] - t_s) <= MAX_ODOMETRY_GAP_S else None
@@ -286,20 +311,21 @@ class BagPairs:
     # ----------------------------------------------------------------- streaming
 
     def _pair_stream(self) -> Iterator[tuple[int, Any, Any]]:
-        """(pair number, left (conn, msg), right (conn, msg)) in the order pairs complete."""
+        """(pair number, left (conn, raw), right (conn, raw)) in the order pairs complete; the
+        images are decoded only when read (a skipped pair costs no decoding)."""
         want_l = {li: k for k, (li, _, _, _) in enumerate(self.pairs)}
         want_r = {ri: k for k, (_, ri, _, _) in enumerate(self.pairs)}
         left_ids = {id(c) for c in self._left}
         held: dict[int, dict[str, Any]] = {}
         n = {"l": 0, "r": 0}
-        for conn, _, msg in _messages(self._reader, self._left + self._right, self.path):
+        for conn, _, msg in _messages(self._reader, self._left + self._right, self.path, decode=False):
             side = "l" if id(conn) in left_ids else "r"
             k = (want_l if side == "l" else want_r).get(n[side])
             n[side] += 1
             if k is None:
                 continue
             got = held.setdefault(k, {})
-            got[side] = (conn, msg)
+            got[side] = (conn, bytes(msg))  # a copy: the reader may reuse its buffers
             if len(got) == 2:
                 del held[k]
                 yield k, got["l"], got["r"]
@@ -334,7 +360,8 @@ class BagPairs:
         self.skip()
         _, _, tl, tr = self.pairs[k]
         try:
-            left, right = decode_image(lm, lc.msgtype), decode_image(rm, rc.msgtype)
+            left = decode_image(self._deserialize(lm, lc), lc.msgtype)
+            right = decode_image(self._deserialize(rm, rc), rc.msgtype)
         except InputError as exc:
             return CaptureEvent(UNREADABLE, detail=f"pair {index}: {exc}")
         pose = self._pose_at(max(tl, tr))
