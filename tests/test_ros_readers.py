@@ -311,3 +311,17 @@ def test_zero_header_stamps_use_receive_times(tmp_path):
     from .ros_bags import T0_S
 
     assert len(frames) == 3 and abs(frames[0].t_left_s - T0_S) < 1e-6
+
+
+def test_long_pause_in_a_bag_is_replayed_short(tmp_path, caplog):
+    from stereo_terrain.runtime.capture import MAX_REPLAY_GAP_S
+
+    ts, msgs = bag_messages(_Scene, 3)
+    for _, _, t, msg in msgs:  # the third pair an hour later
+        if t > msgs[3][2]:
+            msg.header.stamp.sec += 3600
+    _, frames = _frames(_rosbag(tmp_path, msgs, ts))
+    gaps = np.diff([f.t_left_s for f in frames])
+    assert gaps[1] == pytest.approx(MAX_REPLAY_GAP_S, abs=1e-6)
+    assert frames[2].stamp_s - frames[1].stamp_s == pytest.approx(3600.1, abs=1e-6)  # output keeps the bag's
+    assert "pause" in caplog.text

@@ -38,7 +38,15 @@ import numpy as np
 
 from ..calibration import StereoCalibration
 from ..errors import InputError
-from ..runtime.capture import END, FRAME, UNREADABLE, CaptureEvent, StereoFrame, match_stamps
+from ..runtime.capture import (
+    END,
+    FRAME,
+    MAX_REPLAY_GAP_S,
+    UNREADABLE,
+    CaptureEvent,
+    StereoFrame,
+    match_stamps,
+)
 from ..swing import Odometry
 
 log = logging.getLogger(__name__)
@@ -249,7 +257,17 @@ class BagPairs:
                 f"{self.path}: no left/right image pairs on {left_topic} and {right_topic} "
                 "(a topic without messages?)"
             )
-        t = [max(tl, tr) for _, _, tl, tr in self.pairs]
+        raw_t = np.array([max(tl, tr) for _, _, tl, tr in self.pairs])
+        # Pauses longer than MAX_REPLAY_GAP_S are replayed that long, as for a PNG recording
+        # (the stamps written out stay the bag's own).
+        gaps = np.diff(raw_t, prepend=raw_t[0])
+        self._shift = np.cumsum(np.where(gaps > MAX_REPLAY_GAP_S, gaps - MAX_REPLAY_GAP_S, 0.0))
+        if self._shift[-1] > 0:
+            log.warning(
+                "%s: %d pause(s) longer than %.1f s replayed as %.1f s",
+                self.path, int(np.sum(gaps > MAX_REPLAY_GAP_S)), MAX_REPLAY_GAP_S, MAX_REPLAY_GAP_S,
+            )  # fmt: skip
+        t = raw_t - self._shift
         self._period = t[-1] - t[0] + max((t[-1] - t[0]) / max(1, len(t) - 1), 1.0 / 30.0)
         self._round = 0
         self._stream: Iterator[tuple[int, Any, Any]] | None = None
@@ -342,7 +360,7 @@ class BagPairs:
 
     def _time(self, k: int) -> float:
         _, _, tl, tr = self.pairs[k]
-        return max(tl, tr) + self._round * self._period
+        return max(tl, tr) - self._shift[k] + self._round * self._period
 
     def peek_time(self) -> float | None:
         return None if self._next is None else self._time(self._next[0])
@@ -368,8 +386,8 @@ class BagPairs:
         frame = StereoFrame(
             left,
             right,
-            tl + offset,
-            tr + offset,
+            tl - self._shift[k] + offset,
+            tr - self._shift[k] + offset,
             index,
             None if pose is None else pose.odometry,
             None if pose is None else pose.rpy,
