@@ -325,3 +325,19 @@ def test_long_pause_in_a_bag_is_replayed_short(tmp_path, caplog):
     assert gaps[1] == pytest.approx(MAX_REPLAY_GAP_S, abs=1e-6)
     assert frames[2].stamp_s - frames[1].stamp_s == pytest.approx(3600.1, abs=1e-6)  # output keeps the bag's
     assert "pause" in caplog.text
+
+
+def test_view_without_a_display_is_refused_before_any_work(tiny_rec, tmp_path):
+    pytest.importorskip("rerun")
+    import socket
+
+    with socket.socket() as probe:
+        if probe.connect_ex(("127.0.0.1", 9876)) == 0:
+            pytest.skip("a Rerun viewer is listening on this machine")
+    env = {"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"}  # no DISPLAY
+    done = subprocess.run(
+        [sys.executable, "-m", "stereo_terrain.cli", "replay", str(tiny_rec), "--no-lcm", "--view"],
+        capture_output=True, text=True, env=env, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 2 and "--view needs a display" in done.stderr
+    assert done.stderr.count("\n") == 1 and done.stdout == ""

@@ -45,12 +45,40 @@ def check_outputs(args: argparse.Namespace) -> None:
         raise InputError("give --view (a viewer) or --view-save (a recording), not both")
     if args.view or args.view_save is not None:
         require("rerun", "view", "--view" if args.view else "--view-save")
+    if args.view:
+        check_viewer_possible()
     if (
         args.mcap is not None
         and args.view_save is not None
         and args.mcap.resolve() == args.view_save.resolve()
     ):
         raise InputError(f"--mcap and --view-save name the same file {args.mcap}")
+
+
+#: Where a Rerun viewer listens (rerun-sdk's default); one already running there is used.
+RERUN_PORT = 9876
+
+
+def check_viewer_possible() -> None:
+    """``--view`` starts a Rerun viewer window unless one is already listening: refuse it
+    before any work on a Linux machine with no display to open a window on."""
+    import os
+    import socket
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    if any(os.environ.get(k) for k in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET")):
+        return
+    try:
+        with socket.create_connection(("127.0.0.1", RERUN_PORT), timeout=0.2):
+            return  # a viewer (or its server) is already running: it will be used
+    except OSError:
+        pass
+    raise InputError(
+        "--view needs a display for the Rerun viewer (DISPLAY and WAYLAND_DISPLAY are not set); "
+        "use --view-save OUT.rrd and open it elsewhere with 'rerun OUT.rrd'"
+    )
 
 
 def require_ros(what: str) -> None:

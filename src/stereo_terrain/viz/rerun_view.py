@@ -61,9 +61,27 @@ class RerunView:
             self._tmp = Path(tmp)
             self.rec.save(self._tmp)
         else:
-            self.rec.spawn()
+            self._spawn()
         self.pairs = 0
         self._static()
+
+    def _spawn(self) -> None:
+        """Start a viewer: the ``rerun`` on PATH, else the one installed beside this Python
+        (a venv's ``bin/``, which is not on PATH when the venv is not activated)."""
+        import shutil
+        import sys
+
+        from ..errors import InputError
+
+        exe = shutil.which("rerun") or str(Path(sys.executable).parent / "rerun")
+        try:
+            self.rr.spawn(executable_path=exe if Path(exe).is_file() else None, recording=self.rec)
+        except Exception as exc:  # no viewer binary, no display, ...
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputError(
+                f"--view cannot start the Rerun viewer ({first[:160]}); use --view-save OUT.rrd and "
+                "open that with 'rerun OUT.rrd'"
+            ) from None
 
     def _static(self) -> None:
         rr, rec = self.rr, self.rec
@@ -208,8 +226,15 @@ class RerunView:
 
     def close(self) -> None:
         """Flush; a saved recording is renamed onto its target."""
-        self.rec.flush()
-        self.rec.disconnect()
+        try:
+            self.rec.flush()
+            self.rec.disconnect()
+        except Exception as exc:  # the viewer went away (closed, or could not open a window)
+            from ..errors import InputError
+
+            self.abort()
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputError(f"the Rerun viewer could not be reached: {first[:200]}") from None
         if self._tmp is not None and self.target is not None:
             try:
                 mask = os.umask(0)
