@@ -509,6 +509,9 @@ def test_a_field_added_to_terrain_t_follows_into_the_ros_message(monkeypatch):
     monkeypatch.setattr(rm, "terrain_t", Extended)
     text = rm.terrain_msgdef()
     assert text.rstrip().endswith("float32[] rise_sigma_m\nint8 track_state") and "TRACK_LOST=3" in text
+    assert (
+        text.index("int8 OBSTACLE_NONE=0") < text.index("int32 TRACK_LOST=3") < text.index("std_msgs/Header")
+    )
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS2_JAZZY)

@@ -144,10 +144,12 @@ def terrain_msgdef() -> str:
         "# time of the stereo pair and whose frame_id is 'yaw' (docs/conventions.md). SI units;",
         "# unknown floats are NaN.",
     ]
-    for name in sorted(
-        (n for n in vars(terrain_t) if n.isupper() and isinstance(getattr(terrain_t, n), int)),
-        key=lambda n: list(vars(terrain_t)).index(n),
-    ):
+    constants: list[str] = []  # in definition order (the class's, then a subclass's)
+    for cls in reversed(terrain_t.__mro__):
+        constants += [
+            n for n, v in vars(cls).items() if n.isupper() and type(v) is int and n not in constants
+        ]
+    for name in constants:
         ros_type = LCM_TO_ROS.get(const_types.get(name, "int32_t"), "int32")
         lines.append(f"{ros_type} {name}={int(getattr(terrain_t, name))}")
     lines.append("std_msgs/Header header")
