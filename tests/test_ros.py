@@ -371,6 +371,8 @@ def test_view_save_writes_a_rerun_recording(rec, tmp_path, capsys):
     rerun = shutil.which("rerun") or str(Path(__import__("sys").executable).parent / "rerun")
     if not Path(rerun).exists():
         pytest.skip("the rerun command line is not installed: size checked only")
+    verified = subprocess.run([rerun, "rrd", "verify", str(out)], capture_output=True, text=True, timeout=60)
+    assert verified.returncode == 0, verified.stderr
     printed = subprocess.run([rerun, "rrd", "print", str(out)], capture_output=True, text=True, timeout=60)
     assert printed.returncode == 0, printed.stderr
     for entity, component in (
