@@ -137,7 +137,7 @@ def _pipeline(calib_path: Any, rig_path: Path | None, config_path: Path | None):
 def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
     from ..runtime.capture import Capture
     from ..runtime.loop import LiveLoop, LoopConfig
-    from .sinks import fan_out, open_sinks, results_to
+    from .sinks import fan_out, open_sinks, results_to, stop_on_sigterm
 
     publish: Any = lambda msg: None  # noqa: E731
     check_output_file(args.summary_json, "--summary-json")
@@ -151,7 +151,7 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
         max_frames=args.frames or 0,
         max_duration_s=args.duration or 0.0,
     )
-    with open_sinks(args, pipeline, pose=pose) as sinks:
+    with stop_on_sigterm(), open_sinks(args, pipeline, pose=pose) as sinks:
         loop = LiveLoop(
             Capture(source),
             pipeline,

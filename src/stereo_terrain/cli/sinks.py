@@ -119,6 +119,27 @@ def bag_calibration(args: argparse.Namespace) -> Any:
 
 
 @contextlib.contextmanager
+def stop_on_sigterm() -> Iterator[None]:
+    """Inside the block SIGTERM (``kill``, ``systemctl stop``) stops the live loop as Ctrl-C
+    does, so its outputs are closed whole (main thread only)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
 def open_sinks(
     args: argparse.Namespace, pipeline: Any, epoch_offset_s: float = 0.0, pose: Any = None
 ) -> Iterator[list[Any]]:
