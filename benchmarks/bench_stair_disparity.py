@@ -162,6 +162,13 @@ def variant(name: str) -> Callable[[RectifiedPair, int], np.ndarray]:
     return run
 
 
+def table_head(title: str, columns: list[str]) -> None:
+    """Print a title line and a Markdown table's header."""
+    print(title)
+    print("| " + " | ".join(columns) + " |")
+    print("|" + " --- |" * len(columns))
+
+
 def score(disp: np.ndarray, truth: np.ndarray, cls: np.ndarray, counts: np.ndarray) -> None:
     """Adds per class (rows: tread, riser, other) the pixel counts good, mid, bad,
     invalid, bad-too-small into ``counts`` (3, 5)."""
@@ -239,9 +246,10 @@ def main() -> None:
             per_scene[name].append(d[0] / max(1, d[:4].sum()))
         sys.stderr.write(f"\rscored {scene['index'] + 1}/{len(scenes)}")
     sys.stderr.write("\n")
-    print(f"{args.profile}, {len(scenes)} scenes, seed {args.seed}")
-    print("| variant | surface | good <= 1 px | 1-3 px | bad > 3 px | invalid | bad too far | ms |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    table_head(
+        f"{args.profile}, {len(scenes)} scenes, seed {args.seed}",
+        ["variant", "surface", "good <= 1 px", "1-3 px", "bad > 3 px", "invalid", "bad too far", "ms"],
+    )
     for name in names:
         c = counts[name]
         rows = [(s, c[i]) for i, s in enumerate(SURFACES)] + [("stair faces", c[0] + c[1])]

@@ -61,6 +61,7 @@ from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
 from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity, invalidate_sourceless
+from .smooth import smooth_planar
 from .subpixel import parabola_peak
 
 
@@ -133,6 +134,12 @@ class SGMConfig:
         the centre counts as equal to it, so that sensor noise and JPEG ringing on a
         near-uniform face give flat costs and the disparity comes from the face's outline
         through SGM's paths. CPU only.
+    plane_smooth_radius_px : int
+        0 (the default) for none; above 0, the disparities are replaced by the value of
+        the least-squares plane through the valid disparities of the ``(2 r + 1)``-square
+        window around each pixel, and pixels more than 1 px off it are dropped
+        (:func:`~stereo_terrain.stereo.smooth.smooth_planar`). This undoes the whole-pixel
+        terraces SGM leaves on faces where the costs are flat.
     device : str
         ``cpu`` (Numba, the default), ``cuda`` (Numba-CUDA, :mod:`.sgm_cuda`; 4 or 8 paths,
         at most 256 disparities; same result as the CPU) or ``auto`` (CUDA when a device is
@@ -162,6 +169,7 @@ class SGMConfig:
     speckle_range_px: int = 2
     census_blur_sigma_px: float = 0.0
     census_epsilon_grey: int = 0
+    plane_smooth_radius_px: int = 0
     device: str = "cpu"
 
     def __post_init__(self) -> None:
@@ -191,6 +199,10 @@ class SGMConfig:
             raise ConfigError(
                 "census_epsilon_grey > 0 (the ternary census) runs on the CPU only; "
                 "use device='cpu' or 'auto'"
+            )
+        if not 0 <= self.plane_smooth_radius_px <= 50:
+            raise ConfigError(
+                f"plane_smooth_radius_px must be between 0 (off) and 50, got {self.plane_smooth_radius_px}"
             )
         if not 0 <= self.uniqueness_ratio_pct < 100:
             raise ConfigError("uniqueness_ratio_pct must be in [0, 100)")
@@ -222,7 +234,8 @@ def census5x5(img: np.ndarray, epsilon: int = 0) -> np.ndarray:  # pragma: no co
     return out
 
 
-def census_ternary(img: np.ndarray, epsilon: int) -> np.ndarray:
+@njit(cache=True, nogil=True)
+def census_ternary(img: np.ndarray, epsilon: int) -> np.ndarray:  # pragma: no cover - compiled
     """Ternary 5x5 census, (H, W) uint64: each of the 24 neighbours is darker than the
     centre by more than ``epsilon`` grey levels (its bit of the low word), brighter by
     more than ``epsilon`` (its bit of the high word, the darker bits of the inverted
@@ -236,9 +249,18 @@ def census_ternary(img: np.ndarray, epsilon: int) -> np.ndarray:
     blind to a gain between the cameras (the threshold is in grey levels), only to an
     offset.
     """
-    dark = census5x5(img, epsilon).astype(np.uint64)
-    bright = census5x5(255 - img, epsilon).astype(np.uint64)
-    return dark | (bright << np.uint64(32))
+    h, w = img.shape
+    inverted = np.empty((h, w), dtype=np.uint8)
+    for y in range(h):
+        for x in range(w):
+            inverted[y, x] = 255 - img[y, x]
+    dark = census5x5(img, epsilon)
+    bright = census5x5(inverted, epsilon)
+    out = np.empty((h, w), dtype=np.uint64)
+    for y in range(h):
+        for x in range(w):
+            out[y, x] = np.uint64(dark[y, x]) | (np.uint64(bright[y, x]) << np.uint64(32))
+    return out
 
 
 @intrinsic
@@ -783,6 +805,8 @@ class SGM:
             cv2.filterSpeckles(fixed, _INVALID_FIXED, c.speckle_window_px, c.speckle_range_px * 16)
             _invalidate_where(disp, fixed)
         invalidate_sourceless(disp, pair.rectification)
+        if c.plane_smooth_radius_px > 0:
+            disp = smooth_planar(disp, c.plane_smooth_radius_px)
         return DisparityMap(disp, n, pair.rectification, conf, self.name)
 
     def _use_cuda(self) -> bool:
