@@ -295,7 +295,8 @@ def score_with_ray(
         import ray
     except ImportError:
         raise InputError(
-            "bench --ray needs the Python package 'ray', which is not installed: pip install 'stereo-terrain[ray]'"
+            "bench --ray needs the Python package 'ray', which is not installed: "
+            "pip install 'stereo-terrain[ray]'"
         ) from None
     started = not ray.is_initialized()
     if started:

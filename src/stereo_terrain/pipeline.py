@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from .calibration import StereoCalibration
@@ -311,6 +312,12 @@ class Pipeline:
         Mounting and body attitude; without it the floor is taken as level.
     config : PipelineConfig, optional
 
+    backend : DisparityBackend, optional
+        A disparity engine to use instead of the config's.
+    warm_up : bool
+        Load (or compile) the compiled kernels the configured stages use before the first
+        frame, so that it costs about what a steady one does (:func:`warm_up_kernels`).
+
     Examples
     --------
     >>> from stereo_terrain.synthetic import default_scene_spec, render_scene
@@ -327,6 +334,7 @@ class Pipeline:
         config: PipelineConfig | None = None,
         *,
         backend: DisparityBackend | None = None,
+        warm_up: bool = True,
     ) -> None:
         self.config = config or PipelineConfig()
         self.calibration = calibration
@@ -352,6 +360,10 @@ class Pipeline:
         self.T_yaw_camera_rect: Transform | None = (
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
         )
+        if warm_up:
+            warm_up_kernels(
+                self.config, with_rig=rig is not None, backend=None if backend is None else self.backend
+            )
 
     def reset_drift(self) -> None:
         """Forget what the online drift correction has seen and go back to the calibration's
@@ -532,6 +544,73 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+#: Configurations already warmed up in this process (see :func:`warm_up_kernels`).
+_WARMED: set[tuple[Any, ...]] = set()
+#: Size of the warm-up pair (pixels) and its rig: a level camera 0.5 m above the floor.
+_WARM_SIZE, _WARM_FOCAL_PX, _WARM_BASELINE_M, _WARM_HEIGHT_M = (160, 120), 100.0, 0.1, 0.5
+
+
+def _warm_up_scene() -> tuple[StereoCalibration, Rig, np.ndarray, np.ndarray]:
+    """A tiny ideal rig looking at two steps, and its pair: a textured image warped by the
+    scene's disparity, with an untextured face for the planar fill. Only its shape
+    matters (every stage must find something to work on), not its accuracy."""
+    w, h = _WARM_SIZE
+    f, B, cam_h = _WARM_FOCAL_PX, _WARM_BASELINE_M, _WARM_HEIGHT_M
+    K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
+    calib = StereoCalibration(
+        K, np.zeros(5), K.copy(), np.zeros(5), np.eye(3), np.array([-B, 0.0, 0.0]), (w, h)
+    )
+    T_body_camera = Transform.from_rt(R_BODY_OPTICAL, [0.0, 0.0, cam_h], "body", "camera")
+    # Depth of each pixel: floor, two 0.2 m steps (risers at 1.0 and 1.3 m), a wall at 1.6 m.
+    ray_down = (np.arange(h, dtype=np.float64)[:, None] - h / 2 + 0.5) / f  # y / Z along each row
+    depth = np.full((h, 1), 1.6)
+    for riser_m, top_m in ((1.3, 2 * 0.2), (1.0, 0.2), (np.inf, 0.0)):  # far to near
+        with np.errstate(divide="ignore"):
+            on_top = np.where(ray_down > 0, (cam_h - top_m) / ray_down, np.inf)  # this level's floor
+        hits_riser = (ray_down * riser_m <= cam_h - top_m + 0.2) if np.isfinite(riser_m) else True
+        level = np.where(on_top < riser_m, on_top, riser_m)
+        depth = np.where((on_top < depth) | (hits_riser & (level < depth)), np.minimum(level, depth), depth)
+    disparity = np.broadcast_to(f * B / depth, (h, w)).astype(np.float32)
+    rng = np.random.default_rng(0)
+    left = cv2.GaussianBlur(rng.integers(0, 256, (h, w)).astype(np.uint8), (3, 3), 0.8)
+    left[h // 2 + 22 : h // 2 + 36, w // 4 : 3 * w // 4] = 128  # an untextured riser face
+    xs = np.arange(w, dtype=np.float32)[None, :] + disparity  # right(x) = left(x + d)
+    ys = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    right = cv2.remap(left, np.ascontiguousarray(xs), np.ascontiguousarray(ys), cv2.INTER_LINEAR)
+    return calib, Rig(T_body_camera), left, right
+
+
+def warm_up_kernels(
+    config: PipelineConfig, *, with_rig: bool = True, backend: DisparityBackend | None = None
+) -> None:
+    """Run the pipeline of ``config`` once on a tiny rendered-by-warping pair, so that every
+    compiled (Numba) kernel its stages use is loaded from the cache (or compiled) now rather
+    than in the first real frame. Once per process and configuration of the compiled
+    stages (backend and its device, plane method, fill, with or without a rig); a few
+    milliseconds when already cached on disk."""
+    key = (
+        config.backend,
+        getattr(config.sgm, "device", None) if config.backend == "sgm" else None,
+        config.method,
+        config.fill.enabled,
+        config.fill.texture,
+        with_rig,
+        None if backend is None else type(backend).__name__,
+    )
+    if key in _WARMED:
+        return
+    calib, rig, left, right = _warm_up_scene()
+    warm_config = dataclasses.replace(
+        config,
+        max_disparity_px=None,
+        drift=dataclasses.replace(config.drift, online=False),
+        rectify_fov="valid",
+    )
+    pipeline = Pipeline(calib, rig if with_rig else None, warm_config, backend=backend, warm_up=False)
+    pipeline.run(left, right)
+    _WARMED.add(key)
 
 
 def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform]:
