@@ -20,6 +20,7 @@ import functools
 import math
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -64,7 +65,7 @@ from .planes.orientation import (
 )
 from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
-from .stereo.fill import PlanarFillConfig, fill_planar_regions
+from .stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
 from .stereo.opencv import OpenCVSGBMConfig
 from .stereo.sgm import SGMConfig
 from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
@@ -397,8 +398,15 @@ class Pipeline:
                 pair = rectify(left, right, self.rectification)
         pair, self.last_vertical = align_vertical(pair, self.config.vertical)  # residual vertical offset
         lap("rectify")
-        disp = self.backend.compute(pair, self.max_disparity_px)
+        regions = None
         if self.config.fill.enabled:
+            # The fill's regions need only the left image: found on another core while the
+            # matcher runs (OpenCV releases the GIL; issue 13).
+            regions = _background().submit(
+                find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
+            )
+        disp = self.backend.compute(pair, self.max_disparity_px)
+        if regions is not None:
             # Texture-poor faces: disparity from their outline (see stereo/fill.py).
             values, filled = fill_planar_regions(
                 disp.disparity,
@@ -406,6 +414,7 @@ class Pipeline:
                 self.config.fill,
                 max_disparity_px=disp.max_disparity_px,
                 valid=pair.rectification.valid_left,
+                regions=regions.result(),
             )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
@@ -544,6 +553,17 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+_BACKGROUND: list[ThreadPoolExecutor] = []
+
+
+def _background() -> ThreadPoolExecutor:
+    """The process's one worker thread for work that overlaps the disparity matcher (shared
+    by every pipeline, so that many pipelines do not leave many idle threads)."""
+    if not _BACKGROUND:
+        _BACKGROUND.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-terrain"))
+    return _BACKGROUND[0]
 
 
 #: Configurations already warmed up in this process (see :func:`warm_up_kernels`).
