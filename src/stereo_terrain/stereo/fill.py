@@ -259,8 +259,9 @@ def _flat_regions(
         flat = flat.astype(np.uint8)
     else:
         ill_posed = None
-        # |grad| / 8 < flat_gradient (8 = Sobel's 3x3 kernel gain), as 255/0 in one pass.
-        flat = cv2.compare(cv2.magnitude(gx, gy), 8.0 * config.flat_gradient, cv2.CMP_LT)
+        # |grad| / 8 < flat_gradient (8 = Sobel's 3x3 kernel gain; scaling by 8 is exact), as
+        # 0/1 bytes in one pass.
+        flat = (cv2.magnitude(gx, gy) < np.float32(8.0 * config.flat_gradient)).view(np.uint8)
     if valid is not None:
         flat[~valid] = 0
     flat = cv2.erode(flat, np.ones((3, 3), np.uint8))
