@@ -186,3 +186,14 @@ print("cold:", cold)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert "cold: []" in out.stdout, out.stdout
+
+
+def test_an_unreachable_ray_address_is_one_line_exit_2(scenes, capsys):
+    import socket
+
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    with socket.socket() as s:  # a port nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    code, _, err = _run(["bench", scenes, "--ray", f"127.0.0.1:{port}"], capsys)
+    assert code == 2 and "nothing answers" in err and len(err.strip().splitlines()) == 1

@@ -299,6 +299,8 @@ def score_with_ray(
             "pip install 'stereo-terrain[ray]'"
         ) from None
     started = not ray.is_initialized()
+    if started and address is not None:
+        check_reachable(address)
     if started:
         src = str(Path(__file__).resolve().parents[1])  # workers import this very package
         env = {"env_vars": {"PYTHONPATH": src}}
@@ -330,6 +332,22 @@ def score_with_ray(
         truth = read_truth(d / "truth.json") if (d / "truth.json").is_file() else None
         outcomes.append(SceneOutcome(d.name, res, _score(res, truth)))
     return outcomes
+
+
+def check_reachable(address: str, timeout_s: float = 5.0) -> None:
+    """Refuse at once a Ray address (``host:port`` or ``ray://host:port``) that nothing
+    answers on (``ray.init`` would retry for minutes); other forms (``auto``) are left to
+    Ray."""
+    import socket
+
+    hostport = address.removeprefix("ray://")
+    host, sep, port = hostport.rpartition(":")
+    if not sep or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host or "localhost", int(port)), timeout=timeout_s).close()
+    except OSError as exc:
+        raise InputError(f"bench --ray: nothing answers at {address} ({exc.strerror or exc})") from None
 
 
 def _median(values: list[float]) -> float | None:
