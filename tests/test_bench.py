@@ -197,3 +197,16 @@ def test_an_unreachable_ray_address_is_one_line_exit_2(scenes, capsys):
         port = s.getsockname()[1]
     code, _, err = _run(["bench", scenes, "--ray", f"127.0.0.1:{port}"], capsys)
     assert code == 2 and "nothing answers" in err and len(err.strip().splitlines()) == 1
+
+
+def test_bench_ray_cli_reports_accuracy_and_no_timing(scenes, tmp_path, capsys):
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    out = tmp_path / "ray.json"
+    code, text, err = _run(["bench", scenes, "--ray", "--json", out], capsys)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert set(data) == KEYS and data["scenes"] == 3
+    assert data["frame_ms"]["median"] is None and data["ratio_to_opencv_3way"]["median"] is None
+    ref = _evaluation_accuracy(scenes)
+    assert data["accuracy"]["detection_rate"] == pytest.approx(ref["detection_rate"])
+    assert "timing is measured only without --ray" in text
