@@ -6,7 +6,6 @@ import json
 import math
 import subprocess
 import sys
-import time
 
 import pytest
 from hypothesis import given
@@ -154,21 +153,6 @@ def test_check_truth_accepts_or_raises_input_error(data):
         assert "truth.json" in str(exc)
 
 
-def test_ray_gives_the_local_accuracy(scenes):
-    ray = pytest.importorskip("ray", reason="the ray extra is not installed")
-    from stereo_terrain.bench import score_with_ray
-
-    dirs = scene_dirs(scenes)
-    local = [o for o in iter_bench(dirs, PipelineConfig(), 1, timed=False)]
-    t0 = time.perf_counter()
-    remote = score_with_ray(dirs, dataclasses.asdict(PipelineConfig()), num_cpus=2)
-    assert time.perf_counter() - t0 < 600  # a hung local cluster fails instead of blocking CI
-    assert not ray.is_initialized()  # the local Ray it started is shut down again
-    assert [o.name for o in remote] == [o.name for o in local]
-    assert [o.result["steps"] for o in remote] == [o.result["steps"] for o in local]
-    assert accuracy_summary(remote) == accuracy_summary(local)
-
-
 def test_pipeline_construction_warms_every_kernel_its_stages_use():
     """In a fresh process: after ``Pipeline(...)`` (no frame run yet) every Numba kernel of
     the plane and MSAC stages has a compiled signature."""
@@ -207,6 +191,9 @@ def test_bench_ray_cli_reports_accuracy_and_no_timing(scenes, tmp_path, capsys):
     data = json.loads(out.read_text())
     assert set(data) == KEYS and data["scenes"] == 3
     assert data["frame_ms"]["median"] is None and data["ratio_to_opencv_3way"]["median"] is None
-    ref = _evaluation_accuracy(scenes)
-    assert data["accuracy"]["detection_rate"] == pytest.approx(ref["detection_rate"])
+    import ray
+
+    assert not ray.is_initialized()  # the local Ray it started is shut down again
+    local = list(iter_bench(scene_dirs(scenes), PipelineConfig(), 1, timed=False))
+    assert data["accuracy"] == accuracy_summary(local)  # the same numbers as the local run
     assert "timing is measured only without --ray" in text
