@@ -197,3 +197,25 @@ def test_bench_ray_cli_reports_accuracy_and_no_timing(scenes, tmp_path, capsys):
     local = list(iter_bench(scene_dirs(scenes), PipelineConfig(), 1, timed=False))
     assert data["accuracy"] == accuracy_summary(local)  # the same numbers as the local run
     assert "timing is measured only without --ray" in text
+
+
+@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+def test_a_forked_child_runs_the_pipeline(scenes):
+    """The fill's worker thread does not survive a fork: a child must get its own (with the
+    parent's executor it would wait forever)."""
+    import multiprocessing
+
+    s = read_bench_scene(scenes / "scene_000")
+    pipeline = Pipeline(s.calibration, s.rig)
+    expected = pipeline.run(s.left, s.right).to_json_dict()["steps"]  # the parent's thread exists now
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=lambda: send.send(pipeline.run(s.left, s.right).to_json_dict()["steps"]))
+    child.start()
+    try:
+        assert receive.poll(120), "the forked child did not finish its frame"
+        assert receive.recv() == expected
+    finally:
+        child.join(10)
+        if child.is_alive():
+            child.kill()

@@ -19,6 +19,7 @@ import dataclasses
 import functools
 import logging
 import math
+import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -556,15 +557,19 @@ class Pipeline:
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
 
 
-_BACKGROUND: list[ThreadPoolExecutor] = []
+_BACKGROUND: dict[int, ThreadPoolExecutor] = {}
 
 
 def _background() -> ThreadPoolExecutor:
     """The process's one worker thread for work that overlaps the disparity matcher (shared
-    by every pipeline, so that many pipelines do not leave many idle threads)."""
-    if not _BACKGROUND:
-        _BACKGROUND.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-terrain"))
-    return _BACKGROUND[0]
+    by every pipeline, so that many pipelines do not leave many idle threads). Keyed by
+    process id: a child forked after a frame has no thread behind its parent's executor,
+    and would wait on it forever."""
+    pid = os.getpid()
+    if pid not in _BACKGROUND:
+        _BACKGROUND.clear()
+        _BACKGROUND[pid] = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-terrain")
+    return _BACKGROUND[pid]
 
 
 #: Configurations already warmed up in this process (see :func:`warm_up_kernels`).
