@@ -69,16 +69,19 @@ def run_scene(calibration, rig, left, right, truth, config: PipelineConfig, out:
     out["rig"].append(score_result(with_rig.run(left, right).to_json_dict(), truth))
     free = Pipeline(calibration, None, config)
     result = free.run(left, right)
-    out["scene"].append(score_result(result.to_json_dict(), truth))
+    data = result.to_json_dict()
+    out["scene"].append(score_result(data, truth))
     true_up = _up(rig.T_yaw_camera @ free.rectification.T_camera_rect)
     out["gravity_err"].append(angle_deg(_up(result.T_yaw_camera_rect), true_up))
+    sigma = (data.get("gravity") or {}).get("sigma_deg")
+    out["gravity_sigma"].append(float("nan") if sigma is None else float(sigma))
 
 
 def run_profile(profile: str, n: int, seed: int, config: PipelineConfig) -> dict[str, list]:
     from stereo_terrain.synthetic import random_scene_spec, render_scene
 
     rng = np.random.default_rng(seed)
-    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": []}
+    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": [], "gravity_sigma": []}
     for i in range(n):
         scene = render_scene(random_scene_spec(rng, profile=profile))
         run_scene(scene.calibration, scene.rig, scene.left, scene.right, scene.truth, config, out)
@@ -92,7 +95,7 @@ def run_folder(folder: Path, config: PipelineConfig) -> dict[str, list]:
     rig.yaml, truth.json)."""
     from stereo_terrain.frames import load_rig
 
-    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": []}
+    out: dict[str, list] = {"rig": [], "scene": [], "gravity_err": [], "gravity_sigma": []}
     dirs = sorted(folder.glob("scene_*"))
     for i, d in enumerate(dirs):
         truth = json.loads((d / "truth.json").read_text())
@@ -105,14 +108,14 @@ def run_folder(folder: Path, config: PipelineConfig) -> dict[str, list]:
     return out
 
 
-def row(name: str, scores, grav=None) -> str:
+def row(name: str, scores, grav=None, sigma=None) -> str:
     s = {"run_p90_m": float("nan"), "first_distance_p90_m": float("nan"), **summarize(scores)}
     cm = 100.0
 
     def f(x: float) -> str:
         return "-" if not np.isfinite(x) else f"{x * cm:.1f}"
 
-    g = "| - | - | -"
+    g = "| - | - | - | -"
     if grav is not None:
         e = np.array(grav)
         fin = e[np.isfinite(e)]
@@ -121,6 +124,10 @@ def row(name: str, scores, grav=None) -> str:
             if len(fin)
             else "| - | - | 0%"
         )
+        sg = np.array(sigma if sigma is not None else [np.nan] * len(e))
+        has = np.isfinite(sg) & np.isfinite(e)
+        # Coverage of the reported 1-sigma: the share of scenes (with a sigma) within 2 sigma.
+        g += f" | {np.mean(e[has] <= 2.0 * sg[has]):.0%} of {int(has.sum())}" if has.any() else " | -"
     return (
         f"| {name} | {int(s['scenes'])} | {s['detection_rate']:.0%} | {s['false_positive_rate']:.0%} | "
         f"{s['count_rate']:.0%} | {f(s['rise_median_m'])} / {f(s['rise_p90_m'])} | "
@@ -164,28 +171,37 @@ def main() -> None:
     ap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")
     ap.add_argument("--real-only", action="store_true", help="only the real scenes")
     ap.add_argument("--scenes-dir", type=Path, action="append", help="rendered scenes instead of --profiles")
+    ap.add_argument("--dump", type=Path, help="per-scene gravity error and sigma (JSON)")
     args = ap.parse_args()
+    dumped: dict[str, dict[str, list]] = {}
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
     header = (
         "| scenes, gravity from | n | detected | false pos. | step count | rise cm med / p90 | "
-        "run cm med / p90 | 1st distance cm med / p90 | gravity err deg med | p90 | within 2 deg |"
+        "run cm med / p90 | 1st distance cm med / p90 | gravity err deg med | p90 | within 2 deg | "
+        "err <= 2 sigma |"
     )
     if args.scenes_dir and not args.real_only:
         print(header)
-        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for folder in args.scenes_dir:
             res = run_folder(folder, config)
+            dumped[folder.name] = {k: res[k] for k in ("gravity_err", "gravity_sigma")}
             print(row(f"{folder.name}, rig", res["rig"]))
-            print(row(f"{folder.name}, scene (no rig)", res["scene"], res["gravity_err"]))
+            print(
+                row(f"{folder.name}, scene (no rig)", res["scene"], res["gravity_err"], res["gravity_sigma"])
+            )
             sys.stdout.flush()
     elif not args.real_only:
         print(header)
-        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for profile in args.profiles.split(","):
             res = run_profile(profile, args.scenes, args.seed, config)
+            dumped[profile] = {k: res[k] for k in ("gravity_err", "gravity_sigma")}
             print(row(f"{profile}, rig", res["rig"]))
-            print(row(f"{profile}, scene (no rig)", res["scene"], res["gravity_err"]))
+            print(row(f"{profile}, scene (no rig)", res["scene"], res["gravity_err"], res["gravity_sigma"]))
             sys.stdout.flush()
+    if args.dump is not None:
+        args.dump.write_text(json.dumps(dumped, indent=1) + "\n")
     real_scenes(config)
 
 

@@ -243,3 +243,32 @@ def test_stairs_filling_the_view_keep_their_first_step(yaw_deg):
     assert abs(first["distance"] - truth[0]["distance"]) < 0.03
     for got, want in zip(data["steps"], truth, strict=True):
         assert abs(got["rise"] - want["rise"]) < 0.02
+
+
+@pytest.mark.parametrize(("width_m", "distance_m"), [(0.4, 0.75), (0.5, 0.8)])
+def test_first_riser_cut_by_the_image_bottom_stands_on_the_floor_seen_beside_it(width_m, distance_m):
+    """A level camera 0.45 m high close to a narrow staircase: the first riser's foot is
+    below the image, the floor is seen beside the stairs. The first riser's bottom is the
+    image's edge, not a riser floating above the floor: it is kept, and its rise measured
+    from that floor (not inferred). Beyond the first two steps a tread above the camera is
+    not seen (the 0.5 m wide case's third rise), which is not what this test is about."""
+    import dataclasses
+
+    from stereo_terrain.pipeline import Pipeline
+    from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+    base = default_scene_spec()
+    stairs = dataclasses.replace(
+        base.obstacle, n_steps=3, yaw_rad=0.0, lateral_m=0.0, width_m=width_m, distance_m=distance_m
+    )
+    spec = dataclasses.replace(
+        base, obstacle=stairs, camera_height_m=0.45, pitch_down_rad=0.0, body_rpy=(0.0, 0.0, 0.0)
+    )
+    scene = render_scene(spec)
+    data = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict()
+    truth = scene.truth["steps"]
+    assert data["obstacle"] == "stairs" and len(data["steps"]) == len(truth), data["note"]
+    for got, want in zip(data["steps"][:2], truth[:2], strict=True):
+        assert abs(got["rise"] - want["rise"]) < 0.01
+        assert abs(got["distance"] - want["distance"]) < 0.02
+        assert got["rise_inferred"] is False

@@ -41,7 +41,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy.stats import chi2
 
 from .checks import check_fields, check_min
 from .errors import ConfigError, InputError
@@ -631,6 +630,8 @@ def yaws_agree(views: Sequence[tuple[float, float]], config: DriftConfig) -> boo
     if math.degrees(abs(mean)) < config.min_yaw_deg:
         return False
     q = float(np.sum(w * (y - mean) ** 2))
+    from scipy.stats import chi2  # here: scipy.stats costs ~0.9 s and ~40 MB at import (issue 13)
+
     return q <= config.yaw_agreement * float(chi2.ppf(0.999, len(views) - 1))
 
 

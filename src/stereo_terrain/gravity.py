@@ -36,6 +36,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .checks import check_fields, check_min
 from .cloud import GridSample
@@ -79,8 +80,14 @@ class GravityConfig:
         An estimate less certain than this (e.g. one vertical family and no horizontal
         surface: up is free to turn about the wall's normal) is not used.
     structure_sigma_deg : float
-        Per-plane floor on the normal's uncertainty: real surfaces are not exactly level
-        or plumb.
+        Floor on the normal's uncertainty, per plane and for the result: real surfaces are
+        not exactly level or plumb, and a building's floors and walls share that.
+    correlation_px : float
+        Disparity errors are correlated over about this many pixels (the matching block,
+        the aggregation paths, the planar fill), so a plane's ``N`` inliers on a grid of
+        stride ``s`` fix its normal only as well as ``N (s / correlation_px)^2``
+        independent points would (at least 3); a plane's scatter is at least the depth
+        noise of its points.
     rig_tolerance_deg : float
         With a rig, a scene estimate further than this from the rig's up is reported.
     min_floor_drop_m : float
@@ -109,6 +116,7 @@ class GravityConfig:
     min_support: float = 3.0
     max_sigma_deg: float = 4.0
     structure_sigma_deg: float = 0.3
+    correlation_px: float = 16.0
     rig_tolerance_deg: float = 3.0
     min_floor_drop_m: float = 0.1
     levelling_tol_deg: float = 12.0
@@ -122,6 +130,7 @@ class GravityConfig:
         check_min(self, 2, "blocks")
         check_min(self, 0, "min_floor_drop_m")
         check_min(self, 1, "min_support")
+        check_min(self, 1, "correlation_px")
         for name in (
             "prior_cone_deg",
             "prior_sigma_deg",
@@ -331,7 +340,10 @@ def estimate_up(
             h_frac,
             v_frac,
         )
-    sigma = _jackknife_sigma_deg(samples, N, horiz, vert, u, prior, config.blocks)
+    # The jackknife's spread, and the structural floor (surfaces are not exactly level).
+    sigma = math.hypot(
+        _jackknife_sigma_deg(samples, N, horiz, vert, u, prior, config.blocks), config.structure_sigma_deg
+    )
     if not sigma <= config.max_sigma_deg:
         return GravityEstimate(
             u,
@@ -464,7 +476,10 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
     u = np.asarray(planes.up, dtype=np.float64)
     u = u / np.linalg.norm(u)
     P = planes.samples.points.astype(np.float64)
+    depth_sigma = planes.samples.sigma_m
     floor = math.radians(config.structure_sigma_deg) ** 2
+    # Inliers per independent one (correlated disparity errors, see GravityConfig).
+    per_independent = max(1.0, (config.correlation_px / max(planes.samples.stride_px, 1)) ** 2)
     cons: list[tuple[str, np.ndarray, np.ndarray]] = []  # (kind, normal, normal covariance)
     n_h = n_v = 0
     total = max(len(P), 1)
@@ -474,14 +489,16 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
         q = P[seg.indices]
         q = q - q.mean(axis=0)
         lam, E = np.linalg.eigh(q.T @ q)
-        sigma2 = max(seg.rms_m, 1e-3) ** 2
-        cov_n = sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
+        noise = float(np.nanmedian(depth_sigma[seg.indices])) if len(depth_sigma) else 0.0
+        sigma2 = max(seg.rms_m, noise, 1e-3) ** 2
+        inflate = min(per_independent, seg.count / 3.0) if seg.count > 3 else 1.0
+        cov_n = inflate * sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
         n = seg.plane.normal if seg.kind == VERTICAL or seg.plane.normal @ u >= 0 else -seg.plane.normal
         cons.append((seg.kind, n, cov_n))
         n_h += seg.count if seg.kind == HORIZONTAL else 0
         n_v += seg.count if seg.kind == VERTICAL else 0
     h_frac, v_frac = n_h / total, n_v / total
-    if len(cons) < 2:
+    if sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) < 2:  # up has 2 degrees of freedom
         return _failed(frame, "too few planes to fix up", h_frac, v_frac)
     weights = np.ones(len(cons))
     for _ in range(8):
@@ -518,25 +535,28 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
     dof = sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) - 2
     chi2 = float(np.sum(weights * chi * chi)) / max(float(np.sum(weights)), 1e-9) * (dof + 2)
     scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
-    sigma = math.degrees(math.sqrt(scale * float(np.linalg.eigvalsh(cov)[-1])))
+    # The structural floor once more for the whole result: the planes share it.
+    sigma = math.degrees(math.sqrt(scale * float(np.linalg.eigvalsh(cov)[-1]) + floor))
     ok = sigma <= config.max_sigma_deg
     why = "planes of the scene" if ok else f"the planes fix up only to {sigma:.1f} deg"
     return GravityEstimate(u, frame, sigma, ok, h_frac, v_frac, why)
 
 
-def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def rotation_between(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """The smallest rotation taking unit vector ``a`` to unit vector ``b``."""
-    a = np.asarray(a, dtype=np.float64) / np.linalg.norm(a)
-    b = np.asarray(b, dtype=np.float64) / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(a @ b)
+    ua = np.asarray(a, dtype=np.float64)
+    ua = ua / np.linalg.norm(ua)
+    ub = np.asarray(b, dtype=np.float64)
+    ub = ub / np.linalg.norm(ub)
+    v = np.cross(ua, ub)
+    c = float(ua @ ub)
     s = float(np.linalg.norm(v))
     if s < 1e-12:
         if c > 0:
             return np.eye(3)
-        axis = np.cross(a, [1.0, 0.0, 0.0])
+        axis = np.cross(ua, [1.0, 0.0, 0.0])
         if np.linalg.norm(axis) < 1e-6:
-            axis = np.cross(a, [0.0, 1.0, 0.0])
+            axis = np.cross(ua, [0.0, 1.0, 0.0])
         axis /= np.linalg.norm(axis)
         return 2.0 * np.outer(axis, axis) - np.eye(3)
     K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
@@ -548,7 +568,7 @@ def levelling(up: np.ndarray, frame: str = "yaw") -> Transform:
     return Transform.from_rt(rotation_between(up, [0.0, 0.0, 1.0]), np.zeros(3), frame, frame)
 
 
-def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+def angle_deg(a: ArrayLike, b: ArrayLike) -> float:
     """Angle between two vectors, degrees."""
     c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))

@@ -17,13 +17,17 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import math
+import os
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from .calibration import StereoCalibration
@@ -63,7 +67,7 @@ from .planes.orientation import (
 )
 from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
-from .stereo.fill import PlanarFillConfig, fill_planar_regions
+from .stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
 from .stereo.opencv import OpenCVSGBMConfig
 from .stereo.sgm import SGMConfig
 from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
@@ -332,6 +336,12 @@ class Pipeline:
         Mounting and body attitude; without it the floor is taken as level.
     config : PipelineConfig, optional
 
+    backend : DisparityBackend, optional
+        A disparity engine to use instead of the config's.
+    warm_up : bool
+        Load (or compile) the compiled kernels the configured stages use before the first
+        frame, so that it costs about what a steady one does (:func:`warm_up_kernels`).
+
     Examples
     --------
     >>> from stereo_terrain.synthetic import default_scene_spec, render_scene
@@ -348,6 +358,7 @@ class Pipeline:
         config: PipelineConfig | None = None,
         *,
         backend: DisparityBackend | None = None,
+        warm_up: bool = True,
     ) -> None:
         self.config = config or PipelineConfig()
         self.calibration = calibration
@@ -373,6 +384,10 @@ class Pipeline:
         self.T_yaw_camera_rect: Transform | None = (
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
         )
+        if warm_up:
+            warm_up_kernels(
+                self.config, with_rig=rig is not None, backend=None if backend is None else self.backend
+            )
 
     def reset_drift(self) -> None:
         """Forget what the online drift correction has seen and go back to the calibration's
@@ -406,8 +421,15 @@ class Pipeline:
                 pair = rectify(left, right, self.rectification)
         pair, self.last_vertical = align_vertical(pair, self.config.vertical)  # residual vertical offset
         lap("rectify")
-        disp = self.backend.compute(pair, self.max_disparity_px)
+        regions = None
         if self.config.fill.enabled:
+            # The fill's regions need only the left image: found on another core while the
+            # matcher runs (OpenCV releases the GIL; issue 13).
+            regions = _background().submit(
+                find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
+            )
+        disp = self.backend.compute(pair, self.max_disparity_px)
+        if regions is not None:
             # Texture-poor faces: disparity from their outline (see stereo/fill.py).
             values, filled = fill_planar_regions(
                 disp.disparity,
@@ -415,6 +437,7 @@ class Pipeline:
                 self.config.fill,
                 max_disparity_px=disp.max_disparity_px,
                 valid=pair.rectification.valid_left,
+                regions=regions.result(),
             )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
@@ -557,6 +580,91 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+_BACKGROUND: dict[int, ThreadPoolExecutor] = {}
+
+
+def _background() -> ThreadPoolExecutor:
+    """The process's one worker thread for work that overlaps the disparity matcher (shared
+    by every pipeline, so that many pipelines do not leave many idle threads). Keyed by
+    process id: a child forked after a frame has no thread behind its parent's executor,
+    and would wait on it forever."""
+    pid = os.getpid()
+    if pid not in _BACKGROUND:
+        _BACKGROUND.clear()
+        _BACKGROUND[pid] = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-terrain")
+    return _BACKGROUND[pid]
+
+
+#: Configurations already warmed up in this process (see :func:`warm_up_kernels`).
+_WARMED: set[tuple[Any, ...]] = set()
+#: Size of the warm-up pair (pixels) and its rig: a level camera 0.5 m above the floor.
+_WARM_SIZE, _WARM_FOCAL_PX, _WARM_BASELINE_M, _WARM_HEIGHT_M = (160, 120), 100.0, 0.1, 0.5
+
+
+def _warm_up_scene() -> tuple[StereoCalibration, Rig, np.ndarray, np.ndarray]:
+    """A tiny ideal rig looking at two steps, and its pair: a textured image warped by the
+    scene's disparity, with an untextured face for the planar fill. Only its shape
+    matters (every stage must find something to work on), not its accuracy."""
+    w, h = _WARM_SIZE
+    f, B, cam_h = _WARM_FOCAL_PX, _WARM_BASELINE_M, _WARM_HEIGHT_M
+    K = np.array([[f, 0.0, w / 2], [0.0, f, h / 2], [0.0, 0.0, 1.0]])
+    calib = StereoCalibration(
+        K, np.zeros(5), K.copy(), np.zeros(5), np.eye(3), np.array([-B, 0.0, 0.0]), (w, h)
+    )
+    T_body_camera = Transform.from_rt(R_BODY_OPTICAL, [0.0, 0.0, cam_h], "body", "camera")
+    # Depth of each pixel: floor, two 0.2 m steps (risers at 1.0 and 1.3 m), a wall at 1.6 m.
+    ray_down = (np.arange(h, dtype=np.float64)[:, None] - h / 2 + 0.5) / f  # y / Z along each row
+    depth = np.full((h, 1), 1.6)
+    for riser_m, top_m in ((1.3, 2 * 0.2), (1.0, 0.2), (np.inf, 0.0)):  # far to near
+        with np.errstate(divide="ignore"):
+            on_top = np.where(ray_down > 0, (cam_h - top_m) / ray_down, np.inf)  # this level's floor
+        hits_riser = (ray_down * riser_m <= cam_h - top_m + 0.2) if np.isfinite(riser_m) else True
+        level = np.where(on_top < riser_m, on_top, riser_m)
+        depth = np.where((on_top < depth) | (hits_riser & (level < depth)), np.minimum(level, depth), depth)
+    disparity = np.broadcast_to(f * B / depth, (h, w)).astype(np.float32)
+    rng = np.random.default_rng(0)
+    left = cv2.GaussianBlur(rng.integers(0, 256, (h, w)).astype(np.uint8), (3, 3), 0.8)
+    left[h // 2 + 22 : h // 2 + 36, w // 4 : 3 * w // 4] = 128  # an untextured riser face
+    xs = np.arange(w, dtype=np.float32)[None, :] + disparity  # right(x) = left(x + d)
+    ys = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    right = cv2.remap(left, np.ascontiguousarray(xs), np.ascontiguousarray(ys), cv2.INTER_LINEAR)
+    return calib, Rig(T_body_camera), left, right
+
+
+def warm_up_kernels(
+    config: PipelineConfig, *, with_rig: bool = True, backend: DisparityBackend | None = None
+) -> None:
+    """Run the pipeline of ``config`` once on a tiny rendered-by-warping pair, so that every
+    compiled (Numba) kernel its stages use is loaded from the cache (or compiled) now rather
+    than in the first real frame. Once per process and configuration of the compiled
+    stages (backend and its device, plane method, fill, with or without a rig); a few
+    milliseconds when already cached on disk."""
+    key = (
+        config.backend,
+        getattr(config.sgm, "device", None) if config.backend == "sgm" else None,
+        config.method,
+        config.fill.enabled,
+        config.fill.texture,
+        with_rig,
+        None if backend is None else type(backend).__name__,
+    )
+    if key in _WARMED:
+        return
+    calib, rig, left, right = _warm_up_scene()
+    warm_config = dataclasses.replace(
+        config,
+        max_disparity_px=None,
+        drift=dataclasses.replace(config.drift, online=False),
+        rectify_fov="valid",
+    )
+    try:
+        pipeline = Pipeline(calib, rig if with_rig else None, warm_config, backend=backend, warm_up=False)
+        pipeline.run(left, right)
+    except Exception:  # an optimisation only: a config the tiny pair does not suit runs cold
+        logging.getLogger(__name__).debug("kernel warm-up skipped", exc_info=True)
+    _WARMED.add(key)
 
 
 def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform]:

@@ -387,8 +387,8 @@ def _with_source(mx: np.ndarray, my: np.ndarray, raw_size: tuple[int, int]) -> n
     k = 2 * SOURCE_MARGIN_PX + 1
     # Erode with the image border counted as having a source (it is the image's edge, not
     # a black fill).
-    ok = cv2.erode(ok.astype(np.uint8), np.ones((k, k), np.uint8), borderType=cv2.BORDER_REPLICATE)
-    return ok.astype(bool)
+    eroded = cv2.erode(ok.astype(np.uint8), np.ones((k, k), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    return eroded.astype(bool)
 
 
 def _largest_valid_rectangle(valid: np.ndarray) -> tuple[int, int, int, int]:

@@ -534,7 +534,9 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
         else:
             if cand.z_lo < level - config.edge_margin_m:
                 continue  # reaches below the current level: a wall or a side face
-            hidden = level > cam[2] - config.edge_margin_m
+            # Its foot may be out of sight: behind the nosing when that level is above the
+            # cameras, or below the image's bottom edge (then its bottom is the image's).
+            hidden = level > cam[2] - config.edge_margin_m or cand.foot_hidden
             if cand.z_lo > level + config.chain_tolerance_m and not hidden:
                 continue  # floats above the current level: not the next step
         chain.append((cand, top, riser_plane, tread_plane, s_pos))

@@ -19,13 +19,13 @@ import logging
 import sys
 
 from ..errors import EXIT_INTERNAL, EXIT_USAGE, exit_code
-from . import calib, live, scene
+from . import bench, calib, live, scene
 from .options import Parser
 from .outputs import CREATED, end_progress, remove_created
 
 log = logging.getLogger("stereo_terrain")
 
-_FAMILIES = (scene, calib, live)
+_FAMILIES = (scene, calib, live, bench)
 COMMANDS = {name: cmd for family in _FAMILIES for name, cmd in family.COMMANDS.items()}
 
 

@@ -21,6 +21,7 @@ from .outputs import (
     require_viz,
     write_json,
 )
+from .sinks import add_bag_options, add_output_options, check_bag_options, check_outputs, is_bag
 
 
 def add_parsers(sub: Any) -> None:
@@ -41,6 +42,7 @@ def add_parsers(sub: Any) -> None:
         q.add_argument("--duration", type=nonneg_float, help="stop after this many seconds")
         q.add_argument("--quiet", action="store_true", help="no live status line")
         q.add_argument("--summary-json", type=Path, help="write the exit summary as JSON here")
+        add_output_options(q)
         q.add_argument(
             "--jsonl", type=Path, help="also write every published message here, one JSON object per line"
         )
@@ -62,12 +64,17 @@ def add_parsers(sub: Any) -> None:
     loop_options(run)
 
     rp = sub.add_parser("replay", help="live loop on a recorded folder of pairs")
-    rp.add_argument("folder", type=Path, help="folder with pairs.csv (from record or simulate --record)")
-    rp.add_argument("--calib", type=Path, help="default: FOLDER/calib.yaml")
+    rp.add_argument(
+        "folder",
+        type=Path,
+        help="folder with pairs.csv (record, simulate --record), or a ROS 2 bag / MCAP file",
+    )
+    rp.add_argument("--calib", type=Path, help="default: FOLDER/calib.yaml, or a bag's CameraInfo topics")
     rp.add_argument("--rig", type=Path, help="default: FOLDER/rig.yaml if present")
     rp.add_argument("--as-fast", action="store_true", help="every pair, as fast as it goes (no pacing)")
     rp.add_argument("--speed", type=nonneg_float, default=1.0, help="playback speed (real time = 1)")
     rp.add_argument("--loop", action="store_true", help="repeat the recording until stopped")
+    add_bag_options(rp)
     loop_options(rp)
 
     si = sub.add_parser(
@@ -119,12 +126,12 @@ def cmd_record(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _pipeline(calib_path: Path, rig_path: Path | None, config_path: Path | None):
+def _pipeline(calib_path: Any, rig_path: Path | None, config_path: Path | None):
     from ..calibration import read_calibration
     from ..frames import load_rig
     from ..pipeline import Pipeline, PipelineConfig
 
-    calib = read_calibration(calib_path)
+    calib = read_calibration(calib_path) if isinstance(calib_path, Path) else calib_path
     rig = load_rig(rig_path) if rig_path else None
     config = PipelineConfig.from_yaml(config_path) if config_path else PipelineConfig()
     return Pipeline(calib, rig, config)
@@ -133,6 +140,7 @@ def _pipeline(calib_path: Path, rig_path: Path | None, config_path: Path | None)
 def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
     from ..runtime.capture import Capture
     from ..runtime.loop import LiveLoop, LoopConfig
+    from .sinks import fan_out, open_sinks, results_to, stop_on_sigterm
 
     publish: Any = lambda msg: None  # noqa: E731
     check_output_file(args.summary_json, "--summary-json")
@@ -158,17 +166,21 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
         max_frames=args.frames or 0,
         max_duration_s=args.duration or 0.0,
     )
-    loop = LiveLoop(
-        Capture(source),
-        pipeline,
-        publish,
-        pose=pose,
-        config=config,
-        status=None if args.quiet or not is_terminal(sys.stderr) else sys.stderr,
-    )
     try:
-        loop.warm_up()
-        summary = loop.run()
+        with stop_on_sigterm(), open_sinks(args, pipeline, pose=pose) as sinks:
+            loop = LiveLoop(
+                Capture(source),
+                pipeline,
+                fan_out(publish, sinks),
+                pose=pose,
+                config=config,
+                status=None if args.quiet or not is_terminal(sys.stderr) else sys.stderr,
+                on_result=results_to(sinks),
+            )
+            for sink in sinks:
+                sink.epoch_offset_s = loop.epoch_offset_s
+            loop.warm_up()
+            summary = loop.run()
     finally:
         if jsonl is not None:
             jsonl.close()
@@ -194,6 +206,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ..runtime.loop import rig_pose
 
     check_output_file(args.summary_json, "--summary-json")
+    check_outputs(args)
     _check_jsonl(args)
     if not args.no_lcm or args.state_channel:
         require_lcm("publishing terrain messages" if not args.no_lcm else "--state-channel", "--no-lcm")
@@ -223,18 +236,37 @@ def cmd_replay(args: argparse.Namespace) -> int:
     folder: Path = args.folder
     if not folder.exists():
         raise InputError(f"recorded pairs folder not found: {folder}")
-    if not folder.is_dir():
-        raise InputError(f"{folder} is not a folder of recorded pairs (pairs.csv and the images)")
+    bag = is_bag(folder)
+    if not folder.is_dir() and not bag:
+        raise InputError(
+            f"{folder} is not a folder of recorded pairs (pairs.csv and the images), a rosbag2 folder "
+            "or an MCAP file"
+        )
     check_output_file(args.summary_json, "--summary-json")
+    check_outputs(args)
+    check_bag_options(args, bag)
     _check_jsonl(args)
     if not args.no_lcm:
         require_lcm("publishing terrain messages", "--no-lcm")
+    if args.speed <= 0:
+        raise InputError("--speed must be > 0")
+    if bag:
+        from ..ros.bag import BagPairs
+        from .sinks import bag_calibration
+
+        pairs = BagPairs(
+            folder, args.left_topic, args.right_topic, odom_topic=args.odom_topic, loop=args.loop
+        )
+        try:
+            pipeline = _pipeline(bag_calibration(args), args.rig, args.config)
+        except BaseException:
+            pairs.close()
+            raise
+        return _run_loop(args, Paced(pairs, realtime=not args.as_fast, speed=args.speed), pipeline)
     calib = args.calib or folder / "calib.yaml"
     if args.calib is None and not calib.is_file():
         raise InputError(f"no --calib given and {calib} does not exist")
     rig = args.rig or (folder / "rig.yaml" if (folder / "rig.yaml").is_file() else None)
-    if args.speed <= 0:
-        raise InputError("--speed must be > 0")
     pipeline = _pipeline(calib, rig, args.config)
     source = Paced(FolderPairs(folder, loop=args.loop), realtime=not args.as_fast, speed=args.speed)
     return _run_loop(args, source, pipeline)

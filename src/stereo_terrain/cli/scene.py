@@ -19,6 +19,7 @@ from .outputs import (
     require_viz,
     write_json,
 )
+from .sinks import add_output_options, check_outputs, write_single
 
 
 def add_parsers(sub: Any) -> None:
@@ -44,6 +45,7 @@ def add_parsers(sub: Any) -> None:
     )
     r.add_argument("--json", type=Path, help="write the terrain result here ('-' for stdout)")
     r.add_argument("--plot", type=figure_path, help="write a figure (PNG)")
+    add_output_options(r)
 
     dp = sub.add_parser("disparity", help="stereo pair -> disparity map file")
     dp.add_argument("left", type=Path)
@@ -173,6 +175,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         raise InputError(f"--json and --plot name the same file {args.json}")
     if args.plot is not None:
         require_viz("--plot")
+    check_outputs(args)
     calib = read_calibration(args.calib)
     rig = load_rig(args.rig) if args.rig else None
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
@@ -198,6 +201,8 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         )
     if args.plot is not None:
         _plot(result, args.plot)
+    # Stamped with the left image's modification time, the nearest thing to a capture time.
+    write_single(args, pipeline, result, left, right, args.left.stat().st_mtime)
     return EXIT_OK
 
 

@@ -22,6 +22,7 @@ metres) and attitude (radians) at the pair's time, as a state estimator would gi
 from __future__ import annotations
 
 import csv
+import dataclasses
 import logging
 import math
 import threading
@@ -63,6 +64,10 @@ class StereoFrame:
         Body pose at the pair's time when the source knows it (a recording with poses).
     body_rpy : (3,) float or None
         Body roll, pitch, yaw w.r.t. gravity, radians, when the source knows it.
+    stamp_s : float or None
+        Capture time of the pair on the source's own clock, seconds since the epoch, when
+        it has one (a bag's header stamps); kept when :class:`Paced` moves the times onto
+        the loop's clock, so outputs can carry the original stamps.
     """
 
     left: np.ndarray = field(repr=False)
@@ -72,6 +77,7 @@ class StereoFrame:
     index: int
     odometry: Odometry | None = None
     body_rpy: tuple[float, float, float] | None = None
+    stamp_s: float | None = None
 
     @property
     def t_capture_s(self) -> float:
@@ -167,6 +173,30 @@ class Capture:
 
     def close(self) -> None:
         self.source.close()
+
+
+def match_stamps(t_left: np.ndarray, t_right: np.ndarray) -> list[tuple[int, int]]:
+    """Pair two streams of image stamps (seconds, each in time order): ``(i, j)`` when left
+    image ``i`` and right image ``j`` are each other's nearest in time.
+
+    Every image is in at most one pair, in time order. How far apart a pair's two images
+    are is not judged here: :class:`Capture` drops pairs skewed beyond ``max_skew_s``, the
+    rule of the live cameras, so a recorded source pairs exactly as the cameras do.
+    """
+    tl = np.asarray(t_left, dtype=np.float64).reshape(-1)
+    tr = np.asarray(t_right, dtype=np.float64).reshape(-1)
+    if len(tl) == 0 or len(tr) == 0:
+        return []
+
+    def nearest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        j = np.clip(np.searchsorted(b, a), 1, len(b) - 1) if len(b) > 1 else np.zeros(len(a), dtype=np.int64)
+        if len(b) > 1:
+            j = np.where(np.abs(b[j - 1] - a) <= np.abs(b[j] - a), j - 1, j)
+        return j
+
+    jl = nearest(tl, tr)
+    ir = nearest(tr, tl)
+    return [(i, int(j)) for i, j in enumerate(jl) if ir[j] == i]
 
 
 # --------------------------------------------------------------------------- cameras
@@ -528,10 +558,7 @@ class Paced:
             tl = now - max(0.0, f.t_right_s - f.t_left_s)
             tr = now - max(0.0, f.t_left_s - f.t_right_s)
         return CaptureEvent(
-            ev.status,
-            StereoFrame(f.left, f.right, tl, tr, f.index, f.odometry, f.body_rpy),
-            ev.skipped,
-            ev.detail,
+            ev.status, dataclasses.replace(f, t_left_s=tl, t_right_s=tr), ev.skipped, ev.detail
         )
 
     def read(self) -> CaptureEvent:
@@ -547,9 +574,10 @@ class Paced:
         if t_next > due:
             return CaptureEvent(NONE)
         skipped = 0
-        if isinstance(self.source, FolderPairs):
+        peek_after = getattr(self.source, "peek_time_after", None)
+        if peek_after is not None:
             # Skip superseded pairs by their recorded times, without decoding them.
-            while (following := self.source.peek_time_after()) is not None and following <= due:
+            while (following := peek_after()) is not None and following <= due:
                 self.source.skip()
                 skipped += 1
         ev = self.source.read()

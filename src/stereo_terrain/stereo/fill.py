@@ -30,7 +30,7 @@ Middlebury density (84% -> 62-74%): see ``benchmarks/bench_fill_streaks.py``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -157,6 +157,38 @@ class PlanarFillConfig:
             raise ConfigError("min_inlier_ratio and min_span_ratio must be in (0, 1]")
 
 
+@dataclass(frozen=True)
+class FlatRegions:
+    """The image-only half of the fill (:func:`find_flat_regions`): it needs the rectified
+    left image, not the disparity, so the pipeline computes it while the matcher runs.
+
+    Attributes
+    ----------
+    count : int
+        Number of labels (0 = not flat).
+    labels : (H, W) int32
+    stats : (count, 5) int32, OpenCV's ``x, y, width, height, area``
+    gx : (H, W) float32
+        Sobel ``d/dx`` of the smoothed image (the fill's vertical edges come from it).
+    ill_posed : (H, W) bool or None
+        ``"horizontal"`` mode only (see :func:`flat_regions`).
+    """
+
+    count: int
+    labels: np.ndarray = field(repr=False)
+    stats: np.ndarray = field(repr=False)
+    gx: np.ndarray = field(repr=False)
+    ill_posed: np.ndarray | None = field(repr=False)
+
+
+def find_flat_regions(
+    image: np.ndarray, config: PlanarFillConfig, valid: np.ndarray | None = None
+) -> FlatRegions:
+    """The texture-poor regions of the rectified left image that :func:`fill_planar_regions`
+    fits (pass them as its ``regions``; ``valid`` as there)."""
+    return FlatRegions(*_flat_regions(image, config, valid))
+
+
 def flat_regions(
     image: np.ndarray, config: PlanarFillConfig, valid: np.ndarray | None = None
 ) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
@@ -171,6 +203,21 @@ def flat_regions(
     ``"horizontal"`` mode, the pixels whose rows carry too little ``|dI/dx|`` to match
     (before the split at horizontal edges); None in the ``"total"`` mode.
     """
+    count, labels, stats, gx, ill_posed = _flat_regions(image, config, valid)
+    return count, labels, stats, _vertical_edges(gx, config), ill_posed
+
+
+def _vertical_edges(gx: np.ndarray, config: PlanarFillConfig) -> np.ndarray:
+    """Pixels whose horizontal gradient (Sobel ``gx`` of the smoothed image) is strong:
+    ``|gx| / 8 > edge_gradient`` (8 = Sobel's 3x3 kernel gain; scaling by 8 is exact)."""
+    return np.abs(gx) > np.float32(8.0 * config.edge_gradient)
+
+
+def _flat_regions(
+    image: np.ndarray, config: PlanarFillConfig, valid: np.ndarray | None
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`flat_regions` with the Sobel ``gx`` in place of the edge mask: the fill needs
+    the edges only around the regions it fits, not over the whole image (issue 13)."""
     g = cv2.GaussianBlur(image.astype(np.float32), (0, 0), config.smooth_sigma_px)
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
@@ -209,16 +256,17 @@ def flat_regions(
         flat = band.astype(bool) & (split == 0)
         if valid is not None:
             flat &= valid
+        flat = flat.astype(np.uint8)
     else:
         ill_posed = None
-        mag = cv2.magnitude(gx, gy) / 8.0  # Sobel's 3x3 kernel gain
-        flat = mag < config.flat_gradient
+        # |grad| / 8 < flat_gradient (8 = Sobel's 3x3 kernel gain; scaling by 8 is exact), as
+        # 0/1 bytes in one pass.
+        flat = (cv2.magnitude(gx, gy) < np.float32(8.0 * config.flat_gradient)).view(np.uint8)
     if valid is not None:
-        flat &= valid
-    flat = cv2.erode(flat.astype(np.uint8), np.ones((3, 3), np.uint8))
+        flat[~valid] = 0
+    flat = cv2.erode(flat, np.ones((3, 3), np.uint8))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(flat, connectivity=4)
-    vertical_edges = np.abs(gx) / 8.0 > config.edge_gradient
-    return count, labels, stats, vertical_edges, ill_posed
+    return count, labels, stats, gx, ill_posed
 
 
 def fill_planar_regions(
@@ -228,6 +276,7 @@ def fill_planar_regions(
     *,
     max_disparity_px: float | None = None,
     valid: np.ndarray | None = None,
+    regions: FlatRegions | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Fill texture-poor planar regions of ``disparity`` from their supported plane.
 
@@ -242,6 +291,9 @@ def fill_planar_regions(
         Pixels of ``left`` that have a source (``Rectification.valid_left``); the others
         (the black border of a rectification that keeps the field of view, flat and
         edge-bounded like a painted face) are neither filled nor part of any region.
+    regions : FlatRegions, optional
+        :func:`find_flat_regions` of ``left`` with the same ``config`` and ``valid``, when
+        already computed (found here otherwise).
 
     Returns
     -------
@@ -253,7 +305,9 @@ def fill_planar_regions(
     filled = np.zeros(disparity.shape, dtype=bool)
     if not config.enabled:
         return out, filled
-    out, filled = _fill(out, left, config, max_disparity_px, valid)
+    if regions is None:
+        regions = find_flat_regions(left, config, valid)
+    out, filled = _fill(out, config, max_disparity_px, regions)
     if config.texture == "total" and config.invalidate:
         # A confident match where rows carry no horizontal texture is a streak: NaN it,
         # unless a plane filled the pixel; then bridge the holes along rows.
@@ -265,12 +319,18 @@ def fill_planar_regions(
     return out, filled
 
 
-def _fill(out, left, config, max_disparity_px, valid):
+def _fill(out, config, max_disparity_px, regions: FlatRegions):
     disparity = out
     out = disparity.copy()
     filled = np.zeros(disparity.shape, dtype=bool)
     h, w = disparity.shape
-    count, labels, stats, edges, ill_posed = flat_regions(left, config, valid)
+    count, labels, stats, gx, ill_posed = (
+        regions.count,
+        regions.labels,
+        regions.stats,
+        regions.gx,
+        regions.ill_posed,
+    )
     if ill_posed is not None and config.invalidate:
         # A confident match where rows carry no horizontal texture is a streak: drop it
         # before it can support a plane, and let only a supported plane put a value back.
@@ -278,7 +338,6 @@ def _fill(out, left, config, max_disparity_px, valid):
         disparity = out.copy()
     min_area = config.min_region_fraction * h * w
     rng = np.random.default_rng(config.seed)
-    valid = np.isfinite(disparity)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
     for k in range(1, count):
         x, y, bw, bh, area = stats[k]
@@ -291,15 +350,16 @@ def _fill(out, left, config, max_disparity_px, valid):
         # Only disparities on vertical edges are trusted: inside the face SGM has nothing to
         # match (its values there may be a ramp), and along horizontal edges the match is
         # ambiguous (the aperture problem).
-        support = cv2.dilate(region.astype(np.uint8), kernel).astype(bool) & valid[y0:y1, x0:x1]
+        box = disparity[y0:y1, x0:x1]
+        support = cv2.dilate(region.astype(np.uint8), kernel).astype(bool) & np.isfinite(box)
         if ill_posed is None or not config.invalidate:
-            support &= edges[y0:y1, x0:x1]
+            support &= _vertical_edges(gx[y0:y1, x0:x1], config)
         # else: the invalidation already kept only the disparities with horizontal texture
         # around them (vertical edges, ends of planks, texture next to the face).
         vs, us = np.nonzero(support)
         if len(us) < 20:
             continue
-        ds = disparity[y0:y1, x0:x1][vs, us]
+        ds = box[vs, us]
         uvd = np.column_stack([us + x0, vs + y0, ds]).astype(np.float64)
         if len(uvd) > config.max_support_points:
             uvd = uvd[rng.choice(len(uvd), config.max_support_points, replace=False)]

@@ -69,6 +69,26 @@ class OpenCVSGBMConfig:
             raise ConfigError(f"unknown SGBM mode '{self.mode}'; choose one of {sorted(_MODES)}")
 
 
+def create_sgbm(config: OpenCVSGBMConfig, num_disparities: int, *, mode: str | None = None) -> cv2.StereoSGBM:
+    """The ``cv2.StereoSGBM`` matcher of ``config`` for disparities ``[0, num_disparities)``
+    (``mode`` overrides ``config.mode``; the bench times OpenCV's 3-way mode alone with it)."""
+    c = config
+    area = c.block_size_px * c.block_size_px
+    return cv2.StereoSGBM.create(
+        minDisparity=0,
+        numDisparities=num_disparities,
+        blockSize=c.block_size_px,
+        P1=c.p1_per_px * area,
+        P2=c.p2_per_px * area,
+        disp12MaxDiff=c.disp12_max_diff_px,
+        preFilterCap=c.pre_filter_cap,
+        uniquenessRatio=c.uniqueness_ratio_pct,
+        speckleWindowSize=c.speckle_window_px,
+        speckleRange=c.speckle_range_px,
+        mode=_MODES[mode or c.mode],
+    )
+
+
 class OpenCVSGBM:
     """Disparity with ``cv2.StereoSGBM``; invalid pixels become NaN."""
 
@@ -80,21 +100,7 @@ class OpenCVSGBM:
 
     def _matcher(self, n: int) -> cv2.StereoSGBM:
         if n not in self._matchers:
-            c = self.config
-            area = c.block_size_px * c.block_size_px
-            self._matchers[n] = cv2.StereoSGBM.create(
-                minDisparity=0,
-                numDisparities=n,
-                blockSize=c.block_size_px,
-                P1=c.p1_per_px * area,
-                P2=c.p2_per_px * area,
-                disp12MaxDiff=c.disp12_max_diff_px,
-                preFilterCap=c.pre_filter_cap,
-                uniquenessRatio=c.uniqueness_ratio_pct,
-                speckleWindowSize=c.speckle_window_px,
-                speckleRange=c.speckle_range_px,
-                mode=_MODES[c.mode],
-            )
+            self._matchers[n] = create_sgbm(self.config, n)
         return self._matchers[n]
 
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:

@@ -5,7 +5,8 @@ Stages:
 1. **Census cost.** A 5x5 census transform (24 bits) of both images. The matching cost is
    the Hamming distance between the two bit strings (uint8 volume ``C[y, x, d]``). It
    depends only on the order of intensities, so a gain or offset between cheap webcams
-   leaves it unchanged.
+   leaves it unchanged. Optionally (``census_epsilon_grey``) a ternary census, blind to
+   differences within a few grey levels, for near-uniform faces under noise and JPEG.
 2. **Aggregation along 4, 8 or 16 directions r**, the paper's recurrence:
    ``L_r(p, d) = C(p, d) + min(L_r(p-r, d), L_r(p-r, d±1) + P1, min_k L_r(p-r, k) + P2')
    - min_k L_r(p-r, k)``.
@@ -60,6 +61,7 @@ from ..checks import check_fields, check_min
 from ..errors import ConfigError, InputError
 from ..rectify import RectifiedPair
 from . import DisparityMap, check_max_disparity, invalidate_sourceless
+from .smooth import smooth_planar
 from .subpixel import parabola_peak
 
 
@@ -126,6 +128,18 @@ class SGMConfig:
         none (the default). On weakly textured faces the census bits of a 5x5 window
         follow sensor noise; a blur of about 1 px makes them follow the faint shading
         instead. It costs detail: see Notes. P2's adaptation always uses the sharp image.
+    census_epsilon_grey : int
+        0 (the default): the plain census. Above 0: the ternary census
+        (:func:`census_ternary`), in which a neighbour within this many grey levels of
+        the centre counts as equal to it, so that sensor noise and JPEG ringing on a
+        near-uniform face give flat costs and the disparity comes from the face's outline
+        through SGM's paths. CPU only.
+    plane_smooth_radius_px : int
+        0 (the default) for none; above 0, the disparities are replaced by the value of
+        the least-squares plane through the valid disparities of the ``(2 r + 1)``-square
+        window around each pixel, and pixels more than 1 px off it are dropped
+        (:func:`~stereo_terrain.stereo.smooth.smooth_planar`). This undoes the whole-pixel
+        terraces SGM leaves on faces where the costs are flat.
     device : str
         ``cpu`` (Numba, the default), ``cuda`` (Numba-CUDA, :mod:`.sgm_cuda`; 4 or 8 paths,
         at most 256 disparities; same result as the CPU) or ``auto`` (CUDA when a device is
@@ -154,6 +168,8 @@ class SGMConfig:
     speckle_window_px: int = 100
     speckle_range_px: int = 2
     census_blur_sigma_px: float = 0.0
+    census_epsilon_grey: int = 0
+    plane_smooth_radius_px: int = 0
     device: str = "cpu"
 
     def __post_init__(self) -> None:
@@ -175,6 +191,19 @@ class SGMConfig:
                 "census_blur_sigma_px must be between 0 (no blur) and 10 pixels, "
                 f"got {self.census_blur_sigma_px}"
             )
+        if not 0 <= self.census_epsilon_grey <= 64:
+            raise ConfigError(
+                f"census_epsilon_grey must be between 0 (plain census) and 64, got {self.census_epsilon_grey}"
+            )
+        if self.census_epsilon_grey > 0 and self.device == "cuda":
+            raise ConfigError(
+                "census_epsilon_grey > 0 (the ternary census) runs on the CPU only; "
+                "use device='cpu' or 'auto'"
+            )
+        if not 0 <= self.plane_smooth_radius_px <= 50:
+            raise ConfigError(
+                f"plane_smooth_radius_px must be between 0 (off) and 50, got {self.plane_smooth_radius_px}"
+            )
         if not 0 <= self.uniqueness_ratio_pct < 100:
             raise ConfigError("uniqueness_ratio_pct must be in [0, 100)")
         if self.device not in ("cpu", "cuda", "auto"):
@@ -182,39 +211,77 @@ class SGMConfig:
 
 
 @njit(cache=True, nogil=True)
-def census5x5(img: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    """24-bit census of each pixel (outside the image counts as equal to the centre)."""
+def census5x5(img: np.ndarray, epsilon: int = 0) -> np.ndarray:  # pragma: no cover - compiled
+    """24-bit census of each pixel: bit i set where neighbour i is darker than the centre
+    by more than ``epsilon`` grey levels (0: darker at all, the plain census). Outside the
+    image counts as equal to the centre."""
     h, w = img.shape
     out = np.zeros((h, w), dtype=np.uint32)
     for y in range(h):
         for x in range(w):
-            c = img[y, x]
+            c = np.int32(img[y, x]) - epsilon
             bits = np.uint32(0)
             for dy in range(-2, 3):
                 for dx in range(-2, 3):
                     if dy == 0 and dx == 0:
                         continue
                     yy, xx = y + dy, x + dx
-                    v = c
+                    v = c + epsilon
                     if 0 <= yy < h and 0 <= xx < w:
-                        v = img[yy, xx]
+                        v = np.int32(img[yy, xx])
                     bits = (bits << np.uint32(1)) | np.uint32(1 if v < c else 0)
             out[y, x] = bits
     return out
 
 
+@njit(cache=True, nogil=True)
+def census_ternary(img: np.ndarray, epsilon: int) -> np.ndarray:  # pragma: no cover - compiled
+    """Ternary 5x5 census, (H, W) uint64: each of the 24 neighbours is darker than the
+    centre by more than ``epsilon`` grey levels (its bit of the low word), brighter by
+    more than ``epsilon`` (its bit of the high word, the darker bits of the inverted
+    image), or neither (both 0). Outside the image counts as equal to the centre.
+
+    On a near-uniform face the plain census bits follow sensor noise and JPEG ringing, so
+    every disparity gets a random cost and the winner is arbitrary; here they are all
+    "neither", the costs are flat and SGM's paths carry the disparity in from the face's
+    outline instead. :func:`_hamming` counts a neighbour once when its two codes differ,
+    so the cost keeps the plain census's scale (0-24). Unlike the plain census it is not
+    blind to a gain between the cameras (the threshold is in grey levels), only to an
+    offset.
+    """
+    h, w = img.shape
+    inverted = np.empty((h, w), dtype=np.uint8)
+    for y in range(h):
+        for x in range(w):
+            inverted[y, x] = 255 - img[y, x]
+    dark = census5x5(img, epsilon)
+    bright = census5x5(inverted, epsilon)
+    out = np.empty((h, w), dtype=np.uint64)
+    for y in range(h):
+        for x in range(w):
+            out[y, x] = np.uint64(dark[y, x]) | (np.uint64(bright[y, x]) << np.uint64(32))
+    return out
+
+
 @intrinsic
-def _popcount32(typingctx, value):  # pragma: no cover - compiled
-    """LLVM's ``ctpop`` on a uint32: one POPCNT (VPOPCNTD once vectorised) instead of the
+def _hamming(typingctx, value):  # pragma: no cover - compiled
+    """Census distance of ``value = a ^ b``: the bits set in a uint32 (plain census), or,
+    for the uint64 ternary census (:func:`census_ternary`), the neighbours whose
+    darker or brighter bit differs: ``popcount(low | high)`` of the two 32-bit halves,
+    0-24 either way. LLVM's ``ctpop``: one POPCNT (VPOPCNTD once vectorised) instead of the
     dozen shifts and masks of the portable bit trick; Numba has no popcount of its own."""
-    if value != types.uint32:
+    if value not in (types.uint32, types.uint64):
         return None
 
     def codegen(context, builder, signature, args):
+        v = args[0]
+        if signature.args[0] == types.uint64:
+            folded = builder.or_(v, builder.lshr(v, ir.Constant(ir.IntType(64), 32)))
+            v = builder.trunc(folded, ir.IntType(32))
         fn = builder.module.declare_intrinsic("llvm.ctpop", [ir.IntType(32)])
-        return builder.call(fn, [args[0]])
+        return builder.call(fn, [v])
 
-    return types.uint32(types.uint32), codegen
+    return types.uint32(value), codegen
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -233,7 +300,7 @@ def _census_cost_row(cl, cr, y, cost, r, reversed_right):  # pragma: no cover - 
         # handling turns the contiguous reads into gathers (measured 2x slower).
         candidates = reversed_right[w - 1 - x : w - 1 - x + top]
         for d in range(top):
-            cost[r, x, d] = np.uint8(_popcount32(np.uint32(a ^ candidates[d])))  # type: ignore[call-arg]
+            cost[r, x, d] = np.uint8(_hamming(a ^ candidates[d]))  # type: ignore[call-arg]
         for d in range(top, n):
             cost[r, x, d] = _MAX_COST
 
@@ -243,7 +310,7 @@ def census_cost(cl: np.ndarray, cr: np.ndarray, n_disp: int) -> np.ndarray:  # p
     """Hamming distances ``C[y, x, d]`` (uint8, (H, W, n_disp)) of two census images."""
     h, w = cl.shape
     cost = np.empty((h, w, n_disp), dtype=np.uint8)
-    reversed_right = np.empty(w, dtype=np.uint32)
+    reversed_right = np.empty_like(cr[0])
     for y in range(h):
         _census_cost_row(cl, cr, y, cost, y, reversed_right)
     return cost
@@ -460,7 +527,7 @@ def aggregate_sweep(
     one = np.int16(1)
     step = 1 if forward else -1
     cost = np.empty((_ROW_GROUP, w, n), dtype=np.uint8)
-    reversed_right = np.empty(w, dtype=np.uint32)
+    reversed_right = np.empty_like(census_right[0])
     # The path along the row: the previous pixel's values alternate between two buffers
     # (even and odd steps), so reads and writes never alias.
     even = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
@@ -723,7 +790,7 @@ class SGM:
             census_left, census_right = (
                 cv2.GaussianBlur(image, (0, 0), c.census_blur_sigma_px) for image in (left, right)
             )
-        if self._use_cuda():
+        if self._use_cuda() and c.census_epsilon_grey == 0:
             from .sgm_cuda import disparity_cuda
 
             disp, conf = disparity_cuda(
@@ -738,6 +805,8 @@ class SGM:
             cv2.filterSpeckles(fixed, _INVALID_FIXED, c.speckle_window_px, c.speckle_range_px * 16)
             _invalidate_where(disp, fixed)
         invalidate_sourceless(disp, pair.rectification)
+        if c.plane_smooth_radius_px > 0:
+            disp = smooth_planar(disp, c.plane_smooth_radius_px)
         return DisparityMap(disp, n, pair.rectification, conf, self.name)
 
     def _use_cuda(self) -> bool:
@@ -759,7 +828,13 @@ class SGM:
         c = self.config
         h, w = left.shape
         pool = _sweep_pool()
-        census = [pool.submit(census5x5, image) for image in (census_left, census_right)]
+        if c.census_epsilon_grey > 0:
+            census = [
+                pool.submit(census_ternary, image, c.census_epsilon_grey)
+                for image in (census_left, census_right)
+            ]
+        else:
+            census = [pool.submit(census5x5, image) for image in (census_left, census_right)]
         cl, cr = (job.result() for job in census)
         paths = np.array(ROW_PATHS[c.paths], dtype=np.int64)
         # One volume S and two sweeps, one per core, each with half of the paths, in two

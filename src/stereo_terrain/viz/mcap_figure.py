@@ -1,0 +1,156 @@
+"""A figure of what an MCAP file written by ``--mcap`` holds, drawn from the file alone.
+
+Every message is decoded with the ``mcap`` reader and ``mcap-ros2-support``'s decoder (as
+any ROS 2 tool would read it, not with this package's writer), and one pair is drawn:
+
+1. ``/stereo_terrain/left/image_rect`` with the ``/stereo_terrain/cloud`` points projected
+   back into it through ``/tf`` (``yaw -> ... -> camera_rect``) and
+   ``/stereo_terrain/left/camera_info``, coloured by their ``plane`` field: where the
+   colours sit on the faces they came from, the tf chain and the camera model agree;
+2. ``/stereo_terrain/disparity`` (32FC1);
+3. the cloud and the ``/stereo_terrain/stairs`` markers (faces, edges, dimension texts)
+   seen from the side, in the ``yaw`` frame.
+
+Needs the ``ros`` and ``viz`` extras. ``python -m stereo_terrain.viz.mcap_figure IN.mcap
+OUT.png [PAIR]``.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..ros.messages import PALETTE
+
+
+def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
+    """The decoded messages of the ``pair``-th processed pair: topic -> message."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    seen: dict[str, list[Any]] = defaultdict(list)
+    with Path(path).open("rb") as fh:
+        for _, channel, _, decoded in make_reader(
+            fh, decoder_factories=[DecoderFactory()]
+        ).iter_decoded_messages():
+            seen[channel.topic].append(decoded)
+    return {topic: msgs[min(pair, len(msgs) - 1)] for topic, msgs in seen.items()}
+
+
+def _quat_matrix(q: Any) -> np.ndarray:
+    x, y, z, w = q.x, q.y, q.z, q.w
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def transform_between(tf: Any, target: str, source: str) -> np.ndarray:
+    """4x4 ``T_target_source`` from a ``TFMessage``: both frames' chains of parents up to
+    their common root, composed (ValueError when they do not meet)."""
+    parent = {}
+    for t in tf.transforms:
+        T = np.eye(4)
+        T[:3, :3] = _quat_matrix(t.transform.rotation)
+        p = t.transform.translation
+        T[:3, 3] = [p.x, p.y, p.z]
+        parent[t.child_frame_id] = (t.header.frame_id, T)
+
+    def to_root(frame: str) -> tuple[str, np.ndarray]:
+        T = np.eye(4)
+        for _ in range(len(parent) + 1):
+            if frame not in parent:
+                return frame, T
+            frame, step = parent[frame]
+            T = step @ T
+        raise ValueError("tf has a cycle")
+
+    (root_t, T_rt), (root_s, T_rs) = to_root(target), to_root(source)
+    if root_t != root_s:
+        raise ValueError(f"tf does not connect {source} and {target}")
+    return np.linalg.inv(T_rt) @ T_rs
+
+
+def cloud_arrays(msg: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) float32 points and (N,) int32 plane labels of our ``PointCloud2``."""
+    offsets = {f.name: f.offset for f in msg.fields}
+    n = msg.width * msg.height
+    raw = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(n, msg.point_step)
+
+    def col(name: str, dtype: str) -> np.ndarray:
+        return raw[:, offsets[name] : offsets[name] + 4].copy().view(dtype)[:, 0]
+
+    return np.stack([col(c, "<f4") for c in "xyz"], axis=1), col("plane", "<i4")
+
+
+def save_mcap_figure(path: str | Path, out: str | Path, pair: int = 0) -> None:
+    """Draw pair ``pair`` of the MCAP file ``path`` into the PNG ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    msgs = read_pair(path, pair)
+    img_msg, disp_msg = msgs["/stereo_terrain/left/image_rect"], msgs["/stereo_terrain/disparity"]
+    image = np.frombuffer(bytes(img_msg.data), dtype=np.uint8).reshape(img_msg.height, img_msg.step)
+    disp = np.frombuffer(bytes(disp_msg.data), dtype="<f4").reshape(disp_msg.height, disp_msg.width)
+    cloud = msgs["/stereo_terrain/cloud"]
+    xyz, labels = cloud_arrays(cloud)
+    colours = np.where(labels[:, None] >= 0, PALETTE[np.maximum(labels, 0) % len(PALETTE)], 128) / 255.0
+    T = transform_between(msgs["/tf"], "camera_rect", cloud.header.frame_id)
+    cam = xyz @ T[:3, :3].T + T[:3, 3]
+    P = np.asarray(msgs["/stereo_terrain/left/camera_info"].p, dtype=np.float64).reshape(3, 4)
+    uvw = cam @ P[:, :3].T + P[:, 3]
+    front = uvw[:, 2] > 0
+    uv = uvw[front, :2] / uvw[front, 2:3]
+
+    fig, axes = plt.subplots(1, 3, figsize=(17, 4.8))
+    ax = axes[0]
+    ax.imshow(image[:, : img_msg.width], cmap="gray")
+    ax.scatter(uv[:, 0], uv[:, 1], s=2, c=colours[front])
+    ax.set_title("image_rect + cloud through /tf and camera_info", fontsize=10)
+    ax.axis("off")
+    ax = axes[1]
+    im = ax.imshow(disp, cmap="turbo")
+    fig.colorbar(im, ax=ax, fraction=0.035, label="disparity (px)")
+    ax.set_title("/stereo_terrain/disparity (32FC1, NaN = none)", fontsize=10)
+    ax.axis("off")
+    ax = axes[2]
+    terrain = msgs["/stereo_terrain/terrain"]
+    yaw = float(terrain.yaw_rad) if np.isfinite(terrain.yaw_rad) else 0.0
+    c, sn = np.cos(yaw), np.sin(yaw)
+
+    def along(p: np.ndarray) -> np.ndarray:  # position along the stair axis
+        return p[..., 0] * c + p[..., 1] * sn
+
+    ax.scatter(along(xyz), xyz[:, 2], s=1, c=colours)
+    for marker in msgs["/stereo_terrain/stairs"].markers:
+        pts = np.array([[p.x, p.y, p.z] for p in marker.points]).reshape(-1, 3)
+        if marker.type == 5 and len(pts):  # LINE_LIST: the polytope's edges
+            for a, b in pts.reshape(-1, 2, 3):
+                ax.plot([along(a), along(b)], [a[2], b[2]], color="k", lw=0.8)
+        elif marker.type == 9 and marker.ns == "dimensions":
+            p = marker.pose.position
+            ax.annotate(marker.text, (along(np.array([p.x, p.y])), p.z), fontsize=7, xytext=(-60, 14),
+                        textcoords="offset points", arrowprops={"arrowstyle": "-", "lw": 0.5})  # fmt: skip
+    ax.set_title(
+        f"cloud (by plane) + /stereo_terrain/stairs along the stair axis; {terrain.num_steps} steps",
+        fontsize=10,
+    )
+    ax.set_xlabel("along the stair axis (m)")
+    ax.set_ylabel("z up (m)")
+    ax.set_aspect("equal")
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+if __name__ == "__main__":  # pragma: no cover - a documentation helper
+    save_mcap_figure(sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 0)

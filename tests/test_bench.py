@@ -1,0 +1,221 @@
+"""``stereo-terrain bench``: its JSON summary, accuracy as ``evaluation`` scores it, errors,
+the Ray path, and the pipeline's kernel warm-up (no timed assertions)."""
+
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from stereo_terrain.bench import (
+    accuracy_summary,
+    bench_summary,
+    check_truth,
+    iter_bench,
+    read_bench_scene,
+    scene_dirs,
+)
+from stereo_terrain.cli import main
+from stereo_terrain.errors import InputError
+from stereo_terrain.evaluation import score_result, summarize
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.synthetic import render_scenes
+
+KEYS = {
+    "scenes",
+    "frame_ms",
+    "first_frame_ms",
+    "stages_ms",
+    "opencv_sgbm_3way_ms",
+    "ratio_to_opencv_3way",
+    "accuracy",
+}
+ACCURACY_KEYS = {"detection_rate", "step_count_accuracy", "rise_err_median_cm", "rise_err_p90_cm"}
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    """Three small rendered scenes (two staircases and whatever the third draws)."""
+    root = tmp_path_factory.mktemp("bench")
+    render_scenes(root, 3, seed=5, image_size=(320, 240))
+    return root
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _evaluation_accuracy(root):
+    """What ``evaluation`` says of a fresh pipeline's first call on each scene."""
+    scores = []
+    for d in scene_dirs(root):
+        s = read_bench_scene(d)
+        result = Pipeline(s.calibration, s.rig).run(s.left, s.right).to_json_dict()
+        scores.append(score_result(result, json.loads((d / "truth.json").read_text())))
+    return summarize(scores)
+
+
+def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_path, capsys):
+    out = tmp_path / "bench.json"
+    code, text, err = _run(["bench", scenes, "--repeat", "2", "--json", out], capsys)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert set(data) == KEYS
+    assert data["scenes"] == 3
+    assert set(data["frame_ms"]) == {"median", "p90"}
+    assert set(data["first_frame_ms"]) == {"median"}
+    assert set(data["opencv_sgbm_3way_ms"]) == {"median"} and set(data["ratio_to_opencv_3way"]) == {"median"}
+    assert {"rectify", "disparity", "cloud", "planes", "polytope", "total"} <= set(data["stages_ms"])
+    assert data["frame_ms"]["p90"] >= data["frame_ms"]["median"] > 0
+    assert data["stages_ms"]["total"] == pytest.approx(data["frame_ms"]["median"])
+    assert set(data["accuracy"]) == ACCURACY_KEYS
+    ref = _evaluation_accuracy(scenes)
+    acc = data["accuracy"]
+    assert acc["detection_rate"] == pytest.approx(ref["detection_rate"])
+    assert acc["step_count_accuracy"] == pytest.approx(ref["count_rate"])
+    for key, ref_key in (("rise_err_median_cm", "rise_median_m"), ("rise_err_p90_cm", "rise_p90_m")):
+        if math.isnan(ref[ref_key]):
+            assert acc[key] is None
+        else:
+            assert acc[key] == pytest.approx(100.0 * ref[ref_key])
+    # The table: one row per scene and the summary lines.
+    assert sum(line.startswith("| scene_") for line in text.splitlines()) == 3
+    assert "ratio" in text and "accuracy:" in text
+
+
+def test_bench_json_to_stdout_is_json_only(scenes, capsys):
+    code, text, err = _run(["bench", scenes / "scene_000", "--repeat", "1", "--json", "-"], capsys)
+    assert code == 0, err
+    assert json.loads(text)["scenes"] == 1
+
+
+def test_summary_without_truth_or_timing_is_null_not_nan(scenes):
+    (outcome,) = list(iter_bench([scenes / "scene_000"], PipelineConfig(), 1, timed=False))
+    outcome = dataclasses.replace(outcome, score=None)
+    summary = bench_summary([outcome])
+    assert summary["frame_ms"] == {"median": None, "p90": None}
+    assert all(v is None for v in summary["accuracy"].values())
+    json.dumps(summary, allow_nan=False)
+
+
+def test_bench_errors_are_one_line_exit_2(scenes, tmp_path, capsys):
+    code, _, err = _run(["bench", tmp_path / "missing"], capsys)
+    assert code == 2 and "does not exist" in err and len(err.strip().splitlines()) == 1
+    bad = tmp_path / "bad"
+    (bad / "scene_a").mkdir(parents=True)
+    (bad / "scene_a" / "left.png").write_bytes((scenes / "scene_000" / "left.png").read_bytes())
+    code, _, err = _run(["bench", bad], capsys)
+    assert code == 2 and "right.png, calib.yaml" in err and len(err.strip().splitlines()) == 1
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    for name in ("left.png", "right.png", "calib.yaml", "rig.yaml"):
+        (broken / name).write_bytes((scenes / "scene_000" / name).read_bytes())
+    for text, words in (
+        ("{not json", "not valid JSON"),
+        ('{"obstacle": "ramp", "steps": []}', "'obstacle'"),
+        ('{"obstacle": "stairs", "steps": [{"rise": "high", "distance": 1}]}', "steps[0].rise"),
+    ):
+        (broken / "truth.json").write_text(text)
+        out = tmp_path / "o.json"
+        code, _, err = _run(["bench", broken, "--json", out], capsys)
+        assert code == 2 and words in err and len(err.strip().splitlines()) == 1, err
+        assert not out.exists()
+
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=5),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+    max_leaves=12,
+)
+
+
+@given(
+    st.one_of(
+        _JSON,
+        st.fixed_dictionaries(
+            {
+                "obstacle": st.sampled_from(["stairs", "box", "none", "x"]),
+                "steps": st.lists(_JSON, max_size=3),
+            }
+        ),
+    )
+)
+def test_check_truth_accepts_or_raises_input_error(data):
+    try:
+        assert check_truth(data, "truth.json") is data
+    except InputError as exc:
+        assert "truth.json" in str(exc)
+
+
+def test_pipeline_construction_warms_every_kernel_its_stages_use():
+    """In a fresh process: after ``Pipeline(...)`` (no frame run yet) every Numba kernel of
+    the plane and MSAC stages has a compiled signature."""
+    code = """
+from stereo_terrain.pipeline import Pipeline, PipelineConfig, _warm_up_scene
+from stereo_terrain.msac import _kernels as mk
+from stereo_terrain.planes import _kernels as pk
+calib, rig, left, right = _warm_up_scene()
+Pipeline(calib, rig, PipelineConfig(method="auto"))
+names = ["msac_costs"], ["best_oriented_hypothesis", "oriented_inliers", "refine_oriented_plane",
+    "triplets_from_draws", "region_msac"]
+cold = [n for mod, ns in zip((mk, pk), names) for n in ns if not getattr(mod, n).signatures]
+print("cold:", cold)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "cold: []" in out.stdout, out.stdout
+
+
+def test_an_unreachable_ray_address_is_one_line_exit_2(scenes, capsys):
+    import socket
+
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    with socket.socket() as s:  # a port nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    code, _, err = _run(["bench", scenes, "--ray", f"127.0.0.1:{port}"], capsys)
+    assert code == 2 and "nothing answers" in err and len(err.strip().splitlines()) == 1
+
+
+def test_bench_ray_cli_reports_accuracy_and_no_timing(scenes, tmp_path, capsys):
+    pytest.importorskip("ray", reason="the ray extra is not installed")
+    out = tmp_path / "ray.json"
+    code, text, err = _run(["bench", scenes, "--ray", "--json", out], capsys)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert set(data) == KEYS and data["scenes"] == 3
+    assert data["frame_ms"]["median"] is None and data["ratio_to_opencv_3way"]["median"] is None
+    import ray
+
+    assert not ray.is_initialized()  # the local Ray it started is shut down again
+    local = list(iter_bench(scene_dirs(scenes), PipelineConfig(), 1, timed=False))
+    assert data["accuracy"] == accuracy_summary(local)  # the same numbers as the local run
+    assert "timing is measured only without --ray" in text
+
+
+@pytest.mark.filterwarnings("ignore:This process .* is multi-threaded:DeprecationWarning")
+def test_a_forked_child_runs_the_pipeline(scenes):
+    """The fill's worker thread does not survive a fork: a child must get its own (with the
+    parent's executor it would wait forever)."""
+    import multiprocessing
+
+    s = read_bench_scene(scenes / "scene_000")
+    pipeline = Pipeline(s.calibration, s.rig)
+    expected = pipeline.run(s.left, s.right).to_json_dict()["steps"]  # the parent's thread exists now
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=lambda: send.send(pipeline.run(s.left, s.right).to_json_dict()["steps"]))
+    child.start()
+    try:
+        assert receive.poll(120), "the forked child did not finish its frame"
+        assert receive.recv() == expected
+    finally:
+        child.join(10)
+        if child.is_alive():
+            child.kill()
