@@ -121,6 +121,9 @@ def test_lcm_logger_records_terrain_messages(tmp_path):
         lc = lcm.LCM(url)
         msg = terrain_t()
         msg.num_steps, msg.rise_m, msg.run_m, msg.distance_m, msg.width_m = 1, [0.2], [0.3], [1.4], [1.0]
+        # terrain_t v2 (issue 14): every per-step array has num_steps entries
+        msg.rise_sigma_m, msg.run_sigma_m = [0.005], [0.01]
+        msg.distance_sigma_m, msg.width_sigma_m = [0.02], [0.05]
         time.sleep(0.5)  # let the logger join the group
         for i in range(5):
             msg.frame_index = i

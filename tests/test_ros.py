@@ -498,21 +498,24 @@ def test_mcap_figure_is_drawn_from_the_file(png_mcap, tmp_path):
 
 
 def test_a_field_added_to_terrain_t_follows_into_the_ros_message(monkeypatch):
-    """What another change adds to the LCM type (e.g. rise_sigma_m[num_steps], track_state)
-    appears in the ROS 2 message with no change to stereo_terrain.ros."""
+    """What another change adds to the LCM type appears in the ROS 2 message with no change
+    to stereo_terrain.ros (issue 14's rise_sigma_m[num_steps] and track_state are in
+    terrain_t now; two hypothetical fields stand for the next change)."""
     import stereo_terrain.ros.messages as rm
 
+    assert "float32[] rise_sigma_m" in rm.terrain_msgdef() and "int8 track_state" in rm.terrain_msgdef()
+
     class Extended(terrain_t):
-        __slots__ = [*terrain_t.__slots__, "rise_sigma_m", "track_state"]
+        __slots__ = [*terrain_t.__slots__, "extra_sigma_m", "extra_state"]
         __typenames__ = [*terrain_t.__typenames__, "float", "int8_t"]
         __dimensions__ = [*terrain_t.__dimensions__, ["num_steps"], None]
-        TRACK_LOST = 3
+        EXTRA_LOST = 3
 
     monkeypatch.setattr(rm, "terrain_t", Extended)
     text = rm.terrain_msgdef()
-    assert text.rstrip().endswith("float32[] rise_sigma_m\nint8 track_state") and "TRACK_LOST=3" in text
+    assert text.rstrip().endswith("float32[] extra_sigma_m\nint8 extra_state") and "EXTRA_LOST=3" in text
     assert (
-        text.index("int8 OBSTACLE_NONE=0") < text.index("int32 TRACK_LOST=3") < text.index("std_msgs/Header")
+        text.index("int8 OBSTACLE_NONE=0") < text.index("int32 EXTRA_LOST=3") < text.index("std_msgs/Header")
     )
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -520,10 +523,17 @@ def test_a_field_added_to_terrain_t_follows_into_the_ros_message(monkeypatch):
     store.register(get_types_from_msg(text, TERRAIN_TYPE))
     msg = Extended()
     msg.num_steps, msg.rise_m, msg.run_m, msg.distance_m, msg.width_m = 1, [0.2], [0.3], [1.5], [1.0]
-    msg.rise_sigma_m, msg.track_state, msg.p0_m = [0.01], 2, [0.0, 0.0, 0.0]
+    msg.rise_sigma_m, msg.run_sigma_m, msg.distance_sigma_m, msg.width_sigma_m = (
+        [0.01],
+        [0.02],
+        [0.03],
+        [0.04],
+    )
+    msg.extra_sigma_m, msg.extra_state, msg.p0_m = [0.05], 2, [0.0, 0.0, 0.0]
     ros = rm.terrain_ros_message(store, msg, 5)
     back = store.deserialize_cdr(store.serialize_cdr(ros, TERRAIN_TYPE), TERRAIN_TYPE)
-    assert back.track_state == 2 and np.allclose(back.rise_sigma_m, [0.01])
+    assert back.extra_state == 2 and np.allclose(back.extra_sigma_m, [0.05])
+    assert np.allclose(back.rise_sigma_m, [0.01])
 
 
 def test_msg_package_for_colcon(tmp_path):

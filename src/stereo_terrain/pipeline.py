@@ -72,7 +72,8 @@ from .stereo.opencv import OpenCVSGBMConfig
 from .stereo.sgm import SGMConfig
 from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
 from .swing import SwingConfig, SwingPlan, plan_swing
-from .terrain import StairModel, TerrainConfig, build_terrain
+from .terrain import StairModel, TerrainConfig, build_terrain, estimate_step_sigmas
+from .tracking import TrackingConfig
 
 RESULT_VERSION = 1
 
@@ -117,6 +118,10 @@ class PipelineConfig:
     vertical : VerticalAlignConfig
         Per-frame correction of a residual vertical offset of the right image
         (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
+    tracking : TrackingConfig
+        The staircase tracked over frames by the live loop (``run``, ``replay``; issue
+        14, :mod:`stereo_terrain.tracking`); ``tracking: {enabled: false}`` gives single
+        frames. A single ``reconstruct`` does not use it.
     """
 
     backend: str = "opencv"
@@ -136,6 +141,7 @@ class PipelineConfig:
     # Stage 1 options (rectify.py, stereo/vertical.py): issue 11.
     rectify_fov: str = "valid"
     vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
+    tracking: TrackingConfig = field(default_factory=TrackingConfig)  # issue 14
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -171,6 +177,7 @@ class PipelineConfig:
             "drift": DriftConfig,
             "gravity": GravityConfig,
             "vertical": VerticalAlignConfig,
+            "tracking": TrackingConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -268,10 +275,16 @@ class TerrainResult:
                     "distance": r(s.distance_m),
                     "width": r(s.width_m),
                     "rise_inferred": s.rise_inferred,
+                    # issue 14: 1-sigma of each (null where the value is null or unknown)
+                    "rise_sigma": _sigma(s.rise_sigma_m),
+                    "run_sigma": _sigma(s.run_sigma_m),
+                    "distance_sigma": _sigma(s.distance_sigma_m),
+                    "width_sigma": _sigma(s.width_sigma_m),
                 }
                 for s in t.steps
             ],
             "yaw": r(t.yaw_rad),
+            "yaw_sigma": _sigma(t.yaw_sigma_rad, 5),
             "planes": [
                 {
                     "normal": [round(float(v), 5) for v in seg.plane.normal],
@@ -303,6 +316,14 @@ class TerrainResult:
                 "parameters": self.planes.parameters,
             },
         }
+
+
+def _sigma(x: float | None, nd: int = 4) -> float | None:
+    """A 1-sigma for the JSON result: None when unknown (None or NaN), never below the
+    rounding."""
+    if x is None or not math.isfinite(x):
+        return None
+    return max(round(float(x), nd), 10.0**-nd)
 
 
 class Pipeline:
@@ -450,6 +471,10 @@ class Pipeline:
             planes, T = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
         planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap)
+        rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
+        terrain = estimate_step_sigmas(
+            terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
+        )
         swing = plan_swing(terrain, self.config.swing)
         lap("polytope")
         timing["total"] = (time.perf_counter() - t0) * 1000.0

@@ -195,7 +195,11 @@ class SwingTrigger:
     inside a gate, outliers ignored, and the decision latched once taken.
 
     Feed it every processed frame with :meth:`update` (terrain + odometry) and, between
-    frames, odometry alone (a controller tick) to decide at the odometry's rate.
+    frames, odometry alone (a controller tick) to decide at the odometry's rate. With
+    tracking on (issue 14, :mod:`stereo_terrain.tracking`), the live loop feeds it the
+    tracked staircase once its track is confirmed, and nothing ahead before that
+    (:func:`stereo_terrain.runtime.loop.track_and_trigger`): the first riser then keeps
+    its place when it leaves the view, and a bad frame cannot move the trigger.
     """
 
     def __init__(self, swing: SwingConfig | None = None, config: TriggerConfig | None = None) -> None:

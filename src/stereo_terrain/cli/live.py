@@ -43,6 +43,9 @@ def add_parsers(sub: Any) -> None:
         q.add_argument("--quiet", action="store_true", help="no live status line")
         q.add_argument("--summary-json", type=Path, help="write the exit summary as JSON here")
         add_output_options(q)
+        q.add_argument(
+            "--jsonl", type=Path, help="also write every published message here, one JSON object per line"
+        )
 
     rec = sub.add_parser("record", help="save synchronized stereo pairs with timestamps for replay")
     rec.add_argument("--left", required=True, help="camera index, /dev/videoN or a video file")
@@ -141,30 +144,46 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
 
     publish: Any = lambda msg: None  # noqa: E731
     check_output_file(args.summary_json, "--summary-json")
+    _check_jsonl(args)
     if not args.no_lcm:
         from ..runtime.lcm_io import DEFAULT_URL, LcmPublisher
 
         publish = LcmPublisher(args.lcm_url or DEFAULT_URL, args.channel)
+    jsonl = None
+    if args.jsonl is not None:  # created before the loop starts, flushed per line
+        from ..runtime.messages import JsonlWriter
+
+        jsonl = JsonlWriter(args.jsonl)
+        lcm_publish = publish
+
+        def publish(msg) -> None:
+            lcm_publish(msg)
+            jsonl(msg)
+
     config = LoopConfig(
         max_skew_s=args.max_skew_ms / 1000.0,
         stall_timeout_s=args.stall_timeout,
         max_frames=args.frames or 0,
         max_duration_s=args.duration or 0.0,
     )
-    with stop_on_sigterm(), open_sinks(args, pipeline, pose=pose) as sinks:
-        loop = LiveLoop(
-            Capture(source),
-            pipeline,
-            fan_out(publish, sinks),
-            pose=pose,
-            config=config,
-            status=None if args.quiet or not is_terminal(sys.stderr) else sys.stderr,
-            on_result=results_to(sinks),
-        )
-        for sink in sinks:
-            sink.epoch_offset_s = loop.epoch_offset_s
-        loop.warm_up()
-        summary = loop.run()
+    try:
+        with stop_on_sigterm(), open_sinks(args, pipeline, pose=pose) as sinks:
+            loop = LiveLoop(
+                Capture(source),
+                pipeline,
+                fan_out(publish, sinks),
+                pose=pose,
+                config=config,
+                status=None if args.quiet or not is_terminal(sys.stderr) else sys.stderr,
+                on_result=results_to(sinks),
+            )
+            for sink in sinks:
+                sink.epoch_offset_s = loop.epoch_offset_s
+            loop.warm_up()
+            summary = loop.run()
+    finally:
+        if jsonl is not None:
+            jsonl.close()
     print(summary.format())
     if args.summary_json is not None:
         data = {k: v for k, v in dataclasses.asdict(summary).items() if k not in ("latencies_s", "periods_s")}
@@ -175,12 +194,20 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
     return EXIT_OK
 
 
+def _check_jsonl(args: argparse.Namespace) -> None:
+    """``--jsonl``: a file that can be written (checked before any work)."""
+    if args.jsonl is not None and str(args.jsonl) == "-":
+        raise InputError("--jsonl needs a file name (the summary goes to stdout)")
+    check_output_file(args.jsonl, "--jsonl")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from ..runtime.capture import open_devices
     from ..runtime.loop import rig_pose
 
     check_output_file(args.summary_json, "--summary-json")
     check_outputs(args)
+    _check_jsonl(args)
     if not args.no_lcm or args.state_channel:
         require_lcm("publishing terrain messages" if not args.no_lcm else "--state-channel", "--no-lcm")
     pipeline = _pipeline(args.calib, args.rig, args.config)
@@ -218,6 +245,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     check_output_file(args.summary_json, "--summary-json")
     check_outputs(args)
     check_bag_options(args, bag)
+    _check_jsonl(args)
     if not args.no_lcm:
         require_lcm("publishing terrain messages", "--no-lcm")
     if args.speed <= 0:

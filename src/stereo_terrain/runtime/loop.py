@@ -26,7 +26,10 @@ from ..checks import check_fields
 from ..errors import ConfigError, InputError, StereoTerrainError
 from ..frames import Rig
 from ..pipeline import Pipeline, TerrainResult
-from ..swing import Odometry, SwingTrigger
+from ..swing import Odometry, SwingTrigger, TriggerState
+from ..terrain import NONE as NO_OBSTACLE
+from ..terrain import StairModel
+from ..tracking import TRACK_NONE, StairTracker
 from .capture import END, FRAME, NONE, SKEW, UNREADABLE, Capture, Clock, StereoFrame
 from .messages import terrain_message, terrain_t
 
@@ -147,6 +150,32 @@ def rig_pose(rig: Rig | None) -> PoseProvider:
     return pose
 
 
+def track_and_trigger(
+    tracker: StairTracker | None,
+    trigger: SwingTrigger,
+    terrain: StairModel,
+    odometry: Odometry | None,
+    t_s: float,
+    *,
+    camera_z_m: float | None = None,
+) -> tuple[StairModel, str, TriggerState]:
+    """One frame's terrain through the tracker (when there is one) and the swing trigger.
+
+    Returns the model to publish (the tracked staircase while there is a track, also a
+    tentative one, else the frame's), the track state and the trigger's decision. With a
+    tracker, the trigger sees only an established (confirmed or coasting) track, and
+    nothing ahead before that.
+    """
+    if tracker is None:
+        return terrain, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m)
+    tracked = tracker.update(terrain, odometry, t_s)
+    model = terrain if tracked.model is None else tracked.model
+    ahead = model
+    if not tracked.established:  # nothing confirmed ahead yet: the trigger waits for the track
+        ahead = dataclasses.replace(terrain, obstacle=NO_OBSTACLE, steps=())
+    return model, tracked.state, trigger.update(odometry, ahead, camera_z_m=camera_z_m)
+
+
 class LiveLoop:
     """Runs the pipeline on the newest pairs of a source and publishes terrain messages.
 
@@ -166,6 +195,12 @@ class LiveLoop:
         Injectable for tests (a fake clock makes a 2 s stall instant).
     status : text stream or None
         Where the live status line goes (stderr in the CLI).
+    tracker : StairTracker or None, optional
+        Fuses the frames into one staircase (issue 14); by default one with the pipeline
+        config's ``tracking`` section when ``tracking.enabled`` (the default), else none
+        (single frames). Once its track is confirmed (or coasting) the messages carry the
+        tracked staircase and the swing trigger follows it; before that the messages carry
+        the frame's model and the trigger sees nothing ahead.
     """
 
     def __init__(
@@ -181,6 +216,7 @@ class LiveLoop:
         sleep: Callable[[float], None] = time.sleep,
         status: TextIO | None = None,
         on_result: Callable[[StereoFrame, TerrainResult], None] | None = None,
+        tracker: StairTracker | None = None,
     ) -> None:
         self.config = config or LoopConfig()
         self.capture = capture
@@ -193,6 +229,12 @@ class LiveLoop:
         self.sleep = sleep
         self.status = status
         self.on_result = on_result
+        tracking = pipeline.config.tracking
+        self.tracker = (
+            tracker if tracker is not None else (StairTracker(tracking) if tracking.enabled else None)
+        )
+        self._last_model: StairModel | None = None  # what the last message carried
+        self._last_track_state = TRACK_NONE
         self.summary = LoopSummary()
         self.epoch_offset_s = time.time() - time.monotonic() if clock is time.monotonic else 0.0
         self._quality = 0
@@ -317,8 +359,13 @@ class LiveLoop:
             self._last_failure = exc
             self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
-        trig = self.trigger.update(
-            odo, result.terrain, camera_z_m=float(result.T_yaw_camera_rect.translation[2])
+        model, track_state, trig = track_and_trigger(
+            self.tracker,
+            self.trigger,
+            result.terrain,
+            odo,
+            frame.t_capture_s,
+            camera_z_m=float(result.T_yaw_camera_rect.translation[2]),
         )
         now = self.clock()
         latency = now - frame.t_capture_s
@@ -331,7 +378,7 @@ class LiveLoop:
         if odo is None:
             quality |= terrain_t.QUALITY_POSE_MISSING
         msg = terrain_message(
-            result.terrain,
+            model,
             trig,
             capture_s=frame.t_capture_s,
             publish_s=now,
@@ -341,8 +388,10 @@ class LiveLoop:
             quality=quality,
             stale=latency > self.config.stall_timeout_s,
             epoch_offset_s=self.epoch_offset_s,
+            track_state=track_state,
         )
         self.publish(msg)
+        self._last_model, self._last_track_state = model, track_state
         self._quality = 0
         self._unusable_run, self._unusable_detail = 0, ""
         s = self.summary
@@ -377,7 +426,7 @@ class LiveLoop:
         capture = self._last_capture if self._last_capture is not None else self._last_fresh
         assert capture is not None
         msg = terrain_message(
-            None if result is None else result.terrain,
+            self._last_model,
             trig,
             capture_s=capture,
             publish_s=now,
@@ -387,6 +436,7 @@ class LiveLoop:
             quality=self._quality | (terrain_t.QUALITY_POSE_MISSING if odo is None else 0),
             stale=True,
             epoch_offset_s=self.epoch_offset_s,
+            track_state=self._last_track_state,
         )
         self.publish(msg)
         self.summary.published += 1

@@ -6,13 +6,17 @@ The type is defined in ``lcmtypes/terrain_t.lcm``; its Python code is generated 
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
+from typing import TextIO
 
 from ..swing import PHASE_APPROACH, PHASE_BLOCKED, PHASE_IDLE, PHASE_RAISED, TriggerState
 from ..terrain import BOX, NONE, STAIRS, StairModel
+from ..tracking import TRACK_COASTING, TRACK_CONFIRMED, TRACK_NONE, TRACK_TENTATIVE
 from .lcmtypes.stereo_terrain_lcm import body_state_t, terrain_t
 
-__all__ = ["body_state_t", "terrain_t", "terrain_message"]
+__all__ = ["JsonlWriter", "body_state_t", "terrain_t", "terrain_message", "message_to_dict"]
 
 _OBSTACLE = {NONE: terrain_t.OBSTACLE_NONE, STAIRS: terrain_t.OBSTACLE_STAIRS, BOX: terrain_t.OBSTACLE_BOX}
 _PHASE = {
@@ -20,6 +24,12 @@ _PHASE = {
     PHASE_APPROACH: terrain_t.PHASE_APPROACH,
     PHASE_RAISED: terrain_t.PHASE_RAISED,
     PHASE_BLOCKED: terrain_t.PHASE_BLOCKED,
+}
+_TRACK = {
+    TRACK_NONE: terrain_t.TRACK_NONE,
+    TRACK_TENTATIVE: terrain_t.TRACK_TENTATIVE,
+    TRACK_CONFIRMED: terrain_t.TRACK_CONFIRMED,
+    TRACK_COASTING: terrain_t.TRACK_COASTING,
 }
 
 
@@ -39,6 +49,7 @@ def terrain_message(
     quality: int,
     stale: bool,
     epoch_offset_s: float = 0.0,
+    track_state: str = TRACK_NONE,
 ) -> terrain_t:
     """Fill a ``terrain_t``.
 
@@ -50,6 +61,8 @@ def terrain_message(
     capture_s, publish_s : float
         Capture time of the terrain's pair and the publish time, seconds on the loop's
         clock; ``epoch_offset_s`` is added to both to give microseconds since the epoch.
+    track_state : str
+        :data:`stereo_terrain.tracking.TRACK_STATES`; ``none`` for a single frame.
     """
     msg = terrain_t()
     msg.utime = int(round((capture_s + epoch_offset_s) * 1e6))
@@ -63,6 +76,12 @@ def terrain_message(
     msg.distance_m = [float(s.distance_m) for s in steps]
     msg.width_m = [_f(s.width_m) for s in steps]
     msg.yaw_rad = 0.0 if model is None else _f(model.yaw_rad)
+    msg.rise_sigma_m = [_f(s.rise_sigma_m) for s in steps]
+    msg.run_sigma_m = [_f(s.run_sigma_m) for s in steps]
+    msg.distance_sigma_m = [_f(s.distance_sigma_m) for s in steps]
+    msg.width_sigma_m = [_f(s.width_sigma_m) for s in steps]
+    msg.yaw_sigma_rad = math.nan if model is None else _f(model.yaw_sigma_rad)
+    msg.track_state = _TRACK[track_state]
     msg.swing_height_m = float(trigger.swing_height_m)
     msg.trigger_distance_m = _f(trigger.trigger_distance_m)
     msg.p0_m = [float(v) for v in trigger.p0_m]
@@ -76,3 +95,52 @@ def terrain_message(
     msg.disparity_density = float(density)
     msg.quality = int(quality)
     return msg
+
+
+def message_to_dict(msg: terrain_t) -> dict[str, object]:
+    """A ``terrain_t`` as a JSON-ready mapping with the LCM field names (``--jsonl``):
+    arrays as lists, NaN (unknown) as None, in the order of the type's fields."""
+
+    def plain(v: object) -> object:
+        if isinstance(v, float):
+            return v if math.isfinite(v) else None
+        if isinstance(v, list | tuple):
+            return [plain(x) for x in v]
+        return v
+
+    return {name: plain(getattr(msg, name)) for name in terrain_t.__slots__}
+
+
+class JsonlWriter:
+    """Writes every message it is called with as one JSON object per line
+    (:func:`message_to_dict`), flushed per line, so that a run stopped at any point leaves
+    whole lines only.
+
+    Parameters
+    ----------
+    path : path
+        Created (truncated) here, before the loop starts; :class:`~stereo_terrain.errors.InputError`
+        when it cannot be.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        from ..errors import InputError
+
+        self.path = Path(path)
+        try:
+            self._file: TextIO | None = open(self.path, "w", encoding="utf-8")  # noqa: SIM115
+        except OSError as exc:
+            raise InputError(f"cannot write --jsonl {self.path}: {exc.strerror or exc}") from None
+        self.count = 0
+
+    def __call__(self, msg: terrain_t) -> None:
+        if self._file is None:
+            raise ValueError(f"JsonlWriter for {self.path} is closed")
+        self._file.write(json.dumps(message_to_dict(msg), allow_nan=False) + "\n")
+        self._file.flush()
+        self.count += 1
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None

@@ -79,6 +79,13 @@ class ApproachConfig:
     supersample : int
         Renderer samples per pixel side.
     seed : int
+    stair_yaw_rad : float
+        Stair axis w.r.t. the walking direction (the first riser still meets the body's
+        path ``start_distance_m`` ahead), ``|yaw| <= 45 deg``.
+    odometry_drift : float
+        Scale error of the odometry the robot reports (the frames' ``odometry``):
+        ``x_reported = (1 + drift) x``; 0.02 is 2 % drift (issue 14). The foot model and
+        the truth use the true position.
     """
 
     rise_m: float = 0.21
@@ -99,6 +106,8 @@ class ApproachConfig:
     supersample: int = 2
     seed: int = 7
     lift_fraction: float = 0.1
+    stair_yaw_rad: float = 0.0
+    odometry_drift: float = 0.0
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -130,6 +139,14 @@ class ApproachConfig:
             raise ConfigError("ApproachConfig.rear_hip_m must lie behind front_hip_m")
         if not 0 <= self.lift_fraction < 0.5:
             raise ConfigError("ApproachConfig.lift_fraction must be in [0, 0.5)")
+        if not abs(self.stair_yaw_rad) <= math.radians(45.0):
+            raise ConfigError(
+                f"ApproachConfig.stair_yaw_rad must be within +-45 deg, got {self.stair_yaw_rad}"
+            )
+        if not abs(self.odometry_drift) <= 0.2:
+            raise ConfigError(
+                f"ApproachConfig.odometry_drift must be within +-0.2, got {self.odometry_drift}"
+            )
         frames = (self.start_distance_m - self.end_distance_m) * self.fps / self.speed_mps
         if not frames < MAX_FRAMES:  # also inf and NaN
             raise ConfigError(
@@ -160,6 +177,7 @@ def approach_spec(cfg: ApproachConfig, x_m: float, pitch_rad: float) -> SceneSpe
         run_m=cfg.run_m,
         width_m=cfg.width_m,
         distance_m=d,
+        yaw_rad=cfg.stair_yaw_rad,
         landing_m=1.0,
     )
     return SceneSpec(
@@ -184,15 +202,22 @@ def body_pitch(cfg: ApproachConfig, t_s: float) -> float:
 def render_approach(cfg: ApproachConfig) -> Iterator[tuple[StereoFrame, SyntheticScene]]:
     """Render the approach frame by frame: raw pair, capture time, odometry and attitude.
 
-    Frame ``k`` is taken at ``t = k / fps`` with the body at ``x = speed * t``.
+    Frame ``k`` is taken at ``t = k / fps`` with the body at ``x = speed * t``
+    (:func:`true_x`); its odometry reports ``(1 + odometry_drift) x``.
     """
     for k in range(cfg.frame_count):
         t = k / cfg.fps
-        x = cfg.speed_mps * t
+        x = true_x(cfg, t)
         pitch = body_pitch(cfg, t)
         scene = render_scene(approach_spec(cfg, x, pitch))
-        frame = StereoFrame(scene.left, scene.right, t, t, k, Odometry((x, 0.0, 0.0), 0.0), (0.0, pitch, 0.0))
+        odo = Odometry(((1.0 + cfg.odometry_drift) * x, 0.0, 0.0), 0.0)
+        frame = StereoFrame(scene.left, scene.right, t, t, k, odo, (0.0, pitch, 0.0))
         yield frame, scene
+
+
+def true_x(cfg: ApproachConfig, t_s: float) -> float:
+    """True body x (world) at time ``t_s`` of the approach."""
+    return cfg.speed_mps * t_s
 
 
 class FrameSource:
@@ -507,8 +532,7 @@ def simulate_approach(
 
     def frames() -> Iterator[StereoFrame]:
         for frame, _scene in render_approach(cfg):
-            assert frame.odometry is not None
-            x_of_frame[frame.index] = frame.odometry.position_m[0]
+            x_of_frame[frame.index] = true_x(cfg, frame.t_capture_s)
             if writer is not None:
                 writer.write(frame)
             if progress is not None:

@@ -16,13 +16,15 @@ class terrain_t(object):
     """
     Compact terrain message for the robot's controller: one per processed stereo pair,
     and a stale heartbeat while no fresh pair arrives.
+    Version 2 (issue 14): 1-sigmas of the steps and the yaw, and the track state; the
+    fingerprint changed, so version-1 decoders refuse these messages.
     """
 
-    __slots__ = ["utime", "publish_utime", "frame_index", "obstacle", "num_steps", "rise_m", "run_m", "distance_m", "width_m", "yaw_rad", "swing_height_m", "trigger_distance_m", "p0_m", "heading_rad", "raise_swing", "traversable", "trigger_phase", "stale", "age_s", "latency_s", "disparity_density", "quality"]
+    __slots__ = ["utime", "publish_utime", "frame_index", "obstacle", "num_steps", "rise_m", "run_m", "distance_m", "width_m", "yaw_rad", "rise_sigma_m", "run_sigma_m", "distance_sigma_m", "width_sigma_m", "yaw_sigma_rad", "track_state", "swing_height_m", "trigger_distance_m", "p0_m", "heading_rad", "raise_swing", "traversable", "trigger_phase", "stale", "age_s", "latency_s", "disparity_density", "quality"]
 
-    __typenames__ = ["int64_t", "int64_t", "int64_t", "int8_t", "int16_t", "float", "float", "float", "float", "float", "float", "float", "double", "float", "boolean", "boolean", "int8_t", "boolean", "float", "float", "float", "int32_t"]
+    __typenames__ = ["int64_t", "int64_t", "int64_t", "int8_t", "int16_t", "float", "float", "float", "float", "float", "float", "float", "float", "float", "float", "int8_t", "float", "float", "double", "float", "boolean", "boolean", "int8_t", "boolean", "float", "float", "float", "int32_t"]
 
-    __dimensions__ = [None, None, None, None, None, ["num_steps"], ["num_steps"], ["num_steps"], ["num_steps"], None, None, None, [3], None, None, None, None, None, None, None, None, None]
+    __dimensions__ = [None, None, None, None, None, ["num_steps"], ["num_steps"], ["num_steps"], ["num_steps"], None, ["num_steps"], ["num_steps"], ["num_steps"], ["num_steps"], None, None, None, None, [3], None, None, None, None, None, None, None, None, None]
 
     OBSTACLE_NONE = 0
     OBSTACLE_STAIRS = 1
@@ -31,6 +33,11 @@ class terrain_t(object):
     PHASE_APPROACH = 1
     PHASE_RAISED = 2
     PHASE_BLOCKED = 3
+    TRACK_NONE = 0
+    TRACK_TENTATIVE = 1
+    TRACK_CONFIRMED = 2
+    TRACK_COASTING = 3
+    VERSION = 2
     QUALITY_STALLED = 1
     QUALITY_SKEW_DROPPED = 2
     QUALITY_UNREADABLE = 4
@@ -96,6 +103,33 @@ class terrain_t(object):
         """
         Stair axis w.r.t. frame x, radians.
         LCM Type: float
+        """
+
+        self.rise_sigma_m = []
+        """
+        1-sigma of rise_m, run_m, distance_m and width_m, metres; NaN where the value is
+        NaN or its uncertainty unknown.
+        LCM Type: float[num_steps]
+        """
+
+        self.run_sigma_m = []
+        """ LCM Type: float[num_steps] """
+        self.distance_sigma_m = []
+        """ LCM Type: float[num_steps] """
+        self.width_sigma_m = []
+        """ LCM Type: float[num_steps] """
+        self.yaw_sigma_rad = 0.0
+        """
+        1-sigma of yaw_rad, radians; NaN if unknown.
+        LCM Type: float
+        """
+
+        self.track_state = 0
+        """
+        TRACK_NONE (single frame: tracking off or no track), TRACK_TENTATIVE (a new track,
+        steps still the frame's), TRACK_CONFIRMED (the steps are the tracked staircase's,
+        supported by this frame) or TRACK_COASTING (tracked, not seen in this frame).
+        LCM Type: int8_t
         """
 
         self.swing_height_m = 0.0
@@ -184,7 +218,12 @@ class terrain_t(object):
         buf.write(struct.pack('>%df' % self.num_steps, *self.run_m[:self.num_steps]))
         buf.write(struct.pack('>%df' % self.num_steps, *self.distance_m[:self.num_steps]))
         buf.write(struct.pack('>%df' % self.num_steps, *self.width_m[:self.num_steps]))
-        buf.write(struct.pack(">fff", self.yaw_rad, self.swing_height_m, self.trigger_distance_m))
+        buf.write(struct.pack(">f", self.yaw_rad))
+        buf.write(struct.pack('>%df' % self.num_steps, *self.rise_sigma_m[:self.num_steps]))
+        buf.write(struct.pack('>%df' % self.num_steps, *self.run_sigma_m[:self.num_steps]))
+        buf.write(struct.pack('>%df' % self.num_steps, *self.distance_sigma_m[:self.num_steps]))
+        buf.write(struct.pack('>%df' % self.num_steps, *self.width_sigma_m[:self.num_steps]))
+        buf.write(struct.pack(">fbff", self.yaw_sigma_rad, self.track_state, self.swing_height_m, self.trigger_distance_m))
         buf.write(struct.pack('>3d', *self.p0_m[:3]))
         buf.write(struct.pack(">fbbbbfffi", self.heading_rad, self.raise_swing, self.traversable, self.trigger_phase, self.stale, self.age_s, self.latency_s, self.disparity_density, self.quality))
 
@@ -206,7 +245,12 @@ class terrain_t(object):
         self.run_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
         self.distance_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
         self.width_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
-        self.yaw_rad, self.swing_height_m, self.trigger_distance_m = struct.unpack(">fff", buf.read(12))
+        self.yaw_rad = struct.unpack(">f", buf.read(4))[0]
+        self.rise_sigma_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
+        self.run_sigma_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
+        self.distance_sigma_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
+        self.width_sigma_m = struct.unpack('>%df' % self.num_steps, buf.read(self.num_steps * 4))
+        self.yaw_sigma_rad, self.track_state, self.swing_height_m, self.trigger_distance_m = struct.unpack(">fbff", buf.read(13))
         self.p0_m = struct.unpack('>3d', buf.read(24))
         self.heading_rad = struct.unpack(">f", buf.read(4))[0]
         self.raise_swing = bool(struct.unpack('b', buf.read(1))[0])
@@ -219,7 +263,7 @@ class terrain_t(object):
     @staticmethod
     def _get_hash_recursive(parents):
         if terrain_t in parents: return 0
-        tmphash = (0xda78c2c98cad7446) & 0xffffffffffffffff
+        tmphash = (0xe0e7b44f7607239e) & 0xffffffffffffffff
         tmphash  = (((tmphash<<1)&0xffffffffffffffff) + (tmphash>>63)) & 0xffffffffffffffff
         return tmphash
     _packed_fingerprint = None

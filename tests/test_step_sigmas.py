@@ -1,0 +1,86 @@
+"""The per-step 1-sigmas (issue 14): against a Monte Carlo over rendered scenes, and their
+shape on exact plane sets."""
+
+import math
+
+import numpy as np
+import pytest
+
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.runtime.simulate import ApproachConfig, approach_spec
+from stereo_terrain.synthetic import render_scene
+from stereo_terrain.terrain import TerrainConfig, build_terrain, estimate_step_sigmas
+
+from .test_terrain import _stairs
+
+RISE = 0.17
+RUNS = 8  # renders per distance
+#: The predicted sigma (median over the renders) and the rms error over them agree within
+#: this factor either way.
+RATIO_BOUND = 2.5
+
+
+def _monte_carlo(distance_m, seed0):
+    """rms error / median sigma of the first step's rise, distance and the yaw over ``RUNS``
+    renders (texture and sensor noise seeds, a few cm of position, a degree of pitch)."""
+    rng = np.random.default_rng(seed0)
+    errs, sigmas = [], []
+    for k in range(RUNS):
+        x = 2.2 - distance_m + rng.uniform(-0.03, 0.03)
+        cfg = ApproachConfig(rise_m=RISE, image_size=(320, 240), supersample=1, seed=seed0 + k)
+        scene = render_scene(approach_spec(cfg, x, rng.uniform(-0.015, 0.015)))
+        result = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right)
+        steps = result.terrain.steps
+        d = 2.2 - x
+        if not steps or abs(steps[0].distance_m - d) > 0.15:
+            continue  # the first riser was missed: no sigma to check
+        s = steps[0]
+        errs.append((s.rise_m - RISE, s.distance_m - d, result.terrain.yaw_rad))
+        sigmas.append((s.rise_sigma_m, s.distance_sigma_m, result.terrain.yaw_sigma_rad))
+        doc = result.to_json_dict()
+        assert doc["steps"][0]["rise_sigma"] > 0 and doc["yaw_sigma"] > 0
+        assert set(doc["steps"][0]) >= {"rise_sigma", "run_sigma", "distance_sigma", "width_sigma"}
+    assert len(errs) >= RUNS - 2
+    e, s = np.array(errs), np.array(sigmas)
+    return np.sqrt(np.mean(e**2, axis=0)) / np.median(s, axis=0)
+
+
+@pytest.mark.parametrize("distance_m", [1.2, 1.8])
+def test_sigmas_match_a_monte_carlo_on_rendered_scenes(distance_m):
+    ratio = _monte_carlo(distance_m, seed0=11)
+    for name, r in zip(("rise", "distance", "yaw"), ratio, strict=True):
+        assert 1 / RATIO_BOUND < r < RATIO_BOUND, f"{name}: rms error / sigma = {r:.2f}"
+
+
+def _sigmas(distance, **kw):
+    planes = _stairs(distance=distance, **kw)
+    model = build_terrain(planes)
+    return estimate_step_sigmas(model, planes, focal_px=500.0, baseline_m=0.1)
+
+
+def test_sigmas_on_exact_planes_grow_with_range_and_follow_the_values():
+    near, far = _sigmas(1.3), _sigmas(2.6)
+    assert len(near.steps) == len(far.steps) == 3
+    for a, b in zip(near.steps, far.steps, strict=True):
+        assert 0 < a.rise_sigma_m < b.rise_sigma_m
+        assert 0 < a.distance_sigma_m < b.distance_sigma_m
+    assert near.steps[-1].run_m is None and near.steps[-1].run_sigma_m is None
+    assert near.steps[0].run_sigma_m > 0
+    assert math.isfinite(near.yaw_sigma_rad) and near.yaw_sigma_rad > 0
+    # the depth error grows as z^2 / (f b): twice the baseline, about half the sigma
+    wide = estimate_step_sigmas(
+        build_terrain(_stairs(distance=2.6)), _stairs(distance=2.6), focal_px=500.0, baseline_m=0.2
+    )
+    assert wide.steps[0].distance_sigma_m < 0.6 * far.steps[0].distance_sigma_m
+
+
+def test_sigma_inputs_are_checked():
+    planes = _stairs()
+    model = build_terrain(planes)
+    with pytest.raises(ConfigError, match="focal_px"):
+        estimate_step_sigmas(model, planes, focal_px=0.0, baseline_m=0.1)
+    with pytest.raises(ConfigError, match="face_bias_correlation"):
+        TerrainConfig(face_bias_correlation=1.5)
+    with pytest.raises(ConfigError, match="matching_window_px"):
+        TerrainConfig(matching_window_px=0.0)

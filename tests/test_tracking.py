@@ -1,0 +1,213 @@
+"""The tracked staircase (issue 14) on scripted sequences of noisy single-frame models."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.msac import Plane
+from stereo_terrain.pipeline import PipelineConfig
+from stereo_terrain.swing import Odometry
+from stereo_terrain.terrain import NONE, Polytope, StairModel, Step
+from stereo_terrain.tracking import (
+    TRACK_COASTING,
+    TRACK_CONFIRMED,
+    TRACK_NONE,
+    TRACK_TENTATIVE,
+    StairTracker,
+    TrackingConfig,
+    tracked_model,
+)
+
+RISE, RUN, CAM_Z = 0.17, 0.28, 0.55
+NOISE_D, NOISE_R = 0.01, 0.003  # 1-sigma of the scripted frames' distances and rises
+TOL_D = 0.02  # fused first-riser distance within this of the truth
+TOL_R = 0.003  # fused rise within this of the truth
+
+
+def frame_model(rng, d0, *, n=3, rise=RISE, run=RUN, yaw=0.0, skip=0, bias_d=0.0):
+    """A frame's model: risers ``skip..n-1`` of a staircase whose first riser meets the body
+    x axis ``d0`` ahead, stair axis at ``yaw`` in the frame, with noise and its sigmas."""
+    steps = []
+    c = math.cos(yaw)
+    ground = skip * rise - CAM_Z  # a frame that does not see the first riser takes its tread for ground
+    top = ground
+    for i in range(skip, n):
+        d = d0 + i * run / c + rng.normal(0, NOISE_D) + bias_d
+        u = np.array([c, math.sin(yaw), 0.0])
+        r = rise + rng.normal(0, NOISE_R)
+        top += r
+        steps.append(
+            Step(
+                r, run, d, 1.2, top, d * c, Plane(-u, d * c),
+                None, False, NOISE_R, math.sqrt(2) * NOISE_D, NOISE_D, 0.02,
+            )
+        )  # fmt: skip
+    return StairModel("stairs", tuple(steps), yaw, ground, Polytope(np.zeros((0, 3))), "yaw", "", 0.01)
+
+
+def empty():
+    return StairModel(NONE, (), 0.0, -CAM_Z, Polytope(np.zeros((0, 3))), "yaw", "")
+
+
+def approach(tracker, rng, *, frames=20, step_m=0.08, drift=0.0, start=2.2, yaw_w=0.0, body_yaw=0.0):
+    """Walk toward the stairs along the body heading; the last frames do not see the first
+    riser any more (it left the view) and report the second one first."""
+    out = []
+    h = np.array([math.cos(body_yaw), math.sin(body_yaw)])
+    for k in range(frames):
+        x = step_m * k
+        d = start - x
+        p = (1.0 + drift) * x * h
+        skip = 1 if d < 0.6 else 0
+        m = frame_model(rng, d, yaw=yaw_w - body_yaw, skip=skip)  # skip: the second riser first
+        out.append((d, tracker.update(m, Odometry((p[0], p[1], 0.0), body_yaw), k / 6.0)))
+    return out
+
+
+def test_confirms_fuses_and_keeps_the_first_riser_when_it_leaves_the_view():
+    rng = np.random.default_rng(1)
+    tracker = StairTracker()
+    seq = approach(tracker, rng, frames=24)
+    states = [t.state for _, t in seq]
+    assert states[:3] == [TRACK_TENTATIVE, TRACK_TENTATIVE, TRACK_CONFIRMED]
+    assert all(s == TRACK_CONFIRMED for s in states[2:])
+    d, last = seq[-1]
+    first = last.model.steps[0]
+    assert d < 0.6  # the frames report the second riser first by now
+    assert abs(first.distance_m - d) < TOL_D  # still the first riser
+    assert abs(first.rise_m - RISE) < TOL_R
+    assert len(last.steps) == 3 and abs(last.steps[0].run_m - RUN) < TOL_D
+    # fused sigmas are below a frame's and above zero
+    assert 0 < first.rise_sigma_m < NOISE_R and 0 < first.distance_sigma_m < NOISE_D
+
+
+def test_survives_two_percent_odometry_drift():
+    rng = np.random.default_rng(2)
+    tracker = StairTracker()
+    seq = approach(tracker, rng, frames=24, drift=0.02)
+    ids = {t.track_id for _, t in seq}
+    assert ids == {1}  # no split
+    for d, t in seq[6:]:
+        assert abs(t.model.steps[0].distance_m - d) < TOL_D + 0.01
+        assert len(t.steps) == 3  # no extra step slid in
+
+
+def test_yawed_stairs_and_turned_body():
+    rng = np.random.default_rng(3)
+    tracker = StairTracker()
+    seq = approach(tracker, rng, frames=18, yaw_w=math.radians(25), body_yaw=math.radians(-40))
+    d, last = seq[-1]
+    assert abs(last.yaw_rad - math.radians(25)) < math.radians(1)
+    assert abs(last.model.yaw_rad - math.radians(65)) < math.radians(1)
+    assert abs(last.model.steps[0].distance_m - d) < TOL_D
+
+
+def test_outlier_frames_are_rejected():
+    rng = np.random.default_rng(4)
+    tracker = StairTracker()
+    approach(tracker, rng, frames=6)
+    before = tracker.state
+    x = 0.08 * 5
+    # a frame whose riser is 0.5 m off (a wall) and one whose yaw is 30 deg off
+    for k, bad in enumerate([frame_model(rng, 3.0, n=1), frame_model(rng, 1.8, yaw=math.radians(30))]):
+        t = tracker.update(bad, Odometry((x, 0.0, 0.0), 0.0), 1.0 + 0.1 * k)
+        assert t.state == TRACK_COASTING and t.outliers == before.outliers + k + 1
+        assert t.track_id == before.track_id
+        assert abs(t.model.steps[0].distance_m - (2.2 - x)) < TOL_D
+
+
+def test_coasting_then_dropped_after_the_configured_time():
+    rng = np.random.default_rng(5)
+    tracker = StairTracker(TrackingConfig(drop_after_s=1.0))
+    seq = approach(tracker, rng, frames=6)
+    t_last = 5 / 6.0
+    x = 0.08 * 5
+    t = tracker.update(empty(), Odometry((x + 0.1, 0.0, 0.0), 0.0), t_last + 0.5)
+    assert t.state == TRACK_COASTING
+    assert abs(t.model.steps[0].distance_m - (seq[-1][0] - 0.1)) < TOL_D  # dead-reckoned
+    t = tracker.update(None, Odometry((x + 0.1, 0.0, 0.0), 0.0), t_last + 1.2)
+    assert t.state == TRACK_NONE and t.model is None
+
+
+def test_a_new_staircase_replaces_the_track():
+    rng = np.random.default_rng(6)
+    tracker = StairTracker()
+    approach(tracker, rng, frames=6)
+    old = tracker.state.track_id
+    # the robot turned: now another staircase, 1.5 m ahead, rise 0.2 m, axis 20 deg off
+    states = []
+    for k in range(6):
+        m = frame_model(rng, 1.5 - 0.05 * k, rise=0.2, yaw=math.radians(20))
+        states.append(tracker.update(m, Odometry((0.4 + 0.05 * k, 0.0, 0.0), 0.0), 2.0 + k / 6))
+    assert states[0].track_id == old and states[0].state == TRACK_COASTING
+    assert states[-1].track_id != old and states[-1].state == TRACK_CONFIRMED
+    assert abs(states[-1].steps[0].rise_m - 0.2) < TOL_R
+
+
+def test_a_riser_made_up_by_a_bad_first_frame_is_removed():
+    rng = np.random.default_rng(7)
+    tracker = StairTracker()
+    bad = frame_model(rng, 2.2, n=3)
+    phantom = frame_model(rng, 1.95, n=1)  # a riser 25 cm before the first
+    bad = StairModel("stairs", phantom.steps + bad.steps, 0.0, -CAM_Z, bad.polytope, "yaw", "", 0.01)
+    tracker.update(bad, Odometry((0.0, 0.0, 0.0), 0.0), 0.0)
+    seq = approach(tracker, rng, frames=8)
+    last = seq[-1][1]
+    assert len(last.steps) == 3
+    assert abs(last.model.steps[0].distance_m - seq[-1][0]) < TOL_D
+
+
+def test_without_odometry_it_follows_the_frames():
+    rng = np.random.default_rng(8)
+    tracker = StairTracker()
+    for k in range(8):
+        d = 2.0 - 0.08 * k
+        t = tracker.update(frame_model(rng, d), None, k / 6)
+    assert t.state == TRACK_CONFIRMED and abs(t.model.steps[0].distance_m - d) < 0.05
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    yaw=st.floats(-0.6, 0.6),
+    body_yaw=st.floats(-math.pi, math.pi),
+    x=st.floats(-5, 5),
+    y=st.floats(-5, 5),
+    z=st.floats(-1, 1),
+    d0=st.floats(0.6, 3.0),
+)
+def test_one_frame_round_trips_through_the_world_frame(yaw, body_yaw, x, y, z, d0):
+    """A single frame's model, put into the world frame and back into the same body pose,
+    is itself: distances, rises, runs, yaw, heights."""
+    rng = np.random.default_rng(0)
+    m = frame_model(rng, d0, yaw=yaw)
+    odo = Odometry((x, y, z), body_yaw)
+    t = StairTracker().update(m, odo, 0.0)
+    back = t.model
+    assert back is not None and len(back.steps) == len(m.steps)
+    assert math.isclose(back.yaw_rad, yaw, abs_tol=1e-9)
+    for a, b in zip(m.steps, back.steps, strict=True):
+        assert math.isclose(a.distance_m, b.distance_m, abs_tol=1e-9)
+        assert math.isclose(a.rise_m, b.rise_m, abs_tol=1e-12)
+        assert math.isclose(a.top_z_m, b.top_z_m, abs_tol=1e-9)
+    # moved on by 0.3 m along the heading: every riser 0.3 m nearer
+    h = (math.cos(body_yaw), math.sin(body_yaw))
+    moved = tracked_model(t, Odometry((x + 0.3 * h[0], y + 0.3 * h[1], z), body_yaw))
+    for a, b in zip(m.steps, moved.steps, strict=True):
+        assert math.isclose(a.distance_m - 0.3, b.distance_m, abs_tol=1e-9)
+
+
+def test_config_checks_and_yaml_section():
+    with pytest.raises(ConfigError, match="max_gate_m"):
+        TrackingConfig(min_gate_m=0.5, max_gate_m=0.1)
+    with pytest.raises(ConfigError, match="confirm_frames"):
+        TrackingConfig(confirm_frames=0)
+    with pytest.raises(ConfigError, match="drop_after_s"):
+        TrackingConfig(drop_after_s=-1.0)
+    cfg = PipelineConfig.from_dict({"tracking": {"enabled": False, "drop_after_s": 3.0}})
+    assert cfg.tracking == TrackingConfig(enabled=False, drop_after_s=3.0)
+    with pytest.raises(ConfigError, match="tracking"):
+        PipelineConfig.from_dict({"tracking": {"bogus": 1}})
