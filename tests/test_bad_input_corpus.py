@@ -630,7 +630,9 @@ ODD = {
 @pytest.mark.parametrize("kind", sorted(ODD))
 def test_odd_but_legal_images_run(kind, good, tmp_path, capfd):
     left, right = _odd_pair(good, tmp_path, ODD[kind])
-    code, err = _run_cli(_recon(left, right, good.calib, "--json", tmp_path / "r.json"), tmp_path, capfd, False)
+    code, err = _run_cli(
+        _recon(left, right, good.calib, "--json", tmp_path / "r.json"), tmp_path, capfd, False
+    )
     assert code == 0, err
     assert json.loads((tmp_path / "r.json").read_text())["version"] == 1
 
@@ -682,7 +684,10 @@ def test_missing_extras_are_named_before_any_work(good, tmp_path, capfd, monkeyp
         (_recon(good.left, good.right, good.calib, "--plot", tmp_path / "p.png"), "stereo-terrain[viz]"),
         (["replay", good.rec], "stereo-terrain[lcm]"),
         (["run", "--left", "0", "--right", "1", "--calib", good.calib], "stereo-terrain[lcm]"),
-        (["simulate", "--out", tmp_path / "sim", "--no-plot", "--lcm-url", "udpm://x"], "stereo-terrain[lcm]"),
+        (
+            ["simulate", "--out", tmp_path / "sim", "--no-plot", "--lcm-url", "udpm://x"],
+            "stereo-terrain[lcm]",
+        ),
     ]
     for argv, extra in cases:
         code, err = _run_cli(argv, tmp_path, capfd, False)

@@ -550,15 +550,15 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
     inferred_first = False
     if chain and chain[0][0] is not None:
         first_s = chain[0][4]
-        front = [
+        cut_off = [
             r
             for r in merged
             if r.foot_hidden
             and r.s < first_s - config.merge_distance_m
             and abs(r.z_hi - ground_z) <= config.tread_height_tolerance_m
         ]
-        if front:
-            r0 = max(front, key=lambda r: r.s)  # the one just before the chain
+        if cut_off:
+            r0 = max(cut_off, key=lambda r: r.s)  # the one just before the chain
             ground_tread = _tread_between(horizontals, h_z, s_h, ground_z, r0.s, first_s)
             chain.insert(0, (r0, ground_z, r0.plane, ground_tread, r0.s))
             inferred_first = True

@@ -246,13 +246,15 @@ def _flat_regions(
         if config.split_bridge_px > 1:
             # A faint step edge has gaps; one gap joins two faces into a region no plane
             # explains. Bridge gaps along rows (step edges are near-horizontal).
-            split = cv2.dilate(split, np.ones((1, config.split_bridge_px), np.uint8))
+            split = np.asarray(cv2.dilate(split, np.ones((1, config.split_bridge_px), np.uint8)))
         band = ill_posed.astype(np.uint8)
         if config.close_px > 1:
             # A plank end or a seam is a narrow textured column inside an ill-posed face:
             # close it along rows so that the face stays one region and the column's
             # disparities (the best it has) support the face's plane.
-            band = cv2.morphologyEx(band, cv2.MORPH_CLOSE, np.ones((1, config.close_px), np.uint8))
+            band = np.asarray(
+                cv2.morphologyEx(band, cv2.MORPH_CLOSE, np.ones((1, config.close_px), np.uint8))
+            )
         flat = band.astype(bool) & (split == 0)
         if valid is not None:
             flat &= valid
