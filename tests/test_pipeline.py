@@ -187,7 +187,7 @@ def test_real_oakd_scenes_find_the_floor(shared_data, scene_name):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 11 open: the painted risers give too few planes (1-2 of the steps are found)",
+    reason="issue 11 open: the painted risers give too few planes (0-2 of the steps are found)",
 )
 def test_real_middlebury_staircase_is_ordinary_stairs(shared_data):
     """Issue 11, item 6: the painted building staircase seen from the side is a staircase of
