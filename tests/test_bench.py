@@ -19,11 +19,12 @@ from stereo_terrain.bench import (
     read_bench_scene,
     scene_dirs,
 )
-from stereo_terrain.cli import main
 from stereo_terrain.errors import InputError
 from stereo_terrain.evaluation import score_result, summarize
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.synthetic import render_scenes
+
+from .cli_run import run_cli
 
 KEYS = {
     "scenes",
@@ -45,12 +46,6 @@ def scenes(tmp_path_factory):
     return root
 
 
-def _run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def _evaluation_accuracy(root):
     """What ``evaluation`` says of a fresh pipeline's first call on each scene."""
     scores = []
@@ -63,7 +58,7 @@ def _evaluation_accuracy(root):
 
 def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_path, capsys):
     out = tmp_path / "bench.json"
-    code, text, err = _run(["bench", scenes, "--repeat", "2", "--json", out], capsys)
+    code, text, err = run_cli(["bench", scenes, "--repeat", "2", "--json", out], capsys)
     assert code == 0, err
     data = json.loads(out.read_text())
     assert set(data) == KEYS
@@ -90,7 +85,7 @@ def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_
 
 
 def test_bench_json_to_stdout_is_json_only(scenes, capsys):
-    code, text, err = _run(["bench", scenes / "scene_000", "--repeat", "1", "--json", "-"], capsys)
+    code, text, err = run_cli(["bench", scenes / "scene_000", "--repeat", "1", "--json", "-"], capsys)
     assert code == 0, err
     assert json.loads(text)["scenes"] == 1
 
@@ -105,12 +100,12 @@ def test_summary_without_truth_or_timing_is_null_not_nan(scenes):
 
 
 def test_bench_errors_are_one_line_exit_2(scenes, tmp_path, capsys):
-    code, _, err = _run(["bench", tmp_path / "missing"], capsys)
+    code, _, err = run_cli(["bench", tmp_path / "missing"], capsys)
     assert code == 2 and "does not exist" in err and len(err.strip().splitlines()) == 1
     bad = tmp_path / "bad"
     (bad / "scene_a").mkdir(parents=True)
     (bad / "scene_a" / "left.png").write_bytes((scenes / "scene_000" / "left.png").read_bytes())
-    code, _, err = _run(["bench", bad], capsys)
+    code, _, err = run_cli(["bench", bad], capsys)
     assert code == 2 and "right.png, calib.yaml" in err and len(err.strip().splitlines()) == 1
     broken = tmp_path / "broken"
     broken.mkdir()
@@ -123,7 +118,7 @@ def test_bench_errors_are_one_line_exit_2(scenes, tmp_path, capsys):
     ):
         (broken / "truth.json").write_text(text)
         out = tmp_path / "o.json"
-        code, _, err = _run(["bench", broken, "--json", out], capsys)
+        code, _, err = run_cli(["bench", broken, "--json", out], capsys)
         assert code == 2 and words in err and len(err.strip().splitlines()) == 1, err
         assert not out.exists()
 
@@ -179,14 +174,14 @@ def test_an_unreachable_ray_address_is_one_line_exit_2(scenes, capsys):
     with socket.socket() as s:  # a port nothing listens on once closed
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    code, _, err = _run(["bench", scenes, "--ray", f"127.0.0.1:{port}"], capsys)
+    code, _, err = run_cli(["bench", scenes, "--ray", f"127.0.0.1:{port}"], capsys)
     assert code == 2 and "nothing answers" in err and len(err.strip().splitlines()) == 1
 
 
 def test_bench_ray_cli_reports_accuracy_and_no_timing(scenes, tmp_path, capsys):
     pytest.importorskip("ray", reason="the ray extra is not installed")
     out = tmp_path / "ray.json"
-    code, text, err = _run(["bench", scenes, "--ray", "--json", out], capsys)
+    code, text, err = run_cli(["bench", scenes, "--ray", "--json", out], capsys)
     assert code == 0, err
     data = json.loads(out.read_text())
     assert set(data) == KEYS and data["scenes"] == 3

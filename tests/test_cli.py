@@ -10,16 +10,12 @@ import pytest
 from stereo_terrain.cli import main
 from stereo_terrain.synthetic import default_scene_spec, render_scene, write_scene
 
+from .cli_run import run_cli
+
 
 @pytest.fixture(scope="module")
 def scene_dir(tmp_path_factory):
     return write_scene(render_scene(default_scene_spec()), tmp_path_factory.mktemp("scene") / "s")
-
-
-def _run(argv, capsys):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def _reconstruct_args(d, *extra):
@@ -28,7 +24,7 @@ def _reconstruct_args(d, *extra):
 
 def test_reconstruct_writes_the_json_contract(scene_dir, tmp_path, capsys):
     out_json = tmp_path / "r.json"
-    code, out, err = _run(
+    code, out, err = run_cli(
         _reconstruct_args(
             scene_dir, "--rig", scene_dir / "rig.yaml", "--json", out_json, "--plot", tmp_path / "r.png"
         ),
@@ -43,7 +39,7 @@ def test_reconstruct_writes_the_json_contract(scene_dir, tmp_path, capsys):
 
 @pytest.mark.parametrize("method", ["contour", "auto"])
 def test_reconstruct_method_is_reported(scene_dir, capsys, method):
-    code, out, _ = _run(
+    code, out, _ = run_cli(
         _reconstruct_args(scene_dir, "--rig", scene_dir / "rig.yaml", "--json", "-", "--method", method),
         capsys,
     )
@@ -54,12 +50,16 @@ def test_reconstruct_method_is_reported(scene_dir, capsys, method):
 
 
 def test_reconstruct_json_to_stdout(scene_dir, capsys):
-    code, out, _ = _run(_reconstruct_args(scene_dir, "--rig", scene_dir / "rig.yaml", "--json", "-"), capsys)
+    code, out, _ = run_cli(
+        _reconstruct_args(scene_dir, "--rig", scene_dir / "rig.yaml", "--json", "-"), capsys
+    )
     assert code == 0 and json.loads(out)["obstacle"] == "stairs"
 
 
 def test_render_writes_scenes(tmp_path, capsys):
-    code, out, _ = _run(["render", "--out", tmp_path, "--count", 2, "--seed", 3, "--size", "320x240"], capsys)
+    code, out, _ = run_cli(
+        ["render", "--out", tmp_path, "--count", 2, "--seed", 3, "--size", "320x240"], capsys
+    )
     assert code == 0
     for name in ("scene_000", "scene_001"):
         d = tmp_path / name
@@ -78,7 +78,7 @@ def _assert_one_line_error(code, err, *words):
 
 
 def test_missing_image(scene_dir, tmp_path, capsys):
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["reconstruct", tmp_path / "nope.png", scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"],
         capsys,
     )
@@ -88,7 +88,7 @@ def test_missing_image(scene_dir, tmp_path, capsys):
 def test_unreadable_image(scene_dir, tmp_path, capsys):
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"\x89PNG garbage")
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["reconstruct", bad, scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"], capsys
     )
     _assert_one_line_error(code, err, "cannot decode")
@@ -99,44 +99,44 @@ def test_size_mismatch(scene_dir, tmp_path, capsys):
 
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), np.zeros((240, 320), np.uint8))
-    code, _, err = _run(
+    code, _, err = run_cli(
         ["reconstruct", small, scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"], capsys
     )
     _assert_one_line_error(code, err, "differ in size")
-    code, _, err = _run(["reconstruct", small, small, "--calib", scene_dir / "calib.yaml"], capsys)
+    code, _, err = run_cli(["reconstruct", small, small, "--calib", scene_dir / "calib.yaml"], capsys)
     _assert_one_line_error(code, err, "calibration is for 640x480")
 
 
 def test_malformed_and_non_finite_calibration(scene_dir, tmp_path, capsys):
     bad = tmp_path / "calib.yaml"
     bad.write_text((scene_dir / "calib.yaml").read_text().replace("K1", "KX", 1))
-    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
     _assert_one_line_error(code, err, "K1")
     text = (scene_dir / "calib.yaml").read_text()
     start = text.index("data:", text.index("T:"))
     bad.write_text(text[:start] + "data: [ .nan, 0., 0. ]\n")
-    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
     _assert_one_line_error(code, err, "non-finite")
 
 
 def test_non_invertible_rig(scene_dir, tmp_path, capsys):
     rig = tmp_path / "rig.yaml"
     rig.write_text("T_body_camera: [[0,0,0,0],[0,0,0,0],[0,0,0,0],[0,0,0,1]]\n")
-    code, _, err = _run(_reconstruct_args(scene_dir, "--rig", rig), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--rig", rig), capsys)
     _assert_one_line_error(code, err, "rotation")
 
 
 def test_bad_config_and_disparity(scene_dir, tmp_path, capsys):
     cfg = tmp_path / "c.yaml"
     cfg.write_text("orientation: {angle_tol_deg: 100}\n")
-    code, _, err = _run(_reconstruct_args(scene_dir, "--config", cfg), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--config", cfg), capsys)
     _assert_one_line_error(code, err, "angle_tol_deg")
-    code, _, err = _run(_reconstruct_args(scene_dir, "--max-disparity", "50"), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--max-disparity", "50"), capsys)
     _assert_one_line_error(code, err, "multiple of 16")
 
 
 def test_unwritable_output(scene_dir, tmp_path, capsys):
-    code, _, err = _run(_reconstruct_args(scene_dir, "--json", tmp_path / "no" / "dir" / "r.json"), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--json", tmp_path / "no" / "dir" / "r.json"), capsys)
     _assert_one_line_error(code, err, "cannot write")
 
 
@@ -179,7 +179,7 @@ def test_console_script_runs_as_a_process(scene_dir):
 
 
 def test_demo_runs(tmp_path, capsys):
-    code, out, err = _run(["demo", "--out", tmp_path / "demo"], capsys)
+    code, out, err = run_cli(["demo", "--out", tmp_path / "demo"], capsys)
     assert code == 0, err
     assert "recovered steps" in out and "swing plan" in out
     assert (tmp_path / "demo" / "demo.png").is_file() and (tmp_path / "demo" / "result.json").is_file()
@@ -201,7 +201,7 @@ def _calib_text(scene_dir):
 def test_broken_opencv_calibrations(scene_dir, tmp_path, capsys, make, words):
     bad = tmp_path / "calib.yaml"
     bad.write_text(make(_calib_text(scene_dir)))
-    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
     _assert_one_line_error(code, err, words)
 
 
@@ -215,7 +215,7 @@ def test_baseline_in_millimetres_is_refused(scene_dir, tmp_path, capsys):
     # Bypass validation to write what a careless user would.
     object.__setattr__(c, "T", c.T * 1000)
     write_opencv_yaml(c, bad)
-    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
     _assert_one_line_error(code, err, "millimetres")
     assert dataclasses.is_dataclass(c)
 
@@ -251,7 +251,7 @@ _MB_CAMS = "cam0=[500 0 320; 0 500 240; 0 0 1]\ncam1=[500 0 320; 0 500 240; 0 0 
 def test_broken_middlebury_calibrations(scene_dir, tmp_path, capsys, text, words):
     bad = tmp_path / "calib.txt"
     bad.write_text(text)
-    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
     _assert_one_line_error(code, err, words)
 
 
@@ -261,7 +261,7 @@ def test_negative_stereodemo_baseline(scene_dir, tmp_path, capsys):
         '{"width": 640, "height": 480, "baseline_meters": -0.075, "fx": 450, "fy": 450, '
         '"cx0": 320, "cx1": 320, "cy": 240}'
     )
-    code, _, err = _run(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir)[:-1] + [bad], capsys)
     _assert_one_line_error(code, err, "positive")
 
 
@@ -279,19 +279,19 @@ def test_negative_stereodemo_baseline(scene_dir, tmp_path, capsys):
 def test_bad_config_values(scene_dir, tmp_path, capsys, text, words):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(text)
-    code, _, err = _run(_reconstruct_args(scene_dir, "--config", cfg), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--config", cfg), capsys)
     _assert_one_line_error(code, err, words)
 
 
 def test_config_that_is_a_directory(scene_dir, tmp_path, capsys):
-    code, _, err = _run(_reconstruct_args(scene_dir, "--config", tmp_path), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--config", tmp_path), capsys)
     _assert_one_line_error(code, err, "config file")
 
 
 def test_rig_error_message_said_once(scene_dir, tmp_path, capsys):
     rig = tmp_path / "rig.yaml"
     rig.write_text("T_body_camera: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nbody_rpy: [0, 0]\n")
-    code, _, err = _run(_reconstruct_args(scene_dir, "--rig", rig), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--rig", rig), capsys)
     _assert_one_line_error(code, err, "body_rpy")
     assert err.count("rig file") == 1
 
@@ -312,7 +312,7 @@ def test_rig_error_message_said_once(scene_dir, tmp_path, capsys):
 def test_out_of_range_config_values_are_one_line_errors(scene_dir, tmp_path, capsys, yaml_text, match):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(yaml_text + "\n")
-    code, _, err = _run(_reconstruct_args(scene_dir, "--config", cfg), capsys)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--config", cfg), capsys)
     assert code == 2 and match in err and len(err.strip().splitlines()) == 1
 
 

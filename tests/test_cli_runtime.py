@@ -5,20 +5,12 @@ import json
 import pytest
 
 from stereo_terrain.calibration import write_opencv_yaml
-from stereo_terrain.cli import main
 from stereo_terrain.frames import save_rig
 from stereo_terrain.runtime.capture import StereoFrame, write_pairs
 from stereo_terrain.runtime.simulate import ApproachConfig, approach_spec
 from stereo_terrain.synthetic import render_scene
 
-
-def _run(argv, capsys):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse's usage errors
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+from .cli_run import run_cli
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +26,7 @@ def recording(tmp_path_factory):
 
 def test_replay_without_lcm(recording, tmp_path, capsys):
     summary = tmp_path / "s.json"
-    code, out, err = _run(
+    code, out, err = run_cli(
         ["replay", recording, "--no-lcm", "--as-fast", "--quiet", "--summary-json", summary], capsys
     )
     assert code == 0, err
@@ -48,7 +40,7 @@ def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
 
     # the status line is drawn on a terminal only
     monkeypatch.setattr(stereo_terrain.cli.live, "is_terminal", lambda stream: True)
-    code, out, err = _run(["replay", recording, "--no-lcm", "--as-fast", "--frames", "2"], capsys)
+    code, out, err = run_cli(["replay", recording, "--no-lcm", "--as-fast", "--frames", "2"], capsys)
     assert code == 0 and "\r" in err and "pairs" in err and out.startswith("done: 2 pairs")
 
 
@@ -72,14 +64,14 @@ def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
 )  # fmt: skip
 def test_mistakes_are_one_line_exit_2(recording, tmp_path, capsys, argv, match):
     argv = [a.format(tmp=tmp_path, rec=recording) for a in argv]
-    code, out, err = _run(argv, capsys)
+    code, out, err = run_cli(argv, capsys)
     assert code == 2
     assert match in err and err.count("\n") == 1 and "Traceback" not in err
 
 
 def test_one_camera_and_one_file_is_refused(recording, tmp_path, capsys):
     (tmp_path / "l.avi").write_bytes(b"")
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             "run",
             "--left",
@@ -97,7 +89,7 @@ def test_one_camera_and_one_file_is_refused(recording, tmp_path, capsys):
 
 def test_simulate_writes_summary_and_plot(tmp_path, capsys):
     out = tmp_path / "sim"
-    code, text, err = _run(
+    code, text, err = run_cli(
         [
             "simulate",
             "--out",
@@ -140,7 +132,7 @@ def test_record_of_unusable_sources_is_an_error_and_leaves_nothing(tmp_path, cap
     img = np.random.default_rng(0).integers(0, 255, (240, 320), dtype=np.uint8)
     _write_video(tmp_path / "l.avi", [img] * 3)
     _write_video(tmp_path / "small.avi", [img[:120, :160].copy()] * 3)
-    code, out, err = _run(
+    code, out, err = run_cli(
         [
             "record",
             "--left",
@@ -157,7 +149,7 @@ def test_record_of_unusable_sources_is_an_error_and_leaves_nothing(tmp_path, cap
     assert not (tmp_path / "rec").exists()  # nothing left that a second try would refuse
     # Same sizes: recorded.
     _write_video(tmp_path / "r.avi", [img] * 3)
-    code, out, err = _run(
+    code, out, err = run_cli(
         ["record", "--left", tmp_path / "l.avi", "--right", tmp_path / "r.avi", "--out", tmp_path / "rec"],
         capsys,
     )

@@ -6,7 +6,6 @@ import json
 import pytest
 
 from stereo_terrain.calibration import write_opencv_yaml
-from stereo_terrain.cli import main
 from stereo_terrain.frames import save_rig
 from stereo_terrain.runtime.capture import StereoFrame, write_pairs
 from stereo_terrain.runtime.messages import message_to_dict, terrain_t
@@ -14,18 +13,11 @@ from stereo_terrain.runtime.simulate import ApproachConfig, approach_spec, true_
 from stereo_terrain.swing import Odometry
 from stereo_terrain.synthetic import render_scene
 
+from .cli_run import run_cli
+
 FRAMES = 5
 #: terrain_t's fingerprint; version 1 (before issue 14) was b4f18593195ae88d.
 FINGERPRINT_V2 = "c1cf689eec0e473d"
-
-
-def _run(argv, capsys):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +46,7 @@ def _lines(path):
 def test_jsonl_with_tracking(approach_rec, tmp_path, capsys):
     rec, cfg = approach_rec
     out = tmp_path / "m.jsonl"
-    code, _, err = _run(["replay", rec, "--as-fast", "--no-lcm", "--quiet", "--jsonl", out], capsys)
+    code, _, err = run_cli(["replay", rec, "--as-fast", "--no-lcm", "--quiet", "--jsonl", out], capsys)
     assert code == 0, err
     msgs = _lines(out)
     assert len(msgs) == FRAMES
@@ -75,7 +67,7 @@ def test_jsonl_without_tracking(approach_rec, tmp_path, capsys):
     config.write_text("tracking: {enabled: false}\n")
     out = tmp_path / "m.jsonl"
     argv = ["replay", rec, "--as-fast", "--no-lcm", "--quiet", "--config", config, "--jsonl", out]
-    code, _, err = _run(argv, capsys)
+    code, _, err = run_cli(argv, capsys)
     assert code == 0, err
     msgs = _lines(out)
     assert len(msgs) == FRAMES
@@ -89,7 +81,7 @@ def test_jsonl_without_tracking(approach_rec, tmp_path, capsys):
 )
 def test_bad_jsonl_path_is_one_line_exit_2_before_any_work(approach_rec, tmp_path, capsys, target, match):
     rec, _ = approach_rec
-    code, out, err = _run(
+    code, out, err = run_cli(
         ["replay", rec, "--as-fast", "--no-lcm", "--jsonl", target.format(tmp=tmp_path)], capsys
     )
     assert code == 2 and match in err and len(err.strip().splitlines()) == 1

@@ -29,6 +29,7 @@ from stereo_terrain.ros.bag import (  # noqa: E402
 from stereo_terrain.ros.messages import terrain_fields, terrain_msgdef  # noqa: E402
 from stereo_terrain.runtime.messages import terrain_t  # noqa: E402
 
+from .cli_run import run_cli  # noqa: E402
 from .ros_bags import (  # noqa: E402
     T0_S,
     bag_messages,
@@ -51,15 +52,6 @@ TOPICS = {
 #: Plane fit residual allowed for a cloud point labelled with a plane (its MSAC threshold is
 #: a few cm at these depths; the JSON rounds offsets to 0.1 mm).
 PLANE_TOL_M = 0.08
-
-
-def _run(argv, capsys):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -131,7 +123,7 @@ def test_reconstruct_mcap_cloud_matches_json_planes_and_tf_resolves(rec, tmp_pat
     out, js = tmp_path / "one.mcap", tmp_path / "one.json"
     left, right = folder / "left_000000.png", folder / "right_000000.png"
     argv = ["reconstruct", left, right, "--calib", folder / "calib.yaml", "--rig", folder / "rig.yaml"]
-    code, _, err = _run([*argv, "--json", js, "--mcap", out], capsys)
+    code, _, err = run_cli([*argv, "--json", js, "--mcap", out], capsys)
     assert code == 0, err
     result = json.loads(js.read_text())
     decoded = read_mcap(out)
@@ -205,7 +197,7 @@ def test_interrupted_loop_leaves_a_complete_file(rec, tmp_path, capsys, monkeypa
 
     monkeypatch.setattr(Pipeline, "run", run_then_interrupt)
     out = tmp_path / "stopped.mcap"
-    code, stdout, _ = _run(["replay", folder, "--no-lcm", "--as-fast", "--quiet", "--mcap", out], capsys)
+    code, stdout, _ = run_cli(["replay", folder, "--no-lcm", "--as-fast", "--quiet", "--mcap", out], capsys)
     assert code == 0 and "interrupted" in stdout
     decoded = read_mcap(out)
     assert len(decoded["/stereo_terrain/cloud"]) == 1 and len(decoded["/tf"]) == 1
@@ -222,7 +214,7 @@ def test_failed_replay_leaves_no_mcap(rec, tmp_path, capsys):
 
     write_opencv_yaml(replace(calib, image_size=(640, 480)), bad)
     out = tmp_path / "x.mcap"
-    code, _, err = _run(["replay", folder, "--calib", bad, "--no-lcm", "--as-fast", "--mcap", out], capsys)
+    code, _, err = run_cli(["replay", folder, "--calib", bad, "--no-lcm", "--as-fast", "--mcap", out], capsys)
     assert code == 2 and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["calib.yaml"]
 
@@ -245,7 +237,7 @@ def test_bag_written_by_another_tool_replays_like_the_png_recording(rec, png_mca
     out = tmp_path / "out.mcap"
     argv = ["replay", bag, "--left-topic", left, "--right-topic", right, "--odom-topic", "/odom"]
     argv += ["--calib", folder / "calib.yaml", "--rig", folder / "rig.yaml"]
-    code, _, err = _run([*argv, "--no-lcm", "--as-fast", "--quiet", "--mcap", out], capsys)
+    code, _, err = run_cli([*argv, "--no-lcm", "--as-fast", "--quiet", "--mcap", out], capsys)
     assert code == 0, err
     got, want = read_mcap(out), read_mcap(png_mcap)
     for topic in ("/stereo_terrain/cloud", "/stereo_terrain/stairs", "/tf"):
@@ -301,7 +293,7 @@ def test_camera_info_only_bag_replays_like_the_yaml(rec, png_mcap, tmp_path, cap
         "--right-topic",
         "/stereo/right/image_raw",
     ]
-    code, _, err = _run(
+    code, _, err = run_cli(
         [
             *argv,
             "--rig",
@@ -348,13 +340,13 @@ def test_bag_mistakes_are_one_line_exit_2(rec, tmp_path, capsys, extra, match):
     ts, msgs = bag_messages(scene, 1, odom=True)
     bag = tmp_path / "bag"
     write_rosbag2(bag, ts, msgs)
-    code, _, err = _run(["replay", bag, "--no-lcm", "--as-fast", *extra], capsys)
+    code, _, err = run_cli(["replay", bag, "--no-lcm", "--as-fast", *extra], capsys)
     assert code == 2 and match in err and err.count("\n") == 1
 
 
 def test_bag_options_on_a_png_folder_are_refused(rec, capsys):
     folder, _ = rec
-    code, _, err = _run(["replay", folder, "--no-lcm", "--left-topic", "/l"], capsys)
+    code, _, err = run_cli(["replay", folder, "--no-lcm", "--left-topic", "/l"], capsys)
     assert code == 2 and "is for a ROS bag" in err
 
 
@@ -365,7 +357,7 @@ def test_view_save_writes_a_rerun_recording(rec, tmp_path, capsys):
     pytest.importorskip("rerun")
     folder, _ = rec
     out = tmp_path / "view.rrd"
-    code, _, err = _run(["replay", folder, "--no-lcm", "--as-fast", "--quiet", "--view-save", out], capsys)
+    code, _, err = run_cli(["replay", folder, "--no-lcm", "--as-fast", "--quiet", "--view-save", out], capsys)
     assert code == 0, err
     assert out.stat().st_size > 10_000 and [p.name for p in tmp_path.iterdir()] == ["view.rrd"]
     rerun = shutil.which("rerun") or str(Path(__import__("sys").executable).parent / "rerun")
@@ -418,7 +410,7 @@ def test_reconstruct_without_rig_mcap_and_view_save(rec, tmp_path, capsys):
         "--calib",
         folder / "calib.yaml",
     ]
-    code, _, err = _run([*argv, "--mcap", out, "--view-save", rrd], capsys)
+    code, _, err = run_cli([*argv, "--mcap", out, "--view-save", rrd], capsys)
     assert code == 0, err
     decoded = read_mcap(out)
     assert len(decoded["/stereo_terrain/stairs"]) == 1 and rrd.stat().st_size > 10_000
