@@ -111,6 +111,34 @@ _KINDS = ("stairs", "box", "none")
 _DEFAULT_GROUPS = ("ground", "tread", "riser", "side", "wall")
 
 
+def _random_stairs(
+    rng: np.random.Generator,
+    distance: float,
+    yaw: float,
+    lateral: float,
+    ob_over: dict[str, Any],
+    *,
+    max_steps: int,
+    rise_m: tuple[float, float],
+    run_m: tuple[float, float],
+    width_m: tuple[float, float],
+    landing_m: tuple[float, float],
+) -> StairSpec:
+    """A staircase with its dimensions drawn from the profile's ranges (2 to
+    ``max_steps - 1`` steps; the same draws, in the same order, in both profiles)."""
+    params = {
+        "n_steps": int(rng.integers(2, max_steps)),
+        "rise_m": float(rng.uniform(*rise_m)),
+        "run_m": float(rng.uniform(*run_m)),
+        "width_m": float(rng.uniform(*width_m)),
+        "distance_m": distance,
+        "yaw_rad": yaw,
+        "lateral_m": lateral,
+        "landing_m": float(rng.uniform(*landing_m)),
+    }
+    return StairSpec(**{**params, **ob_over})
+
+
 def _random_box(
     rng: np.random.Generator, distance: float, yaw: float, lateral: float, ob_over: dict[str, Any]
 ) -> BoxSpec:
@@ -251,17 +279,11 @@ def random_scene_spec(
         lateral = float(rng.uniform(-0.2, 0.2))
         distance = float(rng.uniform(0.9, 2.0))
         if kind == "stairs":
-            params = {
-                "n_steps": int(rng.integers(2, 6)),
-                "rise_m": float(rng.uniform(0.10, 0.22)),
-                "run_m": float(rng.uniform(0.25, 0.35)),
-                "width_m": float(rng.uniform(0.8, 1.6)),
-                "distance_m": distance,
-                "yaw_rad": yaw,
-                "lateral_m": lateral,
-                "landing_m": float(rng.uniform(0.6, 1.5)),
-            }
-            ob = StairSpec(**{**params, **ob_over})
+            ob = _random_stairs(
+                rng, distance, yaw, lateral, ob_over,
+                max_steps=6, rise_m=(0.10, 0.22), run_m=(0.25, 0.35),
+                width_m=(0.8, 1.6), landing_m=(0.6, 1.5),
+            )  # fmt: skip
         elif kind == "box":
             ob = _random_box(rng, distance, yaw, lateral, ob_over)
         else:
@@ -582,17 +604,11 @@ def _random_realistic_spec(
         distance = float(rng.uniform(0.8, 1.0) if fill else rng.uniform(0.8, 2.0))
         ob: StairSpec | BoxSpec | None
         if kind == "stairs":
-            params = {
-                "n_steps": int(rng.integers(2, 7)),
-                "rise_m": float(rng.uniform(0.12, 0.22)),
-                "run_m": float(rng.uniform(0.22, 0.35)),
-                "width_m": float(rng.uniform(1.0, 1.6) if fill else rng.uniform(0.8, 1.6)),
-                "distance_m": distance,
-                "yaw_rad": yaw,
-                "lateral_m": lateral,
-                "landing_m": float(rng.uniform(0.8, 1.5)),
-            }
-            ob = StairSpec(**{**params, **ob_over})
+            ob = _random_stairs(
+                rng, distance, yaw, lateral, ob_over,
+                max_steps=7, rise_m=(0.12, 0.22), run_m=(0.22, 0.35),
+                width_m=(1.0, 1.6) if fill else (0.8, 1.6), landing_m=(0.8, 1.5),
+            )  # fmt: skip
         elif kind == "box":
             ob = _random_box(rng, distance, yaw, lateral, ob_over)
         else:
