@@ -22,6 +22,8 @@ from stereo_terrain.gravity import (
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.synthetic import default_scene_spec, render_scene
 
+from .close_stairs import close_level_stairs_spec
+
 #: Angle bounds (deg) for the synthetic-normal tests: noise of 8 deg per sample normal.
 COARSE_TOL_DEG = 1.5
 NOISE_DEG = 8.0
@@ -187,20 +189,10 @@ def test_a_wrong_rig_is_reported():
 def test_gravity_from_a_rendered_scene_without_floor(yaw_deg, pitch_deg, roll_deg):
     """A level camera 0.45 m high, 0.8 m from a 2.5 m wide staircase: no floor in front
     (the first riser's foot is below the image), risers and treads only."""
-    import dataclasses
-
-    base = default_scene_spec()
-    stairs = dataclasses.replace(
-        base.obstacle, n_steps=5, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=2.5, distance_m=0.8
-    )
-    spec = dataclasses.replace(
-        base,
-        obstacle=stairs,
-        camera_height_m=0.45,
-        pitch_down_rad=math.radians(pitch_deg),
-        body_rpy=(math.radians(roll_deg), 0.0, 0.0),
+    spec = close_level_stairs_spec(
+        n_steps=5, width_m=2.5, distance_m=0.8, yaw_deg=yaw_deg, pitch_deg=pitch_deg, roll_deg=roll_deg,
         back_wall_m=None,
-    )
+    )  # fmt: skip
     scene = render_scene(spec)
     floor = float(np.mean(scene.labels_left == 0))  # label 0: the ground
     assert floor < 0.06, floor  # (almost) no floor in view, none in front of the stairs

@@ -11,6 +11,8 @@ from stereo_terrain.msac import Plane
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
 from stereo_terrain.terrain import BOX, NONE, STAIRS, TerrainConfig, build_terrain
 
+from .close_stairs import close_level_stairs_spec
+
 CAM = np.array([0.0, 0.0, 0.6])
 EXACT_M = 1e-6
 SPACING_M = 0.02
@@ -216,24 +218,10 @@ def test_stairs_filling_the_view_keep_their_first_step(yaw_deg):
     below the image. The first step is still reported, at its distance, with its rise
     inferred from the others. (Two steps, both treads below the camera: a tread above it is not seen
     and its rise comes from the riser's top edge, a harder case than this test is about.)"""
-    import dataclasses
-    import math
-
     from stereo_terrain.pipeline import Pipeline
-    from stereo_terrain.synthetic import default_scene_spec, render_scene
+    from stereo_terrain.synthetic import render_scene
 
-    base = default_scene_spec()
-    stairs = dataclasses.replace(
-        base.obstacle, n_steps=2, yaw_rad=math.radians(yaw_deg), lateral_m=0.0, width_m=2.5, distance_m=0.8
-    )
-    spec = dataclasses.replace(
-        base,
-        obstacle=stairs,
-        camera_height_m=0.45,
-        pitch_down_rad=0.0,
-        body_rpy=(0.0, 0.0, 0.0),
-        back_wall_m=None,
-    )
+    spec = close_level_stairs_spec(n_steps=2, width_m=2.5, distance_m=0.8, yaw_deg=yaw_deg, back_wall_m=None)
     scene = render_scene(spec)
     data = Pipeline(scene.calibration).run(scene.left, scene.right).to_json_dict()
     truth = scene.truth["steps"]
@@ -252,19 +240,10 @@ def test_first_riser_cut_by_the_image_bottom_stands_on_the_floor_seen_beside_it(
     image's edge, not a riser floating above the floor: it is kept, and its rise measured
     from that floor (not inferred). Beyond the first two steps a tread above the camera is
     not seen (the 0.5 m wide case's third rise), which is not what this test is about."""
-    import dataclasses
-
     from stereo_terrain.pipeline import Pipeline
-    from stereo_terrain.synthetic import default_scene_spec, render_scene
+    from stereo_terrain.synthetic import render_scene
 
-    base = default_scene_spec()
-    stairs = dataclasses.replace(
-        base.obstacle, n_steps=3, yaw_rad=0.0, lateral_m=0.0, width_m=width_m, distance_m=distance_m
-    )
-    spec = dataclasses.replace(
-        base, obstacle=stairs, camera_height_m=0.45, pitch_down_rad=0.0, body_rpy=(0.0, 0.0, 0.0)
-    )
-    scene = render_scene(spec)
+    scene = render_scene(close_level_stairs_spec(n_steps=3, width_m=width_m, distance_m=distance_m))
     data = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).to_json_dict()
     truth = scene.truth["steps"]
     assert data["obstacle"] == "stairs" and len(data["steps"]) == len(truth), data["note"]
