@@ -489,7 +489,7 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
         q = P[seg.indices]
         q = q - q.mean(axis=0)
         lam, E = np.linalg.eigh(q.T @ q)
-        noise = float(np.nanmedian(depth_sigma[seg.indices])) if len(depth_sigma) else 0.0
+        noise = float(np.nanmedian(depth_sigma[seg.indices]))
         sigma2 = max(seg.rms_m, noise, 1e-3) ** 2
         inflate = min(per_independent, seg.count / 3.0) if seg.count > 3 else 1.0
         cov_n = inflate * sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
