@@ -1,6 +1,7 @@
 """The per-step 1-sigmas (issue 14): against a Monte Carlo over rendered scenes, and their
 shape on exact plane sets."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -84,3 +85,27 @@ def test_sigma_inputs_are_checked():
         TerrainConfig(face_bias_correlation=1.5)
     with pytest.raises(ConfigError, match="matching_window_px"):
         TerrainConfig(matching_window_px=0.0)
+
+
+def _first_riser_seen_between(lo_m, hi_m, yaw=0.0):
+    """The first step's distance sigma when only the part of the first riser between
+    ``lo_m`` and ``hi_m`` to the left of the stair axis was seen."""
+    planes = _stairs(distance=1.6, width=1.2, yaw=yaw)
+    model = build_terrain(planes)
+    riser = model.steps[0].riser
+    P = planes.samples.points.copy()
+    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    lateral = P @ np.array([-u[1], u[0], 0.0])
+    on = (np.abs(riser.residuals(P)) < 1e-4) & (planes.samples.normals @ riser.normal > 0.99)
+    P[on & ((lateral < lo_m) | (lateral > hi_m)), 0] += 5.0  # not seen: far from every face
+    seen = dataclasses.replace(planes, samples=dataclasses.replace(planes.samples, points=P))
+    return estimate_step_sigmas(model, seen, focal_px=500.0, baseline_m=0.1).steps[0].distance_sigma_m
+
+
+def test_a_riser_seen_off_to_one_side_has_the_lever_of_its_yaw_in_its_distance_sigma():
+    """The riser plane turns about its samples' centre: the further that centre is from the
+    x axis, the more a yaw error moves where the axis meets the plane."""
+    near, side = _first_riser_seen_between(0.05, 0.25), _first_riser_seen_between(0.35, 0.55)
+    assert side > 1.5 * near
+    yawed = _first_riser_seen_between(0.35, 0.55, yaw=math.radians(30))
+    assert yawed > side  # 1 / cos^2(yaw) more per radian

@@ -711,6 +711,10 @@ def _wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
+#: A sample is on a face when its local normal is within about 30 deg of the face's.
+_FACE_COS = 0.85
+
+
 @dataclass(frozen=True)
 class _FaceError:
     """What the samples on one face say about its uncertainty."""
@@ -720,13 +724,14 @@ class _FaceError:
     n_eff: float  # samples, discounted for shared matching errors
     rms_m: float  # spread of the samples about the plane
     count: int
+    centre: np.ndarray  # (3,) the samples' median point (where a fitted plane pivots)
 
 
 def _face_error(
     P: np.ndarray, normals: np.ndarray, cam: np.ndarray, plane: Plane, mask: np.ndarray, *, n_factor: float
 ) -> _FaceError | None:
     """The samples on ``plane`` (within ``mask``; local normal within 30 deg of the plane's)."""
-    sel = mask & (np.abs(normals @ plane.normal) > 0.85)
+    sel = mask & (np.abs(normals @ plane.normal) > _FACE_COS)
     q = P[sel]
     if len(q) < 3:
         return None
@@ -737,7 +742,7 @@ def _face_error(
         return None
     res = plane.signed_distance(q)
     rms = float(np.sqrt(np.mean(res * res)))
-    return _FaceError(rng, rel / rng, max(1.0, len(q) * n_factor), rms, len(q))
+    return _FaceError(rng, rel / rng, max(1.0, len(q) * n_factor), rms, len(q), med)
 
 
 def estimate_step_sigmas(
@@ -769,7 +774,10 @@ def estimate_step_sigmas(
       independently (``sqrt(2) sigma / extent``), and by its fit (spread over sqrt(n)
       and the lateral spread); the risers are combined as the stage combines them
       (weighted by inliers), and their weighted spread about the stair yaw is added (a
-      riser plane fitted a few degrees off pulls the mean).
+      riser plane fitted a few degrees off pulls the mean);
+    * the distance: where the frame's x axis meets a riser plane turns with the riser's own
+      yaw error about its samples' centre, by ``|c_y| / cos^2(yaw)`` per radian (a riser
+      seen only off to one side, its plane turned, also meets the axis short or long).
 
     Parameters
     ----------
@@ -831,6 +839,7 @@ def estimate_step_sigmas(
 
     steps = list(model.steps)
     positions: list[float] = []  # 1-sigma of each riser's position along the axis
+    levers: list[float] = []  # 1-sigma of the distance from the riser's own yaw error
     tops: list[tuple[float, float]] = []  # each step's top height: (independent var, bias coef)
     widths: list[float | None] = []
     yaw_info: list[tuple[float, float, float]] = []  # (weight, 1-sigma of the riser's yaw, its yaw)
@@ -846,10 +855,13 @@ def estimate_step_sigmas(
             on_tread = (st.tread.residuals(P) < band) & (s_all > s_pos - band) & (s_all < s_next + band)
             tread_face = _face_error(P, normals, cam, st.tread, on_tread, n_factor=n_factor)
         # Riser position along the stair axis.
+        lever = 0.0
         if not virtual:
             assert riser is not None
             sig_pos = shift_sigma(riser) * abs(float(riser.ray @ st.riser.normal))
-            lat = v_all[on_riser]
+            # the riser's own samples (the band also holds the tread's and the ground's
+            # edges along the riser, which run on beyond a riser seen only in part)
+            lat = v_all[on_riser & (np.abs(normals @ st.riser.normal) > _FACE_COS)]
             if len(lat) > 2:
                 lo, hi = np.percentile(lat, [2, 98])
                 # the riser's own extent (its samples' band may run on along the plane)
@@ -861,13 +873,20 @@ def estimate_step_sigmas(
                     turn = math.sqrt(2.0) * sig_pos / float(hi - lo)
                     fit = riser.rms_m / math.sqrt(riser.n_eff) / max(float(np.std(lat)), 1e-3)
                     riser_yaw = math.atan2(-st.riser.normal[1], -st.riser.normal[0])
-                    yaw_info.append((float(riser.count), math.hypot(turn, fit), riser_yaw))
+                    sig_yaw = math.hypot(turn, fit)
+                    yaw_info.append((float(riser.count), sig_yaw, riser_yaw))
+                    # The plane turns about its samples' centre: where it meets the frame's
+                    # x axis (y = 0), x = c_x + c_y tan(yaw), moves by c_y / cos^2(yaw) per
+                    # radian (a riser seen only off to one side and turned is also short).
+                    cos2 = max(math.cos(riser_yaw) ** 2, 0.04)
+                    lever = abs(float(riser.centre[1])) / cos2 * sig_yaw
         elif tread_face is not None:  # at a tread's front edge: an edge on the ground grid
             ground_cell = cell_m(tread_face) / max(abs(float(tread_face.ray[2])), 0.1)
             sig_pos = math.hypot(config.edge_sigma_cells * ground_cell, shift_sigma(tread_face))
         else:
             sig_pos = math.nan
         positions.append(sig_pos)
+        levers.append(lever)
         # Top of the step: the tread plane, else the riser's top edge.
         if tread_face is not None:
             tops.append(height(tread_face))
@@ -913,7 +932,7 @@ def estimate_step_sigmas(
             # the median of n values: its own error, and how far a rise may differ from it
             sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
         n_x = abs(float(st.riser.normal[0]))
-        sig_dist = positions[i] / max(n_x, 0.2)
+        sig_dist = math.hypot(positions[i] / max(n_x, 0.2), levers[i])
         sig_run = None
         if st.run_m is not None:
             nxt = positions[i + 1] if i + 1 < len(positions) else math.nan
