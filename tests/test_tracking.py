@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import PipelineConfig
-from stereo_terrain.swing import Odometry
+from stereo_terrain.runtime.loop import track_and_trigger
+from stereo_terrain.swing import Odometry, SwingTrigger
 from stereo_terrain.terrain import NONE, Polytope, StairModel, Step
 from stereo_terrain.tracking import (
     TRACK_COASTING,
@@ -28,9 +29,12 @@ TOL_D = 0.02  # fused first-riser distance within this of the truth
 TOL_R = 0.003  # fused rise within this of the truth
 
 
-def frame_model(rng, d0, *, n=3, rise=RISE, run=RUN, yaw=0.0, skip=0, bias_d=0.0):
+def frame_model(
+    rng, d0, *, n=3, rise=RISE, run=RUN, yaw=0.0, skip=0, bias_d=0.0, sigma_d=NOISE_D, yaw_sigma=0.01
+):
     """A frame's model: risers ``skip..n-1`` of a staircase whose first riser meets the body
-    x axis ``d0`` ahead, stair axis at ``yaw`` in the frame, with noise and its sigmas."""
+    x axis ``d0`` ahead, stair axis at ``yaw`` in the frame, with noise and its sigmas
+    (``sigma_d``: the distance sigma the frame reports)."""
     steps = []
     c = math.cos(yaw)
     ground = skip * rise - CAM_Z  # a frame that does not see the first riser takes its tread for ground
@@ -43,10 +47,10 @@ def frame_model(rng, d0, *, n=3, rise=RISE, run=RUN, yaw=0.0, skip=0, bias_d=0.0
         steps.append(
             Step(
                 r, run, d, 1.2, top, d * c, Plane(-u, d * c),
-                None, False, NOISE_R, math.sqrt(2) * NOISE_D, NOISE_D, 0.02,
+                None, False, NOISE_R, math.sqrt(2) * sigma_d, sigma_d, 0.02,
             )
         )  # fmt: skip
-    return StairModel("stairs", tuple(steps), yaw, ground, Polytope(np.zeros((0, 3))), "yaw", "", 0.01)
+    return StairModel("stairs", tuple(steps), yaw, ground, Polytope(np.zeros((0, 3))), "yaw", "", yaw_sigma)
 
 
 def empty():
@@ -207,7 +211,74 @@ def test_config_checks_and_yaml_section():
         TrackingConfig(confirm_frames=0)
     with pytest.raises(ConfigError, match="drop_after_s"):
         TrackingConfig(drop_after_s=-1.0)
+    with pytest.raises(ConfigError, match="max_yaw_gate_deg"):
+        TrackingConfig(yaw_gate_deg=25.0)
+    with pytest.raises(ConfigError, match="confirm_sigma_m"):
+        TrackingConfig(confirm_sigma_m=0.0)
     cfg = PipelineConfig.from_dict({"tracking": {"enabled": False, "drop_after_s": 3.0}})
     assert cfg.tracking == TrackingConfig(enabled=False, drop_after_s=3.0)
     with pytest.raises(ConfigError, match="tracking"):
         PipelineConfig.from_dict({"tracking": {"bogus": 1}})
+
+
+def test_far_turned_frames_do_not_confirm_a_track_alone():
+    """Frames that report their first riser only within 6 cm (a staircase seen far and turned,
+    its risers fitted off its yaw) keep the track tentative however many agree; frames
+    within 1 cm confirm it after ``confirm_frames``."""
+    rng = np.random.default_rng(9)
+    vague, sharp = StairTracker(), StairTracker()
+    for k in range(6):
+        odo = Odometry((0.05 * k, 0.0, 0.0), 0.0)
+        t_vague = vague.update(frame_model(rng, 2.2 - 0.05 * k, sigma_d=0.06), odo, k / 6)
+        t_sharp = sharp.update(frame_model(rng, 2.2 - 0.05 * k), odo, k / 6)
+        assert t_vague.state == TRACK_TENTATIVE
+        assert t_sharp.state == (TRACK_CONFIRMED if k >= 2 else TRACK_TENTATIVE)
+
+
+def test_the_yaw_gate_follows_the_sigmas():
+    """A frame 12 deg off the track's yaw is an outlier when both yaws are known within
+    half a degree, and fused (the track turning toward it) when the track's start was
+    vague (6 deg)."""
+    rng = np.random.default_rng(10)
+    for yaw_sigma, outlier in ((math.radians(0.5), True), (math.radians(6.0), False)):
+        tracker = StairTracker()
+        for k in range(2):
+            odo = Odometry((0.1 * k, 0.0, 0.0), 0.0)
+            tracker.update(frame_model(rng, 2.0 - 0.1 * k, yaw_sigma=yaw_sigma), odo, k / 6)
+        off = frame_model(rng, 1.8, yaw=math.radians(12.0), yaw_sigma=math.radians(0.5))
+        t = tracker.update(off, Odometry((0.2, 0.0, 0.0), 0.0), 0.5)
+        assert (t.outliers == 1) is outlier
+        if not outlier:
+            assert math.degrees(t.yaw_rad) > 10.0
+
+
+def test_a_badly_yawed_start_does_not_move_the_swing_once_confirmed():
+    """The first frames of a 30 deg staircase seen far: stair yaw 15 deg off, first riser
+    15 cm short, each saying so in its sigmas (6 cm, 8 deg); then good frames. Once the
+    track is confirmed, the point where the swing will be raised moves by less than 5 cm
+    between frames and the raised swing is switched on once, never off."""
+    rng = np.random.default_rng(11)
+    tracker, trigger = StairTracker(), SwingTrigger()
+    true_yaw, d_first = math.radians(30.0), 2.2
+    points, raised = [], []
+    for k in range(46):
+        x = 0.05 * k
+        d = d_first - x
+        if k < 4:
+            bad_yaw, bad_sigma = true_yaw - math.radians(15), math.radians(8)
+            m = frame_model(rng, d - 0.15, yaw=bad_yaw, sigma_d=0.06, yaw_sigma=bad_sigma)
+        else:
+            m = frame_model(rng, d, yaw=true_yaw, skip=1 if d < 0.6 else 0, yaw_sigma=math.radians(1.0))
+        if d < 0.2:
+            m = empty()
+        model, state, trig = track_and_trigger(tracker, trigger, m, Odometry((x, 0.0, 0.0), 0.0), k / 10)
+        if k < 4:
+            assert state == TRACK_TENTATIVE
+        if state == TRACK_CONFIRMED or raised:
+            raised.append(trig.raise_swing)
+            if trig.trigger_distance_m is not None and not trig.raise_swing:
+                points.append(trig.p0_m[0] + trig.trigger_distance_m)
+    assert len(points) > 10
+    assert max(abs(a - b) for a, b in zip(points, points[1:], strict=False)) < 0.05
+    assert abs(points[-1] - (d_first - trigger.swing.buffer_m)) < TOL_D
+    assert raised[-1] and sum(a != b for a, b in zip(raised, raised[1:], strict=False)) == 1

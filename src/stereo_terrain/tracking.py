@@ -21,8 +21,11 @@ the body's odometry and fused into one tracked staircase:
   (``decorrelation_m``), so standing still does not make the track over-confident.
 
 State (as Spot's knowledge type): ``none``, ``tentative`` (fewer than ``confirm_frames``
-supporting frames), ``confirmed`` (the latest frame supported it) and ``coasting`` (it did
-not; dropped after ``drop_after_s`` without support).
+supporting frames, or its first riser not yet known within ``confirm_sigma_m``),
+``confirmed`` (the latest frame supported it) and ``coasting`` (it did not; dropped after
+``drop_after_s`` without support). The yaw gate widens with the yaws' sigmas, so that a
+track started from frames whose risers were fitted off the stair yaw (and say so) turns
+toward the better frames that follow instead of rejecting them.
 """
 
 from __future__ import annotations
@@ -59,7 +62,10 @@ class TrackingConfig:
         A matched step's rise is fused only within this many sigmas (at least
         ``min_rise_gate_m``) of the track's; else it is an outlier.
     yaw_gate_deg : float
-        A frame whose stair yaw is further from the track's is an outlier.
+        A frame whose stair yaw is further from the track's than this, and than
+        ``gate_sigmas`` times the sigma of their difference, is an outlier,
+    max_yaw_gate_deg : float
+        but always one further than this.
     drift_fraction : float
         Odometry drift per metre travelled (1-sigma, common to all risers).
     yaw_drift_rad_per_m : float
@@ -69,7 +75,14 @@ class TrackingConfig:
         (their errors are shared), at most ``max_inflation`` times weaker.
     max_inflation : float
     confirm_frames : int
-        Supporting frames before a track is confirmed.
+        Supporting frames before a track is confirmed,
+    confirm_sigma_m : float
+        and (with odometry) its first riser's position known within this (1-sigma, the
+        shared error included): a third of the swing trigger's gate (``TriggerConfig.gate_m``, 0.08 m),
+        so that a correction of 3 sigma after the track is confirmed stays inside that gate
+        and the trigger point follows it smoothly. Frames of a staircase seen far and
+        turned (their risers fitted off its yaw, their distances with the lever of that:
+        :func:`~stereo_terrain.terrain.estimate_step_sigmas`) do not confirm a track alone.
     tentative_misses : int
         Frames in a row that do not support a tentative track before it is dropped.
     new_track_frames : int
@@ -104,11 +117,13 @@ class TrackingConfig:
     rise_gate_sigmas: float = 3.0
     min_rise_gate_m: float = 0.02
     yaw_gate_deg: float = 8.0
+    max_yaw_gate_deg: float = 20.0
     drift_fraction: float = 0.02
     yaw_drift_rad_per_m: float = 0.005
     decorrelation_m: float = 0.08
     max_inflation: float = 30.0
     confirm_frames: int = 3
+    confirm_sigma_m: float = 0.03
     tentative_misses: int = 2
     new_track_frames: int = 4
     drop_after_s: float = 2.0
@@ -120,7 +135,10 @@ class TrackingConfig:
 
     def __post_init__(self) -> None:
         check_fields(self)
-        positive = ("gate_sigmas", "max_gate_m", "rise_gate_sigmas", "yaw_gate_deg", "decorrelation_m")
+        positive = (
+            "gate_sigmas", "max_gate_m", "rise_gate_sigmas", "yaw_gate_deg", "decorrelation_m",
+            "confirm_sigma_m",
+        )  # fmt: skip
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ConfigError(f"TrackingConfig.{name} must be > 0, got {getattr(self, name)}")
@@ -135,6 +153,8 @@ class TrackingConfig:
                 raise ConfigError(f"TrackingConfig.{name} must be >= 0, got {getattr(self, name)}")
         if self.min_gate_m > self.max_gate_m:
             raise ConfigError("TrackingConfig needs min_gate_m <= max_gate_m")
+        if self.yaw_gate_deg > self.max_yaw_gate_deg:
+            raise ConfigError("TrackingConfig needs yaw_gate_deg <= max_yaw_gate_deg")
         if not 0 <= self.shared_error_fraction <= 1:
             raise ConfigError(
                 f"TrackingConfig.shared_error_fraction must be in [0, 1], got {self.shared_error_fraction}"
@@ -326,6 +346,7 @@ class _Track:
         self.fused_xy = xy.copy()  # ... and at the last fused frame
         self.track_id = track_id
         self.rival_hits = 0  # as a candidate: the track's supporting frames when it started
+        self.confirmed = False  # latched (see TrackingConfig.confirm_sigma_m)
 
     # -------------------------------------------------------------- prediction
 
@@ -356,7 +377,9 @@ class _Track:
         """Best index offset ``o`` (measured step ``j`` is tracked step ``j + o``) and its
         matched pairs; None when no riser matches (an outlier frame)."""
         n, k_max = len(self.s), len(m.s)
-        if abs(_wrap(m.yaw - self.yaw)) > math.radians(cfg.yaw_gate_deg):
+        yaw_gate = cfg.gate_sigmas * math.sqrt(self.yaw_var + m.yaw_sigma**2)
+        yaw_gate = min(max(yaw_gate, math.radians(cfg.yaw_gate_deg)), math.radians(cfg.max_yaw_gate_deg))
+        if abs(_wrap(m.yaw - self.yaw)) > yaw_gate:
             return None
         best: tuple[int, float, int, list[tuple[int, int]]] | None = None
         for o in range(-(k_max - 1), n):
@@ -507,6 +530,19 @@ class _Track:
         self.width_floor.insert(at, None if ws is None else _Shared(ws))
         self.counts = np.insert(self.counts, at, 1)
         self.step_misses = np.insert(self.step_misses, at, 0)
+
+    def first_sigma(self, cfg: TrackingConfig) -> float:
+        """1-sigma of the first riser's position, the shared error included."""
+        return math.sqrt(max(self.P[0, 0], 0.0) + cfg.shared_error_fraction * self.pos_floor[0].var)
+
+    def check_confirmed(self, cfg: TrackingConfig, have_odometry: bool) -> bool:
+        """Confirm (once) when enough frames supported it and its first riser is known.
+        Without odometry every frame counts as taken where the last one was (its errors
+        shared, ``max_inflation``) and the track follows the frames: the supporting frames
+        alone confirm it."""
+        if not self.confirmed and self.hits >= cfg.confirm_frames:
+            self.confirmed = not have_odometry or self.first_sigma(cfg) <= cfg.confirm_sigma_m
+        return self.confirmed
 
     # -------------------------------------------------------------- output
 
@@ -688,7 +724,7 @@ class StairTracker:
                 self._track, self._candidate = cand, None
                 track, supported = cand, cand.last_support_s == t_s
         if track is not None:
-            tentative = track.hits < cfg.confirm_frames
+            tentative = not track.check_confirmed(cfg, have_odo)
             if (tentative and track.misses >= cfg.tentative_misses) or (
                 t_s - track.last_support_s > cfg.drop_after_s
             ):
@@ -696,7 +732,7 @@ class StairTracker:
         if track is None:
             self._last = TrackedStaircase(TRACK_NONE)
             return self._last
-        if track.hits < cfg.confirm_frames:
+        if not track.confirmed:
             state = TRACK_TENTATIVE
         else:
             state = TRACK_CONFIRMED if supported else TRACK_COASTING
