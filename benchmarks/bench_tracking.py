@@ -40,6 +40,11 @@ from stereo_terrain.swing import SwingTrigger
 from stereo_terrain.synthetic import render_scene
 from stereo_terrain.tracking import TRACK_CONFIRMED, StairTracker
 
+#: The floor the simulated robot stands on, in its body (yaw) frame: the approach's rig has
+#: its body origin on the ground (a rig off a robot, docs/conventions.md). Single frames
+#: use it to tell when their nearest riser is not the first (``TrackingConfig.floor_z_m``).
+FLOOR_Z_M = 0.0
+
 #: (rise m, stair yaw deg, odometry drift, image size, seed)
 APPROACHES = [
     (0.12, 0.0, 0.00, (320, 240), 1),
@@ -72,8 +77,9 @@ def run_approach(cfg: ApproachConfig, noise: list | None = None) -> dict[str, li
         cam_z = float(result.T_yaw_camera_rect.translation[2])
         for name, (tracker, trigger) in modes.items():
             model, state, trig = track_and_trigger(
-                tracker, trigger, result.terrain, frame.odometry, frame.t_capture_s, camera_z_m=cam_z
-            )
+                tracker, trigger, result.terrain, frame.odometry, frame.t_capture_s,
+                camera_z_m=cam_z, floor_z_m=FLOOR_Z_M,
+            )  # fmt: skip
             if model.steps:
                 s = model.steps[0]
                 row = (s.rise_m - cfg.rise_m, s.rise_sigma_m, s.distance_m - d_true, s.distance_sigma_m)

@@ -1,5 +1,6 @@
 """The tracked staircase (issue 14) on scripted sequences of noisy single-frame models."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -20,6 +21,7 @@ from stereo_terrain.tracking import (
     TRACK_TENTATIVE,
     StairTracker,
     TrackingConfig,
+    single_frame_model,
     tracked_model,
 )
 
@@ -215,6 +217,8 @@ def test_config_checks_and_yaml_section():
         TrackingConfig(yaw_gate_deg=25.0)
     with pytest.raises(ConfigError, match="confirm_sigma_m"):
         TrackingConfig(confirm_sigma_m=0.0)
+    with pytest.raises(ConfigError, match="floor_z_m"):
+        TrackingConfig(floor_z_m=math.nan)
     cfg = PipelineConfig.from_dict({"tracking": {"enabled": False, "drop_after_s": 3.0}})
     assert cfg.tracking == TrackingConfig(enabled=False, drop_after_s=3.0)
     with pytest.raises(ConfigError, match="tracking"):
@@ -282,3 +286,48 @@ def test_a_badly_yawed_start_does_not_move_the_swing_once_confirmed():
     assert max(abs(a - b) for a, b in zip(points, points[1:], strict=False)) < 0.05
     assert abs(points[-1] - (d_first - trigger.swing.buffer_m)) < TOL_D
     assert raised[-1] and sum(a != b for a, b in zip(raised, raised[1:], strict=False)) == 1
+
+
+FLOOR = -CAM_Z  # the scripted frames' floor: the camera (body origin) CAM_Z above it
+
+
+@pytest.mark.parametrize("skip", [1, 2])
+def test_a_single_frame_that_stands_its_nearest_riser_above_the_floor_says_it_may_not_be_the_first(skip):
+    """Near the stairs the first riser(s) leave the view: the frame reports riser ``skip``
+    first, on a level ``skip`` rises above the robot's floor. With the floor known, the
+    first step's distance sigma covers the runs to the first riser; the values stay."""
+    rng = np.random.default_rng(12)
+    d_first = 0.4
+    seen = frame_model(rng, d_first, n=3, skip=skip)
+    out = single_frame_model(seen, FLOOR)
+    first = out.steps[0]
+    assert first.distance_m == seen.steps[0].distance_m and out.steps[1:] == seen.steps[1:]
+    assert abs(first.distance_m - d_first) <= 2 * first.distance_sigma_m
+    assert first.distance_sigma_m < 2 * skip * RUN  # no wider than the runs hidden
+    # the same frame without the floor, and a frame seeing the first riser: unchanged
+    assert single_frame_model(seen, None) == seen
+    whole = frame_model(rng, d_first + 0.3, n=3)
+    assert single_frame_model(whole, FLOOR) == whole
+
+
+def test_a_single_frame_with_one_step_above_the_floor_widens_to_its_distance():
+    """No run seen: the first riser is somewhere between the robot and the riser seen."""
+    rng = np.random.default_rng(13)
+    seen = frame_model(rng, 0.1, n=2, skip=1)
+    assert len(seen.steps) == 1 and seen.steps[0].run_m is not None
+    seen = StairModel(
+        seen.obstacle, (dataclasses.replace(seen.steps[0], run_m=None),), seen.yaw_rad, seen.ground_z_m,
+        seen.polytope, seen.frame, "", seen.yaw_sigma_rad,
+    )  # fmt: skip
+    first = single_frame_model(seen, FLOOR).steps[0]
+    assert first.distance_sigma_m >= first.distance_m > RUN
+
+
+def test_single_frames_publish_the_floor_check_and_the_trigger_is_unchanged():
+    rng = np.random.default_rng(14)
+    seen = frame_model(rng, 0.45, n=3, skip=1)
+    odo = Odometry((1.0, 0.0, 0.0), 0.0)
+    plain = track_and_trigger(None, SwingTrigger(), seen, odo, 0.0)
+    checked = track_and_trigger(None, SwingTrigger(), seen, odo, 0.0, floor_z_m=FLOOR)
+    assert plain[0] == seen and checked[0] == single_frame_model(seen, FLOOR) != seen
+    assert plain[2] == checked[2]

@@ -101,6 +101,13 @@ class TrackingConfig:
         Frames in a row that should have seen a tracked riser and did not, before it is
         removed (a riser a bad frame made up); at least one more than the frames that saw
         it.
+    floor_z_m : float or None
+        Height of the floor the robot stands on in the body frame (minus the standing
+        height; 0 for a rig off a robot, whose body origin is on the ground); None when not
+        known. With single frames (``enabled: false``) a frame whose nearest riser stands
+        on a level above that floor has not seen the first riser(s) (near the stairs, they
+        are under the camera): its first step's distance sigma then covers them
+        (:func:`single_frame_model`).
     shared_error_fraction : float
         Share of a frame's error variance that every frame of one staircase has in common
         (the same faces seen from nearly the same place: fusing frames does not reduce
@@ -132,6 +139,7 @@ class TrackingConfig:
     min_visible_m: float = 0.9
     min_run_m: float = 0.1
     step_misses: int = 3
+    floor_z_m: float | None = None
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -161,6 +169,8 @@ class TrackingConfig:
             )
         if self.max_inflation < 1:
             raise ConfigError(f"TrackingConfig.max_inflation must be >= 1, got {self.max_inflation}")
+        if self.floor_z_m is not None and not math.isfinite(self.floor_z_m):
+            raise ConfigError(f"TrackingConfig.floor_z_m must be finite or None, got {self.floor_z_m}")
         if self.min_visible_m < 0 or self.min_run_m < 0:
             raise ConfigError("TrackingConfig.min_visible_m and min_run_m must be >= 0")
         for name in ("confirm_frames", "tentative_misses", "new_track_frames", "max_steps", "step_misses"):
@@ -648,6 +658,37 @@ def tracked_model(track: TrackedStaircase, odometry: Odometry | None, frame: str
     return StairModel(
         obstacle, tuple(steps), rel, ground, Polytope(np.zeros((0, 3))), frame, note, track.yaw_sigma_rad
     )
+
+
+def single_frame_model(model: StairModel, floor_z_m: float | None) -> StairModel:
+    """A single frame's model as it is published without tracking: with the robot's floor
+    height known, a frame whose surface before its nearest riser is ``k`` rises above that
+    floor sees riser ``k + 1`` first (the ``k`` nearer ones have left the view under the
+    camera); the first step's distance, meant as the first riser's, is then long by about
+    ``k`` runs, and its sigma says so: ``hypot(sigma, k * run)`` (the runs seen, else the
+    distance itself: the first riser is between the robot and the one seen).
+
+    Parameters
+    ----------
+    model : StairModel
+        Yaw frame, with the sigmas of :func:`~stereo_terrain.terrain.estimate_step_sigmas`.
+    floor_z_m : float or None
+        The robot's floor in the same frame (``TrackingConfig.floor_z_m``); None: the model
+        unchanged.
+    """
+    if floor_z_m is None or model.obstacle != STAIRS or not model.steps:
+        return model
+    rise = float(np.median([st.rise_m for st in model.steps]))
+    above = model.ground_z_m - floor_z_m
+    if not (rise > 0 and above > 0.5 * rise):
+        return model
+    hidden = max(1, round(above / rise))
+    runs = [st.run_m for st in model.steps if st.run_m is not None]
+    first = model.steps[0]
+    short = hidden * max(runs) if runs else max(first.distance_m, 0.0)
+    sigma = math.hypot(_finite(first.distance_sigma_m, 0.0), short)
+    first = dataclasses.replace(first, distance_sigma_m=sigma)
+    return dataclasses.replace(model, steps=(first, *model.steps[1:]))
 
 
 class StairTracker:

@@ -29,7 +29,7 @@ from ..pipeline import Pipeline, TerrainResult
 from ..swing import Odometry, SwingTrigger, TriggerState
 from ..terrain import NONE as NO_OBSTACLE
 from ..terrain import StairModel
-from ..tracking import TRACK_NONE, StairTracker
+from ..tracking import TRACK_NONE, StairTracker, single_frame_model
 from .capture import END, FRAME, NONE, SKEW, UNREADABLE, Capture, Clock, StereoFrame
 from .messages import terrain_message, terrain_t
 
@@ -158,16 +158,20 @@ def track_and_trigger(
     t_s: float,
     *,
     camera_z_m: float | None = None,
+    floor_z_m: float | None = None,
 ) -> tuple[StairModel, str, TriggerState]:
     """One frame's terrain through the tracker (when there is one) and the swing trigger.
 
     Returns the model to publish (the tracked staircase while there is a track, also a
     tentative one, else the frame's), the track state and the trigger's decision. With a
     tracker, the trigger sees only an established (confirmed or coasting) track, and
-    nothing ahead before that.
+    nothing ahead before that. Without one, the frame's model is published with
+    :func:`~stereo_terrain.tracking.single_frame_model` for the robot's floor height
+    ``floor_z_m`` (``TrackingConfig.floor_z_m``; None: unknown).
     """
     if tracker is None:
-        return terrain, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m)
+        published = single_frame_model(terrain, floor_z_m)
+        return published, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m)
     tracked = tracker.update(terrain, odometry, t_s)
     model = terrain if tracked.model is None else tracked.model
     ahead = model
@@ -366,6 +370,7 @@ class LiveLoop:
             odo,
             frame.t_capture_s,
             camera_z_m=float(result.T_yaw_camera_rect.translation[2]),
+            floor_z_m=self.pipeline.config.tracking.floor_z_m,
         )
         now = self.clock()
         latency = now - frame.t_capture_s
