@@ -4,7 +4,9 @@ The fill (``stereo/fill.py``) gives a texture-poor face the plane that the match
 disparities on its outline support. Three things can stop it: the face is not one of the
 fill's regions (the region finder splits it into crumbs or merges it with its
 neighbours), no plane is supported (too few or too scattered outline disparities), or
-the supported plane is wrong. For each region mode (``fill.texture``) this prints, as
+the supported plane is wrong. For each region mode (``fill.texture``: ``total``, the default, or
+``horizontal``; commit f40a8d9 also had an ``edges`` mode, measured in docs/benchmarks.md
+and reverted) this prints, as
 shares of the stair-face pixels (treads and risers, from the renderer's labels):
 
 - ``in a region``: inside a region large enough to be filled (``min_region_fraction``);
@@ -16,7 +18,7 @@ with the true disparity at the pixels where the matcher has a value ("truth at o
 pixels"), which separates a region finder's faults from the matcher's.
 
     .venv/bin/python benchmarks/bench_face_regions.py [--scenes 20] [--seed 11]
-        [--modes total,edges] [--cache DIR]
+        [--modes total,horizontal] [--cache DIR]
 
 The scenes are those of ``stereo-terrain render --profile realistic --count N --seed S``
 (rectified and vertically aligned as the pipeline does; ``--cache`` as in
@@ -43,7 +45,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=20)
     ap.add_argument("--seed", type=int, default=11)
-    ap.add_argument("--modes", default="total,edges")
+    ap.add_argument("--modes", default="total")
     ap.add_argument("--cache", type=Path)
     args = ap.parse_args()
     scenes = load_scenes("realistic", args.scenes, args.seed, args.cache)

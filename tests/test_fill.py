@@ -4,13 +4,7 @@ import numpy as np
 import pytest
 
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.stereo.fill import (
-    PlanarFillConfig,
-    fill_planar_regions,
-    fill_rows,
-    find_flat_regions,
-    ill_posed_mask,
-)
+from stereo_terrain.stereo.fill import PlanarFillConfig, fill_planar_regions, fill_rows, ill_posed_mask
 
 TOL_PX = 1e-4
 
@@ -97,53 +91,8 @@ def test_invalidate_turns_streaks_on_grain_into_nan_or_the_row_plane():
         {"row_fill_max_gap_px": -1},
         {"row_fill_max_step_px": -1.0},
         {"invalidate": 1},
-        {"edge_low_sigmas": 0.0},
-        {"edge_low_sigmas": 5.0, "edge_high_sigmas": 4.0},
     ],
 )
 def test_bad_config_raises(kw):
     with pytest.raises(ConfigError):
         PlanarFillConfig(**kw)
-
-
-def _painted_face(rng, noise_grey=2.0, shading_grey_per_px=0.3):
-    """A near-uniform painted face (grey 150) on a darker one (grey 90), both lit unevenly
-    (brightness falling along rows by ``shading_grey_per_px``: light fall-off, vignetting)
-    and with sensor noise of ``noise_grey``: the face is rows 30-90, columns 40-200 of a
-    120 x 240 image."""
-    img = np.full((120, 240), 90.0)
-    img[30:90, 40:200] = 150.0
-    img += 60.0 - shading_grey_per_px * np.arange(240)[None, :]
-    img += rng.normal(0.0, noise_grey, img.shape)
-    return np.clip(img, 0, 255).astype(np.uint8)
-
-
-def test_edges_mode_keeps_a_noisy_painted_face_one_region():
-    """Uneven light and noise break a low-gradient test into crumbs; the face's outline
-    does not move: the ``edges`` regions hold the whole face in one label."""
-    img = _painted_face(np.random.default_rng(1))
-    inner = (slice(36, 84), slice(46, 194))
-    regions = find_flat_regions(img, PlanarFillConfig(texture="edges"))
-    labels = regions.labels[inner]
-    main = np.bincount(labels[labels > 0].ravel()).argmax()
-    assert np.mean(labels == main) > 0.95
-    # The background is another region: the face's outline separates them.
-    assert regions.labels[10, 10] not in (0, main)
-
-
-def test_edges_mode_fills_a_painted_face_from_its_outline():
-    """Disparities only on the face's vertical ends (as a matcher gives them); inside, a
-    streak of wrong values. The ``edges`` fill gives the whole face the ends' plane."""
-    img = _painted_face(np.random.default_rng(2))
-    true = np.fromfunction(lambda v, u: 30.0 + 0.02 * u - 0.01 * v, img.shape).astype(np.float32)
-    disp = np.full(img.shape, np.nan, np.float32)
-    for cols in (slice(36, 44), slice(196, 204)):  # the face's two vertical ends
-        disp[30:90, cols] = true[30:90, cols]
-    disp[50:55, 60:180] = 12.0  # a confident streak inside the face
-    out, filled = fill_planar_regions(disp, img, PlanarFillConfig(texture="edges"), max_disparity_px=64)
-    # The face away from its outline (the texture window's half-width and more) is the
-    # texture-poor part that the plane fills; the outline keeps the matcher's values.
-    face = (slice(40, 80), slice(50, 190))
-    assert filled[face].mean() > 0.99
-    assert np.max(np.abs(out[filled] - true[filled])) < 0.05
-    assert np.array_equal(out[~filled], disp[~filled], equal_nan=True)

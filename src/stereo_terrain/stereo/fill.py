@@ -39,18 +39,7 @@ from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..msac import plane_msac
 
-TEXTURE_MODES = ("total", "horizontal", "edges")
-
-#: ``"edges"`` mode: a region is filled only when at least this share of its pixels is
-#: texture-poor (:func:`ill_posed_mask`); a textured region is the matcher's.
-_MIN_POOR_SHARE = 0.5
-
-#: ``"edges"`` mode: the noise sigma of the smoothed gradient comes from the first quartile
-#: of its magnitude (the flattest quarter of the image: the noise on a textured scene's
-#: plain faces, not its texture). Gaussian noise gives a Rayleigh-distributed magnitude,
-#: whose first quartile is sigma * sqrt(2 ln(4/3)).
-_NOISE_PERCENTILE = 25.0
-_RAYLEIGH_Q1_PER_SIGMA = float(np.sqrt(2.0 * np.log(4.0 / 3.0)))
+TEXTURE_MODES = ("total", "horizontal")
 
 
 @dataclass(frozen=True)
@@ -107,12 +96,6 @@ class PlanarFillConfig:
         Ill-posed pixels are closed along rows by this many pixels, so that a narrow
         textured column inside a face (plank end, seam) joins the face's region and
         supports its plane (``"horizontal"`` only; 1 = no closing).
-    edge_low_sigmas, edge_high_sigmas : float
-        ``"edges"`` only: a region is a face bounded by image edges, not a run of low
-        gradient. Edges are Canny's with hysteresis thresholds of these many noise sigmas
-        of the smoothed gradient (estimated from the image's flattest quarter, see
-        :func:`_flat_regions`): sensor noise and JPEG ringing on a painted face stay below
-        them, the shading step between a riser and a tread does not.
     orientation_ratio : float
         Also ill-posed: windows whose structure tensor has ``Jxx < orientation_ratio *
         Jyy`` (texture nearly horizontal; ``"horizontal"`` only; 0 = off).
@@ -149,8 +132,6 @@ class PlanarFillConfig:
     split_sigma_x_px: float = 6.0
     close_px: int = 41
     orientation_ratio: float = 0.1
-    edge_low_sigmas: float = 2.5
-    edge_high_sigmas: float = 5.0
     invalidate: bool = False
     row_fill_max_gap_px: int = 0
     row_fill_max_step_px: float = 2.0
@@ -170,11 +151,6 @@ class PlanarFillConfig:
         if self.horizontal_texture <= 0:
             raise ConfigError(f"horizontal_texture must be > 0, got {self.horizontal_texture}")
         check_min(self, 0, "min_region_fraction", "edge_gradient")
-        if not 0 < self.edge_low_sigmas <= self.edge_high_sigmas:
-            raise ConfigError(
-                "need 0 < edge_low_sigmas <= edge_high_sigmas, "
-                f"got {self.edge_low_sigmas}, {self.edge_high_sigmas}"
-            )
         if self.smooth_sigma_px <= 0 or self.flat_gradient <= 0 or self.inlier_threshold_px <= 0:
             raise ConfigError("smooth_sigma_px, flat_gradient and inlier_threshold_px must be > 0")
         if not 0 < self.min_inlier_ratio <= 1 or not 0 < self.min_span_ratio <= 1:
@@ -246,7 +222,18 @@ def _flat_regions(
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
     if config.texture == "horizontal":
-        ill_posed = _ill_posed(gx, gy, config, valid)
+        # Matching along rows needs |dI/dx|: averaged over a window, it says whether a
+        # matching window has anything to lock onto (8 = Sobel's 3x3 kernel gain).
+        k = config.texture_window_px
+        ill_posed = cv2.boxFilter(np.abs(gx), -1, (k, k)) / 8.0 < config.horizontal_texture
+        if config.orientation_ratio > 0:
+            # Structure tensor: where the window's texture is nearly horizontal (grain),
+            # Jxx << Jyy and a match along rows slides along the grain.
+            jxx = cv2.boxFilter(gx * gx, -1, (k, k))
+            jyy = cv2.boxFilter(gy * gy, -1, (k, k))
+            ill_posed |= jxx < config.orientation_ratio * jyy
+        if valid is not None:
+            ill_posed &= valid
         # Split faces at horizontal edges (nosing lines, step edges): a riser and the
         # tread above it are two planes.
         # Step edges are straight and long; grain is neither: smooth along rows first.
@@ -272,25 +259,6 @@ def _flat_regions(
         if valid is not None:
             flat &= valid
         flat = flat.astype(np.uint8)
-    elif config.texture == "edges":
-        # Faces bounded by edges (Canny on the smoothed image, thresholds in noise sigmas):
-        # noise inside a painted face is not an edge, a riser's outline is.
-        mag = cv2.magnitude(gx, gy)
-        q1 = float(np.percentile(mag if valid is None else mag[valid], _NOISE_PERCENTILE))
-        sigma = max(q1 / _RAYLEIGH_Q1_PER_SIGMA, 1e-3)
-        # Canny takes 16-bit gradients: halve the Sobel values (up to 8 * 255 * 2 per axis)
-        # and the thresholds alike.
-        edges = cv2.Canny(
-            (gx * 0.5).astype(np.int16),
-            (gy * 0.5).astype(np.int16),
-            config.edge_low_sigmas * sigma * 0.5,
-            config.edge_high_sigmas * sigma * 0.5,
-            L2gradient=True,
-        )
-        flat = (edges == 0).view(np.uint8)
-        # Only the texture-poor part of a face is filled (see _fill): a region between edges
-        # on a textured floor keeps the matcher's values.
-        ill_posed = _ill_posed(gx, gy, config, valid)
     else:
         ill_posed = None
         # |grad| / 8 < flat_gradient (8 = Sobel's 3x3 kernel gain; scaling by 8 is exact), as
@@ -381,16 +349,6 @@ def _fill(out, config, max_disparity_px, regions: FlatRegions):
         x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
         x1, y1 = min(w, x + bw + config.ring_px), min(h, y + bh + config.ring_px)
         region = labels[y0:y1, x0:x1] == k
-        if config.texture == "edges":
-            # A region between edges may be textured (a floor, a carpet): the matcher's
-            # values stand there. Fill only a mostly texture-poor face, and only its
-            # texture-poor pixels.
-            poor = ill_posed[y0:y1, x0:x1]
-            if poor[region].mean() < _MIN_POOR_SHARE:
-                continue
-            target = region & poor
-        else:
-            target = region
         # Only disparities on vertical edges are trusted: inside the face SGM has nothing to
         # match (its values there may be a ramp), and along horizontal edges the match is
         # ambiguous (the aperture problem).
@@ -423,7 +381,7 @@ def _fill(out, config, max_disparity_px, regions: FlatRegions):
         coef, *_ = np.linalg.lstsq(A, uvd[inl, 2], rcond=None)
         if not np.all(np.isfinite(coef)):
             coef = np.array([-n[0] / n[2], -n[1] / n[2], -c / n[2]])
-        rv, ru = np.nonzero(target)
+        rv, ru = np.nonzero(region)
         plane_d = (coef[0] * (ru + x0) + coef[1] * (rv + y0) + coef[2]).astype(np.float32)
         # The face has no texture of its own: its matches carry no information, so the
         # whole face takes the plane supported by its outline.
@@ -443,22 +401,10 @@ def ill_posed_mask(
     nearly horizontal (structure tensor ``Jxx < orientation_ratio * Jyy``)."""
     g = cv2.GaussianBlur(image.astype(np.float32), (0, 0), config.smooth_sigma_px)
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
-    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) if config.orientation_ratio > 0 else None
-    return _ill_posed(gx, gy, config, valid)
-
-
-def _ill_posed(
-    gx: np.ndarray, gy: np.ndarray | None, config: PlanarFillConfig, valid: np.ndarray | None
-) -> np.ndarray:
-    """:func:`ill_posed_mask` from the Sobel gradients of the smoothed image (``gy`` is
-    needed only when ``orientation_ratio > 0``)."""
-    # Matching along rows needs |dI/dx|: averaged over a window, it says whether a
-    # matching window has anything to lock onto (8 = Sobel's 3x3 kernel gain).
     k = config.texture_window_px
     ill = cv2.boxFilter(np.abs(gx), -1, (k, k)) / 8.0 < config.horizontal_texture
-    if config.orientation_ratio > 0 and gy is not None:
-        # Structure tensor: where the window's texture is nearly horizontal (grain),
-        # Jxx << Jyy and a match along rows slides along the grain.
+    if config.orientation_ratio > 0:
+        gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
         ill |= cv2.boxFilter(gx * gx, -1, (k, k)) < config.orientation_ratio * cv2.boxFilter(
             gy * gy, -1, (k, k)
         )
