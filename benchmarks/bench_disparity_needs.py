@@ -15,7 +15,11 @@ time, and scored end to end: detection, step count, rise error (median / p90, cm
   syntax) has a value: the matcher's coverage with perfect values.
 
     .venv/bin/python benchmarks/bench_disparity_needs.py --scenes-dir DIR [--scenes 20] \\
-        [--cache CACHE] [--matchers "opencv;sgm:census_epsilon_grey=8"]
+        [--cache CACHE] [--matchers "opencv;sgm:census_epsilon_grey=8"] [--config CFG.yaml]
+        [--modes "truth;round;noise 0.7"]
+
+``--config`` runs the stages after the disparity with that pipeline config (e.g. the
+plane stage's thresholds); ``--modes`` picks the degradations (``;``-separated).
 
 ``DIR`` holds the scenes ``stereo-terrain render --profile realistic --count N --seed S``
 wrote; the same seed is drawn again for the truth labels and disparities.
@@ -35,7 +39,7 @@ from bench_stair_disparity import load_scenes, table_head, variant
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.evaluation import score_result, summarize
 from stereo_terrain.frames import load_rig
-from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import read_image, rectify
 from stereo_terrain.stereo import DisparityMap
 from stereo_terrain.stereo.smooth import smooth_planar
@@ -82,9 +86,12 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--cache", type=Path)
     ap.add_argument("--matchers", default="opencv;sgm:census_epsilon_grey=8")
+    ap.add_argument("--config", type=Path, help="pipeline config YAML for the stages after the disparity")
+    ap.add_argument("--modes", default="truth;round;round+smooth 5;noise 0.7;holes 0.5;outliers 0.15")
     args = ap.parse_args()
+    config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
     scenes = load_scenes("realistic", args.scenes, args.seed, args.cache)
-    modes = ["truth", "round", "round+smooth 5", "noise 0.7", "holes 0.5", "outliers 0.15"]
+    modes = [m for m in args.modes.split(";") if m]
     matchers = {name: variant(name) for name in args.matchers.split(";") if name}
     labels = modes + [f"truth where {m}" for m in matchers]
     scores: dict[str, list] = {k: [] for k in labels}
@@ -103,7 +110,7 @@ def main() -> None:
                 est = run(pair, p.max_disparity_px)
                 maps[f"truth where {name}"] = np.where(np.isfinite(est), truth, np.nan).astype(np.float32)
         for label, disp in maps.items():
-            result = Pipeline(calib, rig, backend=GivenDisparity(disp)).run(left, right)
+            result = Pipeline(calib, rig, config, backend=GivenDisparity(disp)).run(left, right)
             scores[label].append(score_result(result.to_json_dict(), truth_json))
         sys.stderr.write(f"\r{scene['index'] + 1}/{len(scenes)}")
     sys.stderr.write("\n")

@@ -74,6 +74,7 @@ from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
 from .swing import SwingConfig, SwingPlan, plan_swing
 from .terrain import StairModel, TerrainConfig, build_terrain, estimate_step_sigmas
 from .tracking import TrackingConfig
+from .vanishing import VerticalLinesConfig, combine_with_lines, up_from_vertical_lines
 
 RESULT_VERSION = 1
 
@@ -118,6 +119,10 @@ class PipelineConfig:
     vertical : VerticalAlignConfig
         Per-frame correction of a residual vertical offset of the right image
         (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
+    vanishing : VerticalLinesConfig
+        Without a rig, up also from the vanishing point of the image's vertical lines
+        (:mod:`stereo_terrain.vanishing`; ``vanishing.enabled``, on by default), combined
+        with the planes' estimate (:func:`stereo_terrain.vanishing.combine_with_lines`).
     tracking : TrackingConfig
         The staircase tracked over frames by the live loop (``run``, ``replay``; issue
         14, :mod:`stereo_terrain.tracking`); ``tracking: {enabled: false}`` gives single
@@ -142,6 +147,7 @@ class PipelineConfig:
     rectify_fov: str = "valid"
     vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)  # issue 14
+    vanishing: VerticalLinesConfig = field(default_factory=VerticalLinesConfig)  # issue 11
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -178,6 +184,7 @@ class PipelineConfig:
             "gravity": GravityConfig,
             "vertical": VerticalAlignConfig,
             "tracking": TrackingConfig,
+            "vanishing": VerticalLinesConfig,
         }
         for key, value in data.items():
             if key not in nested:
@@ -428,6 +435,17 @@ class Pipeline:
             regions = _background().submit(
                 find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
             )
+        lines_job = None
+        if self.T_yaw_camera_rect is None and self.config.vanishing.enabled:
+            # Without a rig, up also from the image's vertical lines: image only, so found
+            # on the other core while the matcher runs, as the fill's regions are.
+            lines_job = _background().submit(
+                up_from_vertical_lines,
+                pair.left,
+                pair.rectification,
+                self.config.vanishing,
+                prior_cone_deg=self.config.gravity.prior_cone_deg,
+            )
         disp = self.backend.compute(pair, self.max_disparity_px)
         if regions is not None:
             # Texture-poor faces: disparity from their outline (see stereo/fill.py).
@@ -454,14 +472,23 @@ class Pipeline:
                 gcfg, hypotheses=gcfg.rig_check_hypotheses, score_points=max(1, gcfg.score_points // 2)
             )
         coarse = estimate_up(cam_sample, gcfg, prior_up=prior)
+        lines: GravityEstimate | None = None  # up from the image's vertical lines (no rig)
         if rig_T is not None:
             T, source, before_planes = rig_T, "rig", coarse
         else:  # before_planes: what levelled the frame (its up is in the start's frame)
             T, source, before_planes = self._level_from_scene(cam_sample, coarse)
+            lines = None if lines_job is None else lines_job.result()
+            if lines is not None and lines.ok:
+                T, source, before_planes = _level_with_lines(T, source, before_planes, lines)
         lap("gravity")
         samples = transform_sample(cam_sample, T)
         planes = self._extract_planes(samples, pair.left)
         fine = refine_up_from_planes(planes, cfg.gravity)
+        if lines is not None and lines.ok:
+            # The final planes' up and the lines' (in the same, levelled frame).
+            fine = combine_with_lines(
+                fine, dataclasses.replace(lines, up=T.apply_vectors(lines.up), frame=fine.frame)
+            )
         if source == "scene" and fine.ok:
             # The last, small correction from the final planes (more of them, tighter).
             correction = levelling(fine.up)
@@ -684,6 +711,21 @@ def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple
         return planes, T
     shift = Transform.from_rt(np.eye(3), [0.0, 0.0, -min(below)], "yaw", "yaw")
     return transform_planes(planes, shift), shift @ T
+
+
+def _level_with_lines(
+    T: Transform, source: str, before: GravityEstimate, lines: GravityEstimate
+) -> tuple[Transform, str, GravityEstimate]:
+    """``T_yaw_camera_rect`` levelled again with the up of the image's vertical lines
+    (:func:`combine_with_lines` of the planes' start and the lines), before the planes are
+    extracted in it: where the lines overrule a start that a junk plane tilted, the plane
+    stage then classifies the faces in the right frame."""
+    start_up = T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+    start = GravityEstimate(
+        start_up, "camera_rect", before.sigma_deg, source == "scene", reason=before.reason
+    )
+    both = combine_with_lines(start, lines)
+    return levelling(T.apply_vectors(both.up)) @ T, "scene", both
 
 
 def _gravity_report(

@@ -1,0 +1,283 @@
+"""Gravity from the image: "up" as the vanishing point of the scene's vertical lines.
+
+Gravity from the scene's plane families (:mod:`stereo_terrain.gravity`) needs planes, and
+planes need disparities: on the texture-poor faces of real staircases (paint, wood grain
+seen head-on) the matcher's errors can make a junk plane look like a floor or a wall, and
+the estimate is then off by 5-30 deg with a sigma that does not say so. The image itself
+holds an independent witness: built scenes are full of vertical edges (wall corners, the
+ends of the steps, door frames, newel posts, balusters), and the images of vertical 3D
+lines all pass through one point, the vertical vanishing point ``v``, whose direction
+``K^-1 v`` in the camera is "up" (Hartley & Zisserman, *Multiple View Geometry*, 8.6).
+Their positions are exact to a fraction of a pixel whatever the disparity.
+
+:func:`up_from_vertical_lines`:
+
+1. line segments of the rectified left image (OpenCV's LSD, von Gioi et al. 2012), kept
+   when long enough, inside the valid image and within ``max_tilt_deg`` of the image's
+   vertical (the weak prior: the camera is roughly upright);
+2. MSAC over pairs of segments: the hypothesis is their intersection, a segment scores by
+   the truncated squared angle between it and the line from its midpoint to the point;
+3. the winner refined by length-weighted least squares on its inliers (the null vector of
+   their stacked homogeneous lines), its 1-sigma from a bootstrap over the inliers, with
+   a floor for the structure (real walls and door frames lean by a few tenths of a degree).
+
+An estimate with fewer than ``min_inliers`` segments or a sigma above ``max_sigma_deg`` is
+returned with ``ok=False``: two segments always meet somewhere.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .checks import check_fields, check_min
+from .errors import ConfigError
+from .gravity import GravityEstimate, angle_deg
+from .rectify import Rectification
+
+#: Up in the optical frame of an upright camera (x right, y down, z forward).
+_CAMERA_UP = np.array([0.0, -1.0, 0.0])
+
+
+@dataclass(frozen=True)
+class VerticalLinesConfig:
+    """How the vertical vanishing point is found.
+
+    Attributes
+    ----------
+    enabled : bool
+        Use the image's vertical lines for gravity when no rig is given (the pipeline
+        combines them with the planes' estimate, see :mod:`stereo_terrain.pipeline`).
+    detect_scale : float
+        The segments are detected on the image resized by this factor, their ends then
+        scaled back. LSD costs about 35 ms on a 640x480 image on one core of the
+        project's machine and 6-13 ms at half size, but at half size gravity from the
+        scene is within 2 deg in 62% of the realistic scenes instead of 75%
+        (docs/benchmarks.md).
+    min_length_px : float
+        Shortest segment used, in pixels of a 640-pixel-wide raw image (scaled with the
+        raw width).
+    max_tilt_deg : float
+        Segments within this angle of the image's vertical are candidates.
+    inlier_deg : float
+        A segment supports a vanishing point when the line from its midpoint to the point
+        is within this angle of it.
+    hypotheses : int
+        MSAC hypotheses (pairs of segments).
+    min_inliers : int
+        Fewest supporting segments for an estimate that counts.
+    max_sigma_deg : float
+        An estimate less certain than this does not count.
+    structure_sigma_deg : float
+        Floor of the reported sigma: real vertical edges lean by a few tenths of a degree.
+    bootstrap : int
+        Resamples of the inliers behind the sigma.
+    seed : int
+    """
+
+    enabled: bool = True
+    detect_scale: float = 1.0
+    min_length_px: float = 20.0
+    max_tilt_deg: float = 30.0
+    inlier_deg: float = 1.0
+    hypotheses: int = 300
+    min_inliers: int = 4
+    max_sigma_deg: float = 2.0
+    structure_sigma_deg: float = 0.3
+    bootstrap: int = 30
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 2, "min_inliers")
+        check_min(self, 1, "hypotheses", "bootstrap")
+        if not 0 < self.max_tilt_deg < 90:
+            raise ConfigError(f"max_tilt_deg must be in (0, 90), got {self.max_tilt_deg}")
+        if not 0 < self.detect_scale <= 1:
+            raise ConfigError(f"detect_scale must be in (0, 1], got {self.detect_scale}")
+        for name in ("min_length_px", "inlier_deg", "max_sigma_deg"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.structure_sigma_deg < 0:
+            raise ConfigError(f"structure_sigma_deg must be >= 0, got {self.structure_sigma_deg}")
+
+
+def _segments(image: np.ndarray, valid: np.ndarray | None, min_length_px: float, scale: float) -> np.ndarray:
+    """LSD segments ``(N, 4)`` (x1, y1, x2, y2, pixels of ``image``) found on ``image``
+    resized by ``scale``, at least ``min_length_px`` long, with both ends and the middle on
+    valid pixels away from the border of the valid region (whose outline is a straight
+    edge of the rectified image, not of the scene)."""
+    small = image if scale == 1 else cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    found = cv2.createLineSegmentDetector().detect(small)[0]
+    if found is None:
+        return np.empty((0, 4))
+    # Pixel centres: x_small = (x + 0.5) * scale - 0.5.
+    s = (found.reshape(-1, 4).astype(np.float64) + 0.5) / scale - 0.5
+    s = s[np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1]) >= min_length_px]
+    h, w = image.shape
+    inside = np.ones((h, w), np.uint8) if valid is None else valid.astype(np.uint8)
+    inside[:3, :] = inside[-3:, :] = 0
+    inside[:, :3] = inside[:, -3:] = 0
+    inside = cv2.erode(inside, np.ones((7, 7), np.uint8)).astype(bool)
+    ok = np.ones(len(s), bool)
+    for x, y in ((s[:, 0], s[:, 1]), (s[:, 2], s[:, 3]), ((s[:, 0] + s[:, 2]) / 2, (s[:, 1] + s[:, 3]) / 2)):
+        xi = np.clip(np.round(x).astype(int), 0, w - 1)
+        yi = np.clip(np.round(y).astype(int), 0, h - 1)
+        ok &= inside[yi, xi]
+    return s[ok]
+
+
+def _unit_rows(a: np.ndarray) -> np.ndarray:
+    return a / np.linalg.norm(a, axis=1, keepdims=True)
+
+
+def up_from_vertical_lines(
+    image: np.ndarray,
+    rectification: Rectification,
+    config: VerticalLinesConfig | None = None,
+    *,
+    prior_cone_deg: float = 45.0,
+) -> GravityEstimate:
+    """Up in the rectified left camera from the vanishing point of the image's vertical lines.
+
+    Parameters
+    ----------
+    image : (H, W) uint8
+        The rectified left image.
+    rectification : Rectification
+        Its intrinsics (``focal_px``, ``cx``, ``cy``) and valid region (``valid_left``).
+    config : VerticalLinesConfig
+    prior_cone_deg : float
+        The weak prior: up lies within this angle of the camera's up (-y).
+
+    Returns
+    -------
+    GravityEstimate in ``camera_rect``; ``vertical_fraction`` is the share of the candidate
+    segments that support the vanishing point. ``ok=False`` (with a reason) when the lines
+    do not fix up.
+    """
+    config = config or VerticalLinesConfig()
+    frame = "camera_rect"
+
+    def failed(reason: str, fraction: float = 0.0) -> GravityEstimate:
+        return GravityEstimate(np.full(3, np.nan), frame, math.inf, False, 0.0, fraction, reason)
+
+    scale = rectification.raw_size[0] / 640.0
+    s = _segments(image, rectification.valid_left, config.min_length_px * scale, config.detect_scale)
+    d = s[:, 2:] - s[:, :2]
+    tilt = np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
+    s, d = s[tilt <= config.max_tilt_deg], d[tilt <= config.max_tilt_deg]
+    n = len(s)
+    if n < config.min_inliers:
+        return failed(f"{n} near-vertical line segment(s) in the image (need {config.min_inliers})")
+    f, cx, cy = rectification.focal_px, rectification.cx, rectification.cy
+    # Normalised image coordinates: the vanishing point is then up's direction itself.
+    p1 = np.column_stack([(s[:, 0] - cx) / f, (s[:, 1] - cy) / f, np.ones(n)])
+    p2 = np.column_stack([(s[:, 2] - cx) / f, (s[:, 3] - cy) / f, np.ones(n)])
+    lines = np.cross(p1, p2)
+    lines /= np.linalg.norm(lines[:, :2], axis=1, keepdims=True)
+    mid = (p1 + p2) / 2.0
+    direction = _unit_rows((p2 - p1)[:, :2])
+    length = np.hypot(d[:, 0], d[:, 1])
+    thr = math.radians(config.inlier_deg)
+
+    def residual(v: np.ndarray) -> np.ndarray:
+        """Angle between each segment and the line from its midpoint to ``v``, radians."""
+        to = v[:2] - mid[:, :2] * v[2]
+        to /= np.linalg.norm(to, axis=1, keepdims=True) + 1e-15
+        cross = np.abs(direction[:, 0] * to[:, 1] - direction[:, 1] * to[:, 0])
+        return np.arcsin(np.clip(cross, 0.0, 1.0))
+
+    def fit(idx: np.ndarray) -> np.ndarray:
+        """Length-weighted least squares: the null vector of the stacked lines."""
+        a = lines[idx] * np.sqrt(length[idx])[:, None]
+        v = np.linalg.svd(a)[2][-1]
+        return v / np.linalg.norm(v)
+
+    rng = np.random.default_rng(config.seed)
+    pairs = rng.integers(0, n, size=(config.hypotheses, 2))
+    best_score, best = -1.0, None
+    for i, j in pairs:
+        if i == j:
+            continue
+        v = np.cross(lines[i], lines[j])
+        norm = np.linalg.norm(v)
+        if norm < 1e-12:
+            continue
+        v /= norm
+        score = float(np.sum(length * np.maximum(0.0, 1.0 - (residual(v) / thr) ** 2)))
+        if score > best_score:
+            best_score, best = score, v
+    if best is None:
+        return failed("the near-vertical segments are all parallel to one another")
+    v = best
+    inliers = residual(v) < thr
+    for _ in range(3):  # refit and re-select
+        if inliers.sum() < 2:
+            break
+        v = fit(np.flatnonzero(inliers))
+        inliers = residual(v) < thr
+    count = int(inliers.sum())
+    fraction = count / n
+    if count < config.min_inliers:
+        return failed(
+            f"{count} vertical line segment(s) agree on a vanishing point (need {config.min_inliers})",
+            fraction,
+        )
+    up = v if v @ _CAMERA_UP >= 0 else -v
+    idx = np.flatnonzero(inliers)
+    spread = [math.radians(angle_deg(fit(rng.choice(idx, len(idx))), up)) for _ in range(config.bootstrap)]
+    # A resample's null vector may come out with either sign: angle_deg is unsigned, fold it.
+    spread = [min(a, math.pi - a) for a in spread]
+    sigma = max(math.degrees(math.sqrt(float(np.mean(np.square(spread))))), config.structure_sigma_deg)
+    tilt_from_upright = angle_deg(up, _CAMERA_UP)
+    if tilt_from_upright > prior_cone_deg:
+        return failed(f"the lines' up is {tilt_from_upright:.0f} deg from the camera's up", fraction)
+    if sigma > config.max_sigma_deg:
+        return failed(f"{count} vertical line segments fix up only to {sigma:.1f} deg", fraction)
+    reason = f"the vanishing point of {count} vertical line segments"
+    return GravityEstimate(up, frame, sigma, True, 0.0, fraction, reason)
+
+
+def combine_with_lines(
+    planes: GravityEstimate, lines: GravityEstimate, *, conflict_sigmas: float = 3.0
+) -> GravityEstimate:
+    """The planes' up and the lines' up (same frame) as one estimate.
+
+    Where both count and agree within ``conflict_sigmas`` combined sigmas, their inverse-
+    variance weighted mean (the sigma shrinks accordingly). Where they disagree, the
+    lines': a plane-based estimate goes wrong by whole planes (a junk plane of a bad
+    disparity taken for a floor or a wall) and its sigma, from the planes' own scatter,
+    cannot say so, while the lines' estimate is only used when many segments agree on it
+    tightly (:func:`up_from_vertical_lines`). Where only one counts, that one.
+    """
+    if not lines.ok:
+        return planes
+    if not planes.ok or not math.isfinite(planes.sigma_deg):
+        return lines
+    if planes.frame != lines.frame:
+        raise ConfigError(f"cannot combine estimates in frames {planes.frame!r} and {lines.frame!r}")
+    combined = math.hypot(planes.sigma_deg, lines.sigma_deg)
+    apart = angle_deg(planes.up, lines.up)
+    if apart > conflict_sigmas * combined:
+        reason = f"{lines.reason} ({apart:.1f} deg from the planes' up, which it overrules)"
+        return GravityEstimate(
+            lines.up,
+            lines.frame,
+            lines.sigma_deg,
+            True,
+            planes.horizontal_fraction,
+            lines.vertical_fraction,
+            reason,
+        )
+    wp, wl = planes.sigma_deg**-2, lines.sigma_deg**-2
+    up = wp * planes.up + wl * lines.up
+    up /= np.linalg.norm(up)
+    sigma = (wp + wl) ** -0.5
+    reason = f"{planes.reason}, with {lines.reason}"
+    return GravityEstimate(
+        up, planes.frame, sigma, True, planes.horizontal_fraction, planes.vertical_fraction, reason
+    )
