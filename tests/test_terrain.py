@@ -251,3 +251,35 @@ def test_first_riser_cut_by_the_image_bottom_stands_on_the_floor_seen_beside_it(
         assert abs(got["rise"] - want["rise"]) < 0.01
         assert abs(got["distance"] - want["distance"]) < 0.02
         assert got["rise_inferred"] is False
+
+
+def test_a_railing_with_more_points_than_the_risers_does_not_set_the_stair_axis():
+    """Seen from the side, the balusters between the rails (a short vertical plane along
+    the stairs, facing the camera, nearer than the steps) can hold more samples than the
+    risers. Their direction must not become the stair axis: the risers chain into steps,
+    the railing does not."""
+    full = _stairs(n_steps=2, rise=0.17, run=0.29, distance=1.3)
+    risers = [s for s in full.segments if s.kind == VERTICAL]
+    rail_xz = _grid((0.7, 1.9), (0.21, 0.55))  # 1.2 m along the stairs, 0.34 m tall
+    rail = np.column_stack([rail_xz[:, 0], np.full(len(rail_xz), -1.0), rail_xz[:, 1]]).astype(np.float32)
+    assert len(rail) > sum(s.count for s in risers)
+    s0 = full.samples
+    n0 = len(s0.points)
+    samples = GridSample(
+        **{
+            **s0.__dict__,
+            "points": np.vstack([s0.points, rail]),
+            "normals": np.vstack([s0.normals, np.tile(np.float32([0, 1, 0]), (len(rail), 1))]),
+            "sigma_m": np.concatenate([s0.sigma_m, np.full(len(rail), 0.005, np.float32)]),
+            "rows": np.concatenate([s0.rows, np.zeros(len(rail), np.int32)]),
+            "cols": np.concatenate([s0.cols, np.full(len(rail), 300, np.int32)]),
+            "grid_index": np.arange(n0 + len(rail), dtype=np.int32),
+            "grid_shape": (1, n0 + len(rail)),
+        }
+    )
+    railing = PlaneSegment(Plane([0.0, 1.0, 0.0], 1.0), VERTICAL, np.arange(n0, n0 + len(rail)), 0.0)
+    model = build_terrain(PlaneSet((railing, *full.segments), samples, full.up, "test", CAM))
+    assert model.obstacle == STAIRS and len(model.steps) == 2, model.note
+    assert abs(model.yaw_rad) < np.radians(2.0)
+    for s in model.steps:
+        assert s.rise_m == pytest.approx(0.17, abs=EXACT_M)

@@ -421,21 +421,51 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             planes, "no vertical plane looks like a riser (all too tall, small or facing away)", lowest_z
         )
 
-    # Dominant stair axis: the riser direction supported by most points.
+    # Stair axis: the riser directions are grouped into families (within
+    # ``axis_spread_deg`` of the one with most support), largest first. A rail, the
+    # balusters' plane or a wall's low strip beside the stairs is vertical, short and
+    # facing the camera like a riser, and may hold more points than the real risers (seen
+    # from the side, the railing is nearer the camera than the stairs behind it); what
+    # it never does is chain into steps. So every family is assembled, and the one whose
+    # risers chain into most steps is the staircase (ties: the larger family).
     yaws = np.array([math.atan2(*_axis_from_normal(c.plane.normal)[[1, 0]]) for c in cands])
     weights = np.array([len(c.idx) for c in cands], dtype=float)
     spread = math.radians(config.axis_spread_deg)
     diff = np.abs((yaws[:, None] - yaws[None, :] + np.pi) % (2 * np.pi) - np.pi)
-    support = (diff <= spread) @ weights
-    ref = int(np.argmax(support))
-    keep = diff[ref] <= spread
-    yaw = float(
-        np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
-    )
+    free = np.ones(len(cands), dtype=bool)
+    best: StairModel | None = None
+    while free.any():
+        support = (diff <= spread) @ (weights * free)
+        ref = int(np.argmax(np.where(free, support, -1.0)))
+        keep = free & (diff[ref] <= spread)
+        free &= ~keep
+        yaw = float(
+            np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
+        )
+        family = [c for c, k in zip(cands, keep, strict=True) if k]
+        model = _assemble_along(planes, config, family, yaw, horizontals, h_z)
+        if best is None or len(model.steps) > len(best.steps):
+            best = model
+    assert best is not None
+    return best
+
+
+def _assemble_along(
+    planes: PlaneSet,
+    config: TerrainConfig,
+    family: list[_Riser],
+    yaw: float,
+    horizontals: list,
+    h_z: list[float],
+) -> StairModel:
+    """The staircase (or box, or nothing) whose risers are ``family`` along the stair axis
+    at ``yaw`` (the rest of :func:`_assemble`)."""
+    samples = planes.samples
+    P = samples.points.astype(np.float64)
+    cam = planes.camera_position
     u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
-    risers = [c for c, k in zip(cands, keep, strict=True) if k]
-    risers = [dataclasses.replace(r, s=float(np.median(P[r.idx] @ u))) for r in risers]
+    risers = [dataclasses.replace(r, s=float(np.median(P[r.idx] @ u))) for r in family]
     risers.sort(key=lambda r: r.s)
 
     # Merge duplicates (one riser split in two planes).
