@@ -430,8 +430,11 @@ def _jackknife_sigma_deg(
     n_blocks = blocks * blocks
     Mb = np.zeros((n_blocks, 3, 3))
     sign = np.where(vert, 1.0, np.where(horiz, -1.0, 0.0))
-    outer = N[:, :, None] * N[:, None, :] * sign[:, None, None]
-    np.add.at(Mb, block, outer)
+    # Per block, sum_i sign_i n_i n_i^T: bincount adds in the samples' order as np.add.at
+    # did (the same sums), at a tenth of its time; the outer product is symmetric.
+    for i in range(3):
+        for j in range(i, 3):
+            Mb[:, i, j] = Mb[:, j, i] = np.bincount(block, N[:, i] * N[:, j] * sign, n_blocks)
     total = Mb.sum(axis=0)
     used = [b for b in range(n_blocks) if np.any(Mb[b])]
     if len(used) < 3:
@@ -507,16 +510,22 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
         g = np.zeros(2)
         chi = np.zeros(len(cons))
         for k, (kind, n, cov_n) in enumerate(cons):
-            if kind == HORIZONTAL:  # up = n: the tangent components of n, 2 residuals
-                C = B @ cov_n @ B.T + floor * np.eye(2)
-                r, J = B @ n, np.eye(2)
-            else:  # n . up = 0: one residual
-                C = np.array([[float(u @ cov_n @ u) + floor]])
-                r, J = np.array([-float(n @ u)]), (B @ n).reshape(1, 2)
-            W = np.linalg.inv(C)
-            chi[k] = math.sqrt(float(r @ W @ r) / len(r))
-            H += weights[k] * J.T @ W @ J
-            g += weights[k] * J.T @ W @ r
+            # J^T W J and J^T W r written out where J is the identity or one row: the same
+            # products, without a dozen tiny matrix calls per plane (issue 13).
+            if kind == HORIZONTAL:  # up = n: the tangent components of n, 2 residuals (J = I)
+                W = np.linalg.inv(B @ cov_n @ B.T + floor * np.eye(2))
+                r = B @ n
+                chi[k] = math.sqrt(float(r @ W @ r) / 2)
+                wW = weights[k] * W
+                H += wW
+                g += wW @ r
+            else:  # n . up = 0: one residual, J = (B n)^T; W = 1 / C (what inv gives a 1x1)
+                w_inv = 1.0 / (float(u @ cov_n @ u) + floor)
+                r0, Jr = -float(n @ u), B @ n
+                chi[k] = math.sqrt(r0 * w_inv * r0)
+                a = weights[k] * Jr * w_inv
+                H += np.outer(a, Jr)
+                g += a * r0
         if np.linalg.cond(H) > 1e8:
             return _failed(
                 frame,
