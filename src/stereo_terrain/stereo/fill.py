@@ -38,6 +38,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..msac import plane_msac
+from ._regions import connected_regions
 
 TEXTURE_MODES = ("total", "horizontal")
 
@@ -267,7 +268,7 @@ def _flat_regions(
     if valid is not None:
         flat[~valid] = 0
     flat = cv2.erode(flat, np.ones((3, 3), np.uint8))
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(flat, connectivity=4)
+    count, labels, stats = connected_regions(flat)  # OpenCV's, faster (issue 13)
     return count, labels, stats, gx, ill_posed
 
 
