@@ -327,8 +327,7 @@ def _fill(out, config, max_disparity_px, regions: FlatRegions):
     out = disparity.copy()
     filled = np.zeros(disparity.shape, dtype=bool)
     h, w = disparity.shape
-    count, labels, stats, gx, ill_posed = (
-        regions.count,
+    labels, stats, gx, ill_posed = (
         regions.labels,
         regions.stats,
         regions.gx,
@@ -342,10 +341,11 @@ def _fill(out, config, max_disparity_px, regions: FlatRegions):
     min_area = config.min_region_fraction * h * w
     rng = np.random.default_rng(config.seed)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
-    for k in range(1, count):
+    # The regions large enough to fit, picked in one pass (issue 13: textured images have
+    # thousands of tiny flat specks); the same regions in the same order.
+    large = (stats[:, 4] >= min_area) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
+    for k in np.flatnonzero(large[1:]) + 1:
         x, y, bw, bh, area = stats[k]
-        if area < min_area or bw < 8 or bh < 4:
-            continue
         # Work in the region's bounding box grown by the ring.
         x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
         x1, y1 = min(w, x + bw + config.ring_px), min(h, y + bh + config.ring_px)
