@@ -436,12 +436,12 @@ def _jackknife_sigma_deg(
         for j in range(i, 3):
             Mb[:, i, j] = Mb[:, j, i] = np.bincount(block, N[:, i] * N[:, j] * sign, n_blocks)
     total = Mb.sum(axis=0)
-    used = [b for b in range(n_blocks) if np.any(Mb[b])]
+    used = np.flatnonzero(Mb.reshape(n_blocks, 9).any(axis=1))
     if len(used) < 3:
         return math.inf
     angles = []
-    for b in used:
-        w, V = np.linalg.eigh(total - Mb[b])
+    # One stacked eigh: LAPACK runs on each block's matrix as it did one call at a time.
+    for V in np.linalg.eigh(total - Mb[used])[1]:
         ub = V[:, 0] if V[:, 0] @ prior >= 0 else -V[:, 0]
         angles.append(ub - u)
     dev = np.array(angles)
@@ -500,7 +500,9 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
         q = P[seg.indices]
         q = q - q.mean(axis=0)
         lam, E = np.linalg.eigh(q.T @ q)
-        noise = float(np.nanmedian(depth_sigma[seg.indices]))
+        sig = depth_sigma[seg.indices]
+        # np.median where nothing is NaN (nanmedian's own path then, at a third of its time)
+        noise = float(np.nanmedian(sig) if np.isnan(sig).any() else np.median(sig))
         sigma2 = max(seg.rms_m, noise, 1e-3) ** 2
         inflate = min(per_independent, seg.count / 3.0) if seg.count > 3 else 1.0
         cov_n = inflate * sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
@@ -512,6 +514,7 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
     if sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) < 2:  # up has 2 degrees of freedom
         return _failed(frame, "too few planes to fix up", h_frac, v_frac)
     weights = np.ones(len(cons))
+    floor_2 = floor * np.eye(2)
     for _ in range(8):
         B = _tangent_basis(u)
         H = np.zeros((2, 2))
@@ -521,7 +524,7 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
             # J^T W J and J^T W r written out where J is the identity or one row: the same
             # products, without a dozen tiny matrix calls per plane (issue 13).
             if kind == HORIZONTAL:  # up = n: the tangent components of n, 2 residuals (J = I)
-                W = np.linalg.inv(B @ cov_n @ B.T + floor * np.eye(2))
+                W = np.linalg.inv(B @ cov_n @ B.T + floor_2)
                 r = B @ n
                 chi[k] = math.sqrt(float(r @ W @ r) / 2)
                 wW = weights[k] * W
