@@ -45,3 +45,25 @@ def test_median_is_nanmedian_without_nans():
     for n in range(1, 300):
         x = rng.random(n).astype(np.float32)
         assert float(np.median(x)) == float(np.nanmedian(x))
+
+
+def test_percentile_is_np_percentile_bit_for_bit():
+    from stereo_terrain._numeric import percentile
+
+    rng = np.random.default_rng(4)
+    for t in range(3000):
+        n = int(rng.integers(1, 60)) if t % 10 else int(rng.integers(1, 3000))
+        a = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 3)
+        if t % 5 == 0:
+            a = np.round(a * 0.01, 0)  # ties, and -0.0 beside 0.0
+        q = [2, 98] if t % 3 == 0 else float(rng.choice([0, 2, 2.5, 50, 98, 100, rng.uniform(0, 100)]))
+        got, want = percentile(list(a) if t % 2 else a, q), np.percentile(a, q)
+        assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
+
+
+def test_percentile_hands_other_input_to_numpy():
+    from stereo_terrain._numeric import percentile
+
+    a32 = np.array([3.0, 1.0, 2.0], np.float32)
+    assert percentile(a32, 50) == np.percentile(a32, 50)
+    assert np.isnan(percentile([1.0, np.nan, 2.0], 50))

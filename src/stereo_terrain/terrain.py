@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._numeric import percentile  # np.percentile's bits, a quarter of its time (issue 13)
 from .checks import check_fields, check_min
 from .errors import ConfigError
 from .msac import Plane
@@ -278,7 +279,7 @@ def _riser_edges(
     # slices of eight may hold a post). The bottom: the lowest slices (nothing stands
     # below a riser on its plane, while something in front, a box, may hide the bottom of
     # a wall behind it in the middle slices and make it look like a riser on the box).
-    return float(np.percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(np.percentile(highs, _EDGE_QUANTILE))
+    return float(percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(percentile(highs, _EDGE_QUANTILE))
 
 
 #: Lateral slices of a riser over which its edge heights are taken, and the percentiles
@@ -317,7 +318,7 @@ def _tread_front(
     s = (q @ u)[(lat > v_lo) & (lat < v_hi)]
     if len(s) < 10:
         return None
-    return float(np.percentile(s, 2))
+    return float(percentile(s, 2))
 
 
 def _axis_from_normal(n: np.ndarray) -> np.ndarray:
@@ -389,7 +390,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
         u = _axis_from_normal(n)
         v = np.array([-u[1], u[0], 0.0])
         lat = pts @ v
-        v_lo, v_hi = np.percentile(lat, [2, 98])
+        v_lo, v_hi = percentile(lat, [2, 98])
         if v_hi - v_lo < config.min_riser_width_m:
             continue
         edges = _riser_edges(
@@ -446,7 +447,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             idx = np.concatenate([a.idx, r.idx])
             plane = (Plane.estimate(P[idx]) or a.plane).oriented_toward(cam)
             lat = P[idx] @ v
-            v_lo, v_hi = np.percentile(lat, [2, 98])
+            v_lo, v_hi = percentile(lat, [2, 98])
             edges = _riser_edges(
                 P, plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(P[idx, 2]))
             )
@@ -626,7 +627,7 @@ def _classify_single_step(
     for _h, z, s_h, _v in h_info:
         if abs(z - top_z) < 1e-9:
             top_far = (
-                float(np.percentile(s_h[s_h > step.axis_position_m - 0.02], 98))
+                float(percentile(s_h[s_h > step.axis_position_m - 0.02], 98))
                 if np.any(s_h > step.axis_position_m - 0.02)
                 else None
             )
@@ -851,7 +852,7 @@ def estimate_step_sigmas(
             sig_pos = shift_sigma(riser) * abs(float(riser.ray @ st.riser.normal))
             lat = v_all[on_riser]
             if len(lat) > 2:
-                lo, hi = np.percentile(lat, [2, 98])
+                lo, hi = percentile(lat, [2, 98])
                 # the riser's own extent (its samples' band may run on along the plane)
                 hi = min(hi, lo + st.width_m) if st.width_m is not None else hi
                 if hi - lo > 1e-3:
