@@ -67,3 +67,18 @@ def test_percentile_hands_other_input_to_numpy():
     a32 = np.array([3.0, 1.0, 2.0], np.float32)
     assert percentile(a32, 50) == np.percentile(a32, 50)
     assert np.isnan(percentile([1.0, np.nan, 2.0], 50))
+
+
+def test_median_is_np_median_bit_for_bit():
+    from stereo_terrain._numeric import median
+
+    rng = np.random.default_rng(5)
+    for t in range(3000):
+        n = int(rng.integers(1, 80)) if t % 10 else int(rng.integers(1, 3000))
+        a = rng.normal(size=(n, 3) if t % 2 else n) * 10.0 ** rng.uniform(-3, 3)
+        if t % 5 == 0:
+            a = np.round(a * 0.01, 0)  # ties, and -0.0 beside 0.0
+        axis = 0 if a.ndim == 2 or t % 3 == 0 else None
+        got, want = median(a, axis=axis), np.median(a, axis=axis)
+        assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
+    assert np.isnan(median(np.array([1.0, np.nan])))

@@ -60,3 +60,30 @@ def percentile(values: Sequence[float] | np.ndarray, q: Any) -> Any:
         d = y - x
         out.append(y - d * (1.0 - t) if t >= 0.5 else x + d * t)  # NumPy's _lerp
     return np.float64(out[0]) if scalar else np.array(out)
+
+
+def median(values: Sequence[float] | np.ndarray, axis: int | None = None) -> Any:
+    """``np.median(values, axis)`` for a float64 array, 1-D (``axis`` None or 0) or 2-D
+    along ``axis=0``.
+
+    NumPy's partition (same kth) and its mean of the middle one or two values (``(0 + x) / 1``,
+    ``(0 + x + y) / 2``), so the same bits; NaN, other dtypes, shapes or axes, and empty input
+    are handed to ``np.median``.
+    """
+    a = np.asarray(values)
+    if (
+        a.dtype != np.float64
+        or a.ndim not in (1, 2)
+        or (a.ndim == 1 and axis not in (None, 0))
+        or (a.ndim == 2 and axis != 0)
+        or a.shape[0] == 0
+        or np.isnan(a).any()
+    ):
+        return np.median(a, axis=axis)
+    n = a.shape[0]
+    h = n // 2
+    part = np.partition(a, [h - 1, h, -1] if n % 2 == 0 else [(n - 1) // 2, -1], axis=0)
+    # np.mean's sum starts from its identity, +0.0 (which turns a -0.0 into 0.0).
+    if a.ndim == 1:
+        return np.float64((0.0 + part[h]) / 1.0 if n % 2 else (0.0 + part[h - 1] + part[h]) / 2.0)
+    return (0.0 + part[h]) / 1.0 if n % 2 else (0.0 + part[h - 1] + part[h]) / 2.0

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._numeric import percentile  # np.percentile's bits, a quarter of its time (issue 13)
+from ._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
 from .checks import check_fields, check_min
 from .errors import ConfigError
 from .msac import Plane
@@ -367,7 +367,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
     horizontals = [s for s in planes.segments if s.kind == HORIZONTAL]
     # Height of a horizontal plane where its points are (not its offset at the origin: a
     # plane tilted by a degree or two would be off by centimetres there).
-    h_z = [float(np.median(P[h.indices, 2])) for h in horizontals]
+    h_z = [float(median(P[h.indices, 2])) for h in horizontals]
     lowest_z = min(h_z) if h_z else 0.0
     if not verticals:
         return _no_obstacle(planes, "no vertical plane found", lowest_z)
@@ -383,7 +383,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             continue
         pts = P[seg.indices]
         n = seg.plane.normal
-        to_cam = cam - np.median(pts, axis=0)
+        to_cam = cam - median(pts, axis=0)
         to_cam[2] = 0.0
         if n @ to_cam < cos_face * np.linalg.norm(to_cam):
             continue
@@ -394,7 +394,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
         if v_hi - v_lo < config.min_riser_width_m:
             continue
         edges = _riser_edges(
-            P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(pts[:, 2]))
+            P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(pts[:, 2]))
         )
         if edges is None:
             continue
@@ -408,7 +408,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             _Riser(
                 seg.plane,
                 seg.indices,
-                float(np.median(pts @ u)),
+                float(median(pts @ u)),
                 z_lo,
                 z_hi,
                 float(v_lo),
@@ -436,7 +436,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
     u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     risers = [c for c, k in zip(cands, keep, strict=True) if k]
-    risers = [dataclasses.replace(r, s=float(np.median(P[r.idx] @ u))) for r in risers]
+    risers = [dataclasses.replace(r, s=float(median(P[r.idx] @ u))) for r in risers]
     risers.sort(key=lambda r: r.s)
 
     # Merge duplicates (one riser split in two planes).
@@ -449,7 +449,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             lat = P[idx] @ v
             v_lo, v_hi = percentile(lat, [2, 98])
             edges = _riser_edges(
-                P, plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(P[idx, 2]))
+                P, plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(P[idx, 2]))
             )
             if edges is None or abs(plane.normal[2]) > _MAX_MERGED_RISER_TILT:
                 # Parallel planes a few cm apart, or two faces whose union is no vertical
@@ -461,7 +461,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             merged[-1] = _Riser(
                 plane,
                 idx,
-                float(np.median(P[idx] @ u)),
+                float(median(P[idx] @ u)),
                 z_lo,
                 z_hi,
                 float(v_lo),
@@ -565,7 +565,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             inferred_first = True
     rises_seen = [chain[i][1] - chain[i - 1][1] for i in range(1, len(chain))]
     if inferred_first:
-        ground_z = ground_z - float(np.median(rises_seen)) if rises_seen else ground_z - config.min_rise_m
+        ground_z = ground_z - float(median(rises_seen)) if rises_seen else ground_z - config.min_rise_m
 
     steps: list[Step] = []
     prev_top = ground_z
@@ -731,7 +731,7 @@ def _face_error(
     q = P[sel]
     if len(q) < 3:
         return None
-    med = np.median(q, axis=0)
+    med = median(q, axis=0)
     rel = med - cam
     rng = float(np.linalg.norm(rel))
     if rng < 1e-6:
