@@ -150,16 +150,18 @@ def test_check_truth_accepts_or_raises_input_error(data):
 
 def test_pipeline_construction_warms_every_kernel_its_stages_use():
     """In a fresh process: after ``Pipeline(...)`` (no frame run yet) every Numba kernel of
-    the plane and MSAC stages has a compiled signature."""
+    the fill, cloud, plane and MSAC stages has a compiled signature."""
     code = """
 from stereo_terrain.pipeline import Pipeline, PipelineConfig, _warm_up_scene
 from stereo_terrain.msac import _kernels as mk
 from stereo_terrain.planes import _kernels as pk
+from stereo_terrain import _cloud_kernels as ck
+from stereo_terrain.stereo import _regions as rk
 calib, rig, left, right = _warm_up_scene()
 Pipeline(calib, rig, PipelineConfig(method="auto"))
 names = ["msac_costs"], ["best_oriented_hypothesis", "oriented_inliers", "refine_oriented_plane",
-    "triplets_from_draws", "region_msac"]
-cold = [n for mod, ns in zip((mk, pk), names) for n in ns if not getattr(mod, n).signatures]
+    "triplets_from_draws", "region_msac"], ["grid_cells_normals"], ["_label_stats"]
+cold = [n for mod, ns in zip((mk, pk, ck, rk), names) for n in ns if not getattr(mod, n).signatures]
 print("cold:", cold)
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

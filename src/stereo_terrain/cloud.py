@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from ._cloud_kernels import grid_cells_normals
 from .checks import check_fields
 from .errors import ConfigError, FrameError
 from .frames import Transform
@@ -253,6 +254,37 @@ def sample_grid(cloud: PointCloud, *, target_points: int = 12000, smooth_px: int
     )
 
 
+def _box_means(
+    disparity: DisparityMap, config: CloudConfig, target_points: int, smooth_px: int | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """What :func:`sample_disparity` filters over the whole image: ``dd`` (disparity plus
+    ``doffs``), ``valid`` (in the depth range), the box means ``density`` of ``valid`` and
+    ``acc`` of the valid disparities, the grid stride and the box half-size ``k``."""
+    rect = disparity.rectification
+    d = disparity.disparity
+    fb = rect.focal_px * rect.baseline_m
+    dd = d + np.float32(rect.doffs_px) if rect.doffs_px else d
+    # In the depth range: one OpenCV pass (NaN is outside every range), as 0/1 bytes whose
+    # bool view is the mask (issue 13: a third of this function's time went to the masks).
+    lo, hi = np.float32(fb / config.max_depth_m), np.float32(fb / config.min_depth_m)
+    in_range = cv2.inRange(dd, float(lo), float(hi))
+    np.minimum(in_range, 1, out=in_range)
+    valid = in_range.view(bool)
+    # Stride and normal scale per raw pixel: a rectification that keeps more of the view
+    # than the raw size (fov="keep") gives more samples, not a sparser grid.
+    raw_w, raw_h = rect.raw_size
+    stride = grid_stride((raw_h, raw_w), target_points)
+    k = smooth_px if smooth_px is not None else max(2, int(round(4 * raw_w / 640)))
+    ksize = (2 * k + 1, 2 * k + 1)
+    density = cv2.boxFilter(
+        in_range.astype(np.float32), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
+    )
+    acc = cv2.boxFilter(
+        np.where(valid, dd, np.float32(0.0)), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
+    )
+    return dd, valid, density, acc, stride, k
+
+
 def sample_disparity(
     disparity: DisparityMap,
     T: Transform,
@@ -290,53 +322,29 @@ def sample_disparity(
         raise FrameError(f"sample_disparity needs T_<frame>_camera_rect, got {T.name}")
     config = config or CloudConfig()
     rect = disparity.rectification
-    d = disparity.disparity
-    h, w = d.shape
+    h, w = disparity.disparity.shape
     fb = rect.focal_px * rect.baseline_m
-    dd = d + np.float32(rect.doffs_px) if rect.doffs_px else d
-    # In the depth range: one OpenCV pass (NaN is outside every range), as 0/1 bytes whose
-    # bool view is the mask (issue 13: a third of this function's time went to the masks).
-    lo, hi = np.float32(fb / config.max_depth_m), np.float32(fb / config.min_depth_m)
-    in_range = cv2.inRange(dd, float(lo), float(hi))
-    np.minimum(in_range, 1, out=in_range)
-    valid = in_range.view(bool)
-    # Stride and normal scale per raw pixel: a rectification that keeps more of the view
-    # than the raw size (fov="keep") gives more samples, not a sparser grid.
-    raw_w, raw_h = rect.raw_size
-    stride = grid_stride((raw_h, raw_w), target_points)
-    k = smooth_px if smooth_px is not None else max(2, int(round(4 * raw_w / 640)))
-    ksize = (2 * k + 1, 2 * k + 1)
-    cnt = cv2.boxFilter(
-        in_range.astype(np.float32), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
+    dd, valid, cnt, acc, stride, k = _box_means(disparity, config, target_points, smooth_px)
+    rr, cc, ru, rd, cl, cr, (gh, gw) = _grid_layout(h, w, stride, k)
+    # The cells, their normals (cross product of the tangents between the neighbours' box
+    # means, reprojected) and points: one compiled pass (issue 13), NumPy's arithmetic.
+    cells, n, pts = grid_cells_normals(
+        valid,
+        cnt,
+        acc,
+        dd,
+        rr,
+        cc,
+        ru,
+        rd,
+        cl,
+        cr,
+        float(fb),
+        float(rect.cx),
+        float(rect.cy),
+        float(rect.focal_px),
     )
-    acc = cv2.boxFilter(
-        np.where(valid, dd, np.float32(0.0)), -1, ksize, normalize=True, borderType=cv2.BORDER_CONSTANT
-    )
-    rr, cc, ru, rd, cl, cr, idx, (gh, gw) = _grid_cells(valid, cnt, stride, k)
-    cx, cy, f = rect.cx, rect.cy, rect.focal_px
-
-    def reproject(r: np.ndarray, c: np.ndarray, disp: np.ndarray) -> np.ndarray:
-        z = fb / disp
-        return np.column_stack([(c - cx) * z / f, (r - cy) * z / f, z])
-
-    def mean_at(r: np.ndarray, c: np.ndarray) -> np.ndarray:
-        return acc[r, c] / cnt[r, c]  # only where needed, not over the whole image
-
-    a = reproject(rr, cr, mean_at(rr, cr)) - reproject(rr, cl, mean_at(rr, cl))
-    b = reproject(rd, cc, mean_at(rd, cc)) - reproject(ru, cc, mean_at(ru, cc))
-    n = np.column_stack(
-        [
-            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
-        ]
-    )
-    norm = np.sqrt(np.einsum("ij,ij->i", n, n))
-    good = (norm > 0) & np.isfinite(norm)
-    n = n[good] / norm[good, None]
-    rr, cc, idx = rr[good], cc[good], idx[good]
-    centre = dd[rr, cc].astype(np.float64)
-    pts = reproject(rr, cc, centre)
+    rr, cc, idx = rr[cells], cc[cells], cells
     sigma = (pts[:, 2] ** 2) * (disparity_sigma_px / fb)
     conf = None if disparity.confidence is None else disparity.confidence[rr, cc].astype(np.float32)
     return GridSample(

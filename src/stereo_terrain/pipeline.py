@@ -461,11 +461,11 @@ class Pipeline:
         lap("disparity")
         cfg = self.config
         cam_sample = sample_disparity(
-            disp, Transform.identity("camera_rect"), cfg.cloud, target_points=cfg.orientation.target_points
+            disp, _identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
         )
         lap("cloud")
         rig_T = self.T_yaw_camera_rect
-        prior = None if rig_T is None else rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+        prior = None if rig_T is None else self._rig_up_camera(rig_T)
         gcfg = cfg.gravity
         if rig_T is not None:  # a check of the rig: a cheaper coarse estimate will do
             gcfg = dataclasses.replace(
@@ -519,6 +519,16 @@ class Pipeline:
             choice,
             self.config.method,
         )
+
+    def _rig_up_camera(self, rig_T: Transform) -> np.ndarray:
+        """The rig's up in the rectified camera frame (read-only), computed once per rig
+        transform rather than once per frame (issue 13)."""
+        cached: tuple[Transform, np.ndarray] | None = getattr(self, "_rig_up_cache", None)
+        if cached is None or cached[0] is not rig_T:
+            up = rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+            up.setflags(write=False)
+            cached = self._rig_up_cache = (rig_T, up)
+        return cached[1]
 
     def _level_from_scene(
         self, cam_sample: GridSample, coarse: GravityEstimate
@@ -607,6 +617,13 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+@functools.cache
+def _identity_camera_rect() -> Transform:
+    """The identity of ``camera_rect``, built once (a Transform checks its matrix when
+    built: issue 13)."""
+    return Transform.identity("camera_rect")
 
 
 _BACKGROUND: dict[int, ThreadPoolExecutor] = {}

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
 from .checks import check_fields, check_min
 from .errors import ConfigError
 from .msac import Plane
@@ -278,7 +279,7 @@ def _riser_edges(
     # slices of eight may hold a post). The bottom: the lowest slices (nothing stands
     # below a riser on its plane, while something in front, a box, may hide the bottom of
     # a wall behind it in the middle slices and make it look like a riser on the box).
-    return float(np.percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(np.percentile(highs, _EDGE_QUANTILE))
+    return float(percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(percentile(highs, _EDGE_QUANTILE))
 
 
 #: Lateral slices of a riser over which its edge heights are taken, and the percentiles
@@ -317,7 +318,7 @@ def _tread_front(
     s = (q @ u)[(lat > v_lo) & (lat < v_hi)]
     if len(s) < 10:
         return None
-    return float(np.percentile(s, 2))
+    return float(percentile(s, 2))
 
 
 def _axis_from_normal(n: np.ndarray) -> np.ndarray:
@@ -366,7 +367,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
     horizontals = [s for s in planes.segments if s.kind == HORIZONTAL]
     # Height of a horizontal plane where its points are (not its offset at the origin: a
     # plane tilted by a degree or two would be off by centimetres there).
-    h_z = [float(np.median(P[h.indices, 2])) for h in horizontals]
+    h_z = [float(median(P[h.indices, 2])) for h in horizontals]
     lowest_z = min(h_z) if h_z else 0.0
     if not verticals:
         return _no_obstacle(planes, "no vertical plane found", lowest_z)
@@ -382,18 +383,18 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             continue
         pts = P[seg.indices]
         n = seg.plane.normal
-        to_cam = cam - np.median(pts, axis=0)
+        to_cam = cam - median(pts, axis=0)
         to_cam[2] = 0.0
         if n @ to_cam < cos_face * np.linalg.norm(to_cam):
             continue
         u = _axis_from_normal(n)
         v = np.array([-u[1], u[0], 0.0])
         lat = pts @ v
-        v_lo, v_hi = np.percentile(lat, [2, 98])
+        v_lo, v_hi = percentile(lat, [2, 98])
         if v_hi - v_lo < config.min_riser_width_m:
             continue
         edges = _riser_edges(
-            P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(pts[:, 2]))
+            P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(pts[:, 2]))
         )
         if edges is None:
             continue
@@ -407,7 +408,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             _Riser(
                 seg.plane,
                 seg.indices,
-                float(np.median(pts @ u)),
+                float(median(pts @ u)),
                 z_lo,
                 z_hi,
                 float(v_lo),
@@ -465,7 +466,7 @@ def _assemble_along(
     cam = planes.camera_position
     u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
-    risers = [dataclasses.replace(r, s=float(np.median(P[r.idx] @ u))) for r in family]
+    risers = [dataclasses.replace(r, s=float(median(P[r.idx] @ u))) for r in family]
     risers.sort(key=lambda r: r.s)
 
     # Merge duplicates (one riser split in two planes).
@@ -476,9 +477,9 @@ def _assemble_along(
             idx = np.concatenate([a.idx, r.idx])
             plane = (Plane.estimate(P[idx]) or a.plane).oriented_toward(cam)
             lat = P[idx] @ v
-            v_lo, v_hi = np.percentile(lat, [2, 98])
+            v_lo, v_hi = percentile(lat, [2, 98])
             edges = _riser_edges(
-                P, plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(np.median(P[idx, 2]))
+                P, plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(P[idx, 2]))
             )
             if edges is None or abs(plane.normal[2]) > _MAX_MERGED_RISER_TILT:
                 # Parallel planes a few cm apart, or two faces whose union is no vertical
@@ -490,7 +491,7 @@ def _assemble_along(
             merged[-1] = _Riser(
                 plane,
                 idx,
-                float(np.median(P[idx] @ u)),
+                float(median(P[idx] @ u)),
                 z_lo,
                 z_hi,
                 float(v_lo),
@@ -594,7 +595,7 @@ def _assemble_along(
             inferred_first = True
     rises_seen = [chain[i][1] - chain[i - 1][1] for i in range(1, len(chain))]
     if inferred_first:
-        ground_z = ground_z - float(np.median(rises_seen)) if rises_seen else ground_z - config.min_rise_m
+        ground_z = ground_z - float(median(rises_seen)) if rises_seen else ground_z - config.min_rise_m
 
     steps: list[Step] = []
     prev_top = ground_z
@@ -656,7 +657,7 @@ def _classify_single_step(
     for _h, z, s_h, _v in h_info:
         if abs(z - top_z) < 1e-9:
             top_far = (
-                float(np.percentile(s_h[s_h > step.axis_position_m - 0.02], 98))
+                float(percentile(s_h[s_h > step.axis_position_m - 0.02], 98))
                 if np.any(s_h > step.axis_position_m - 0.02)
                 else None
             )
@@ -765,7 +766,7 @@ def _face_error(
     q = P[sel]
     if len(q) < 3:
         return None
-    med = np.median(q, axis=0)
+    med = median(q, axis=0)
     rel = med - cam
     rng = float(np.linalg.norm(rel))
     if rng < 1e-6:
@@ -893,7 +894,7 @@ def estimate_step_sigmas(
             # edges along the riser, which run on beyond a riser seen only in part)
             lat = v_all[on_riser & (np.abs(normals @ st.riser.normal) > _FACE_COS)]
             if len(lat) > 2:
-                lo, hi = np.percentile(lat, [2, 98])
+                lo, hi = percentile(lat, [2, 98])
                 # the riser's own extent (its samples' band may run on along the plane)
                 hi = min(hi, lo + st.width_m) if st.width_m is not None else hi
                 if hi - lo > 1e-3:

@@ -15,6 +15,7 @@ Two entry points:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -40,8 +41,8 @@ class Plane:
 
     def __post_init__(self) -> None:
         n = np.asarray(self.normal, dtype=np.float64).reshape(3)
-        norm = float(np.linalg.norm(n))
-        if not np.isfinite(norm) or norm < 1e-12:
+        norm = math.sqrt(float(n.dot(n)))  # np.linalg.norm's own sum, without its overhead
+        if not math.isfinite(norm) or norm < 1e-12:
             raise InputError(f"plane normal must be a finite non-zero 3-vector, got {n}")
         n = n / norm
         n.setflags(write=False)

@@ -87,6 +87,8 @@ def region_msac(
                 cost += c
                 if c < 1.0:
                     inl += 1
+                if cost >= best_cost:
+                    break  # cannot win; its inlier count is used only when it does
             if cost < best_cost:
                 best_cost = cost
                 best_n[0], best_n[1], best_n[2] = nx, ny, nz
@@ -138,6 +140,8 @@ def best_oriented_hypothesis(
         cost = 0.0
         for m in range(score.shape[0]):
             cost += point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos, True)
+            if cost >= best_cost:
+                break  # costs only grow: this one cannot win (the winner is summed whole)
         if cost < best_cost:
             best_cost = cost
             best_n[0], best_n[1], best_n[2] = nx, ny, nz

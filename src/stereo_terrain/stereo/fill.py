@@ -38,6 +38,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..msac import plane_msac
+from ._regions import connected_regions
 
 TEXTURE_MODES = ("total", "horizontal")
 
@@ -267,7 +268,7 @@ def _flat_regions(
     if valid is not None:
         flat[~valid] = 0
     flat = cv2.erode(flat, np.ones((3, 3), np.uint8))
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(flat, connectivity=4)
+    count, labels, stats = connected_regions(flat)  # OpenCV's, faster (issue 13)
     return count, labels, stats, gx, ill_posed
 
 
@@ -326,8 +327,7 @@ def _fill(out, config, max_disparity_px, regions: FlatRegions):
     out = disparity.copy()
     filled = np.zeros(disparity.shape, dtype=bool)
     h, w = disparity.shape
-    count, labels, stats, gx, ill_posed = (
-        regions.count,
+    labels, stats, gx, ill_posed = (
         regions.labels,
         regions.stats,
         regions.gx,
@@ -341,10 +341,11 @@ def _fill(out, config, max_disparity_px, regions: FlatRegions):
     min_area = config.min_region_fraction * h * w
     rng = np.random.default_rng(config.seed)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
-    for k in range(1, count):
+    # The regions large enough to fit, picked in one pass (issue 13: textured images have
+    # thousands of tiny flat specks); the same regions in the same order.
+    large = (stats[:, 4] >= min_area) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
+    for k in np.flatnonzero(large[1:]) + 1:
         x, y, bw, bh, area = stats[k]
-        if area < min_area or bw < 8 or bh < 4:
-            continue
         # Work in the region's bounding box grown by the ring.
         x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
         x1, y1 = min(w, x + bw + config.ring_px), min(h, y + bh + config.ring_px)

@@ -106,7 +106,8 @@ class OpenCVSGBM:
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
         n = check_max_disparity(max_disparity_px, pair.left.shape[1])
         raw = self._matcher(n).compute(pair.left, pair.right)
-        disp = raw.astype(np.float32) / 16.0
-        disp[raw < 0] = np.nan
+        disp = raw.astype(np.float32)
+        disp *= np.float32(1.0 / 16.0)  # exact (a power of two), in place
+        np.copyto(disp, np.float32(np.nan), where=raw < 0)
         invalidate_sourceless(disp, pair.rectification)
         return DisparityMap(disp, n, pair.rectification, None, self.name)

@@ -173,8 +173,13 @@ def measure_tiles(
             a = lrow[:, x0 : x0 + tw]
             b = rrow[:, x0 - off : x0 - off + tw]
             (_dx, dy), response = cv2.phaseCorrelate(a, b, win)
-            if float(a.std()) < _MIN_TILE_STD or float(b.std()) < _MIN_TILE_STD:
-                response = 0.0  # a flat tile correlates with anything (at zero shift)
+            # A flat tile correlates with anything (at zero shift). OpenCV's standard
+            # deviation of the uint8 tile: a tenth of NumPy's float one's time (issue 13).
+            if (
+                cv2.meanStdDev(left[y0 : y0 + th, x0 : x0 + tw])[1][0, 0] < _MIN_TILE_STD
+                or cv2.meanStdDev(right[y0 : y0 + th, x0 - off : x0 - off + tw])[1][0, 0] < _MIN_TILE_STD
+            ):
+                response = 0.0
             out.append((x0 + (tw - 1) / 2.0, dy, response))
     return np.asarray(out, dtype=np.float64)
 

@@ -1,0 +1,84 @@
+"""Issue 13: hand-written replacements of small NumPy calls give NumPy's bits."""
+
+import math
+
+import numpy as np
+
+from stereo_terrain.gravity import _cross3
+from stereo_terrain.msac import Plane
+
+
+def test_cross3_is_np_cross_bit_for_bit():
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        a, b = rng.normal(size=3), rng.normal(size=3)
+        a[rng.integers(3)] *= rng.choice([0.0, -0.0, 1.0])
+        for other in (b, np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+            assert _cross3(a, other).tobytes() == np.cross(a, other).tobytes()
+
+
+def test_plane_normalisation_is_np_linalg_norm():
+    rng = np.random.default_rng(1)
+    for _ in range(2000):
+        n = rng.normal(size=3) * 10.0 ** rng.uniform(-4, 4)
+        d = float(rng.normal())
+        p = Plane(n, d)
+        norm = float(np.linalg.norm(n))
+        assert p.normal.tobytes() == (n / norm).tobytes() and p.offset == d / norm
+        assert math.isclose(float(np.linalg.norm(p.normal)), 1.0)
+
+
+def test_stacked_eigh_is_one_call_per_matrix():
+    """The jackknife's stacked ``eigh`` gives each block what a call of its own gives."""
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(16, 3, 3))
+    A = A + A.transpose(0, 2, 1)
+    A[::3, 2, :] = A[::3, :, 2] = 0.0  # rank-deficient blocks too
+    w, V = np.linalg.eigh(A)
+    for b in range(len(A)):
+        wb, Vb = np.linalg.eigh(A[b])
+        assert wb.tobytes() == w[b].tobytes() and Vb.tobytes() == V[b].tobytes()
+
+
+def test_median_is_nanmedian_without_nans():
+    rng = np.random.default_rng(3)
+    for n in range(1, 300):
+        x = rng.random(n).astype(np.float32)
+        assert float(np.median(x)) == float(np.nanmedian(x))
+
+
+def test_percentile_is_np_percentile_bit_for_bit():
+    from stereo_terrain._numeric import percentile
+
+    rng = np.random.default_rng(4)
+    for t in range(3000):
+        n = int(rng.integers(1, 60)) if t % 10 else int(rng.integers(1, 3000))
+        a = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 3)
+        if t % 5 == 0:
+            a = np.round(a * 0.01, 0)  # ties, and -0.0 beside 0.0
+        q = [2, 98] if t % 3 == 0 else float(rng.choice([0, 2, 2.5, 50, 98, 100, rng.uniform(0, 100)]))
+        got, want = percentile(list(a) if t % 2 else a, q), np.percentile(a, q)
+        assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
+
+
+def test_percentile_hands_other_input_to_numpy():
+    from stereo_terrain._numeric import percentile
+
+    a32 = np.array([3.0, 1.0, 2.0], np.float32)
+    assert percentile(a32, 50) == np.percentile(a32, 50)
+    assert np.isnan(percentile([1.0, np.nan, 2.0], 50))
+
+
+def test_median_is_np_median_bit_for_bit():
+    from stereo_terrain._numeric import median
+
+    rng = np.random.default_rng(5)
+    for t in range(3000):
+        n = int(rng.integers(1, 80)) if t % 10 else int(rng.integers(1, 3000))
+        a = rng.normal(size=(n, 3) if t % 2 else n) * 10.0 ** rng.uniform(-3, 3)
+        if t % 5 == 0:
+            a = np.round(a * 0.01, 0)  # ties, and -0.0 beside 0.0
+        axis = 0 if a.ndim == 2 or t % 3 == 0 else None
+        got, want = median(a, axis=axis), np.median(a, axis=axis)
+        assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
+    assert np.isnan(median(np.array([1.0, np.nan])))
