@@ -21,6 +21,7 @@ up, both in the rectified left camera; a result whose gravity did not come from 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -137,8 +138,11 @@ def row(name: str, scores, grav=None, sigma=None) -> str:
 
 
 def real_scenes(config: PipelineConfig) -> None:
-    print("\n| real scene | expected | result | steps (rise / run, cm) | yaw deg | gravity | ms |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "\n| real scene | expected | result | steps (rise / run, cm) | yaw deg | gravity | "
+        "up vs planes alone, deg | ms |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for name, folder, left, right, calib, expected in REAL_SCENES:
         d = DATA / folder
         if not d.is_dir():
@@ -160,7 +164,21 @@ def real_scenes(config: PipelineConfig) -> None:
         grav = data["gravity_source"] + (
             f" +-{g['sigma_deg']:.1f} deg" if g.get("sigma_deg") is not None else ""
         )
-        print(f"| {name} | {expected} | {data['obstacle']} | {steps} | {yaw} | {grav} | {ms:.0f} |")
+        print(
+            f"| {name} | {expected} | {data['obstacle']} | {steps} | {yaw} | {grav} | "
+            f"{_planes_alone_deg(result, config, pipeline.calibration, L, R)} | {ms:.0f} |"
+        )
+
+
+def _planes_alone_deg(result, config: PipelineConfig, calibration, left, right) -> str:
+    """Angle between the result's up and the up of the planes alone (the image's vertical
+    lines off, ``vanishing: {enabled: false}``); '-' for a version without them."""
+    try:
+        alone = dataclasses.replace(config, vanishing=dataclasses.replace(config.vanishing, enabled=False))
+    except (AttributeError, TypeError):
+        return "-"
+    other = Pipeline(calibration, None, alone).run(left, right)
+    return f"{angle_deg(_up(result.T_yaw_camera_rect), _up(other.T_yaw_camera_rect)):.1f}"
 
 
 def main() -> None:

@@ -130,11 +130,12 @@ def test_combine_agreeing_estimates_weights_them_by_their_variances():
     assert angle_deg(c.up, a.up) == pytest.approx(0.8, abs=0.01)
 
 
-def test_combine_lines_overrule_a_conflicting_planes_estimate():
+def test_combine_conflicting_estimates_keeps_the_planes_unless_told_to_overrule():
     planes = _estimate([0.0, 0.0, 1.0], 1.0)
     tilt = math.radians(8.0)
     lines = _estimate([0.0, math.sin(tilt), math.cos(tilt)], 0.5)
-    c = combine_with_lines(planes, lines)
+    assert combine_with_lines(planes, lines) is planes
+    c = combine_with_lines(planes, lines, overrule=True)
     assert np.allclose(c.up, lines.up) and c.sigma_deg == lines.sigma_deg and "overrules" in c.reason
     # One that does not count gives way to the other.
     assert combine_with_lines(_estimate([0, 0, 1], math.inf), lines) is lines

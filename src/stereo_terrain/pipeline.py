@@ -479,7 +479,9 @@ class Pipeline:
             T, source, before_planes = self._level_from_scene(cam_sample, coarse)
             lines = None if lines_job is None else lines_job.result()
             if lines is not None and lines.ok:
-                T, source, before_planes = _level_with_lines(T, source, before_planes, lines)
+                T, source, before_planes = _level_with_lines(
+                    T, source, before_planes, lines, cfg.vanishing.overrule_planes
+                )
         lap("gravity")
         samples = transform_sample(cam_sample, T)
         planes = self._extract_planes(samples, pair.left)
@@ -487,7 +489,9 @@ class Pipeline:
         if lines is not None and lines.ok:
             # The final planes' up and the lines' (in the same, levelled frame).
             fine = combine_with_lines(
-                fine, dataclasses.replace(lines, up=T.apply_vectors(lines.up), frame=fine.frame)
+                fine,
+                dataclasses.replace(lines, up=T.apply_vectors(lines.up), frame=fine.frame),
+                overrule=cfg.vanishing.overrule_planes,
             )
         if source == "scene" and fine.ok:
             # The last, small correction from the final planes (more of them, tighter).
@@ -731,17 +735,18 @@ def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple
 
 
 def _level_with_lines(
-    T: Transform, source: str, before: GravityEstimate, lines: GravityEstimate
+    T: Transform, source: str, before: GravityEstimate, lines: GravityEstimate, overrule: bool
 ) -> tuple[Transform, str, GravityEstimate]:
     """``T_yaw_camera_rect`` levelled again with the up of the image's vertical lines
     (:func:`combine_with_lines` of the planes' start and the lines), before the planes are
-    extracted in it: where the lines overrule a start that a junk plane tilted, the plane
-    stage then classifies the faces in the right frame."""
+    extracted in it: where the lines fill in for a start without a sigma (or, with
+    ``vanishing.overrule_planes``, overrule one that a junk plane tilted), the plane stage
+    then classifies the faces in the lines' frame."""
     start_up = T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
     start = GravityEstimate(
         start_up, "camera_rect", before.sigma_deg, source == "scene", reason=before.reason
     )
-    both = combine_with_lines(start, lines)
+    both = combine_with_lines(start, lines, overrule=overrule)
     return levelling(T.apply_vectors(both.up)) @ T, "scene", both
 
 
