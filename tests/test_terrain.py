@@ -120,6 +120,39 @@ def test_wall_is_not_a_step():
     assert build_terrain(full).obstacle == NONE
 
 
+def test_a_face_whose_plane_goes_on_below_the_ground_is_not_a_riser():
+    """A vertical face 0-0.17 m high with a tread on top, but its plane also holds points
+    0.3-0.6 m below the "ground" (seen past the ground's edge: the ground is a table top or
+    a landing, not the floor this face stands on; the real OAK-D desk): no step. The same
+    face without the points below is one."""
+    import dataclasses
+
+    full = _stairs(n_steps=1, rise=0.17)
+    assert build_terrain(full).obstacle != NONE
+    riser = next(s for s in full.segments if s.kind == VERTICAL)
+    P = full.samples.points
+    face = P[riser.indices]
+    below = face[: len(face) // 3].copy()
+    below[:, 2] = -0.3 - below[:, 2] * (0.3 / 0.17)  # the same plane, 0.3-0.6 m below the ground
+    pts = np.vstack([P, below]).astype(np.float32)
+    n = len(pts)
+    samples = dataclasses.replace(
+        full.samples,
+        points=pts,
+        normals=np.vstack(
+            [full.samples.normals, np.tile(full.samples.normals[riser.indices[0]], (len(below), 1))]
+        ),
+        sigma_m=np.full(n, 0.005, np.float32),
+        rows=np.zeros(n, np.int32),
+        cols=np.concatenate([full.samples.cols, np.full(len(below), 300, np.int32)]),
+        grid_index=np.arange(n, dtype=np.int32),
+        grid_shape=(1, n),
+    )
+    idx = np.concatenate([riser.indices, np.arange(len(P), n)])
+    segs = tuple(dataclasses.replace(s, indices=idx) if s is riser else s for s in full.segments)
+    assert build_terrain(dataclasses.replace(full, segments=segs, samples=samples)).obstacle == NONE
+
+
 def test_needs_gravity_aligned_planes():
     full = _stairs()
     with pytest.raises(ConfigError):

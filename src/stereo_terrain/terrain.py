@@ -331,6 +331,11 @@ def _no_obstacle(planes: PlaneSet, note: str, ground_z: float = 0.0) -> StairMod
     return StairModel(NONE, (), 0.0, ground_z, Polytope(np.zeros((0, 3))), planes.frame, note)
 
 
+#: A riser's points may not reach more than ``edge_margin_m`` below the level it stands on:
+#: this low percentile of their heights (robust to a few stray points) is the test.
+_LOW_INLIER_PCT = 5.0
+
+
 def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> StairModel:
     """Assemble a staircase, a box, or nothing from unordered planes.
 
@@ -565,6 +570,10 @@ def _assemble_along(
         else:
             if cand.z_lo < level - config.edge_margin_m:
                 continue  # reaches below the current level: a wall or a side face
+            if float(percentile(P[cand.idx, 2], _LOW_INLIER_PCT)) < level - config.edge_margin_m:
+                # Its band of edges sits on this level, but the plane's own points go on
+                # below it: a wall or a junk plane through several objects, not a riser.
+                continue
             # Its foot may be out of sight: behind the nosing when that level is above the
             # cameras, or below the image's bottom edge (then its bottom is the image's).
             hidden = level > cam[2] - config.edge_margin_m or cand.foot_hidden

@@ -78,11 +78,10 @@ class VerticalLinesConfig:
     seed : int
     overrule_planes : bool
         Where the planes' estimate and the lines' disagree by more than three combined
-        sigmas, take the lines' (True) or keep the planes' (False, the default; see
+        sigmas, take the lines' (True, the default) or keep the planes' (False; see
         :func:`combine_with_lines`). On 60 realistic rendered scenes overruling puts 75% of
-        them within 2 deg (73% without); on the real OAK-D `desk` it levels the frame so
-        that a wall behind the desk and the desk top pass for a 0.52 m step
-        (docs/benchmarks.md).
+        them within 2 deg (73% without); on the real scenes the lines' up is the one that
+        makes their door frames and wall slats vertical (docs/benchmarks.md).
     """
 
     enabled: bool = True
@@ -96,7 +95,7 @@ class VerticalLinesConfig:
     structure_sigma_deg: float = 0.3
     bootstrap: int = 30
     seed: int = 0
-    overrule_planes: bool = False
+    overrule_planes: bool = True
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -251,7 +250,7 @@ def up_from_vertical_lines(
 
 
 def combine_with_lines(
-    planes: GravityEstimate, lines: GravityEstimate, *, conflict_sigmas: float = 3.0, overrule: bool = False
+    planes: GravityEstimate, lines: GravityEstimate, *, conflict_sigmas: float = 3.0, overrule: bool = True
 ) -> GravityEstimate:
     """The planes' up and the lines' up (same frame) as one estimate.
 
