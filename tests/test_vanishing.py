@@ -85,7 +85,7 @@ def _true_up(R: np.ndarray) -> np.ndarray:
     return R @ np.array([0.0, 0.0, 1.0])
 
 
-@settings(max_examples=15, deadline=None)
+@settings(max_examples=15, deadline=None, derandomize=True)  # same examples in every run
 @given(roll=st.floats(-10.0, 10.0), pitch=st.floats(-5.0, 30.0), seed=st.integers(0, 2**16))
 def test_drawn_vertical_lines_give_up(roll, pitch, seed):
     R = _camera_R(roll, pitch)
