@@ -110,3 +110,22 @@ def test_disparity_from_fixed_point_is_the_numpy_passes_bit_for_bit():
         invalidate_sourceless(want, r)
         got = disparity_from_fixed_point(raw, *(_NO_MASK if m is None else m for m in masks))
         assert got.dtype == np.float32 and got.tobytes() == want.tobytes()
+
+
+def test_planes_from_triplets_is_np_cross_and_norm_bit_for_bit():
+    from stereo_terrain.msac import planes_from_triplets
+
+    rng = np.random.default_rng(6)
+    for t in range(1000):
+        k = int(rng.integers(0, 70))
+        dtype = np.float32 if t % 3 == 0 else np.float64
+        p0, p1, p2 = ((rng.normal(size=(k, 3)) * 10.0 ** rng.uniform(-3, 3)).astype(dtype) for _ in range(3))
+        if t % 5 == 0:
+            p2 = p1.copy()  # collinear
+        n = np.cross(p1 - p0, p2 - p0)
+        norm = np.linalg.norm(n, axis=1)
+        ok = norm > 1e-9
+        n = n / np.where(ok, norm, 1.0)[:, None]
+        want = (n, -np.einsum("ij,ij->i", n, p0), ok)
+        got = planes_from_triplets(p0, p1, p2)
+        assert all(g.dtype == w.dtype and g.tobytes() == w.tobytes() for g, w in zip(got, want, strict=True))
