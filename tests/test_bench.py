@@ -157,11 +157,15 @@ from stereo_terrain.msac import _kernels as mk
 from stereo_terrain.planes import _kernels as pk
 from stereo_terrain import _cloud_kernels as ck
 from stereo_terrain.stereo import _regions as rk
+from stereo_terrain import _terrain_kernels as tk
+from stereo_terrain.stereo import _disparity_kernels as dk
 calib, rig, left, right = _warm_up_scene()
 Pipeline(calib, rig, PipelineConfig(method="auto"))
-names = ["msac_costs"], ["best_oriented_hypothesis", "oriented_inliers", "refine_oriented_plane",
-    "triplets_from_draws", "region_msac"], ["grid_cells_normals"], ["_label_stats"]
-cold = [n for mod, ns in zip((mk, pk, ck, rk), names) for n in ns if not getattr(mod, n).signatures]
+# (the orientation method's scoring, inliers, refinement and triplets run inside oriented_round)
+names = ["msac_costs"], ["region_msac", "oriented_round"], ["grid_cells_normals"], ["_label_stats"], [
+    "riser_edge_slices"], ["disparity_from_fixed_point"]
+mods = (mk, pk, ck, rk, tk, dk)
+cold = [n for mod, ns in zip(mods, names) for n in ns if not getattr(mod, n).signatures]
 print("cold:", cold)
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -82,3 +82,50 @@ def test_median_is_np_median_bit_for_bit():
         got, want = median(a, axis=axis), np.median(a, axis=axis)
         assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
     assert np.isnan(median(np.array([1.0, np.nan])))
+
+
+def test_disparity_from_fixed_point_is_the_numpy_passes_bit_for_bit():
+    """Issue 13: the OpenCV backend's one compiled pass (scaling, OpenCV's invalid value,
+    ``invalidate_sourceless``) gives the four NumPy passes' bits, half-pixel matches (ties
+    of ``rint``) and matches off the image included."""
+    import dataclasses
+
+    from stereo_terrain.rectify import compute_rectification
+    from stereo_terrain.stereo import invalidate_sourceless
+    from stereo_terrain.stereo._disparity_kernels import disparity_from_fixed_point
+    from stereo_terrain.stereo.opencv import _NO_MASK
+    from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+    rectification = compute_rectification(render_scene(default_scene_spec()).calibration)
+    w, h = rectification.image_size
+    rng = np.random.default_rng(5)
+    for t in range(6):
+        raw = rng.integers(-20, 16 * 80, size=(h, w)).astype(np.int16)
+        raw[:, :3] = rng.integers(0, 16 * 3, size=(h, 3)) // 8 * 8  # x - d on .5: rint's ties
+        masks = [rng.random((h, w)) < 0.9 if t & 1 else None, rng.random((h, w)) < 0.9 if t & 2 else None]
+        r = dataclasses.replace(rectification, valid_left=masks[0], valid_right=masks[1])
+        want = raw.astype(np.float32)
+        want *= np.float32(1.0 / 16.0)
+        np.copyto(want, np.float32(np.nan), where=raw < 0)
+        invalidate_sourceless(want, r)
+        got = disparity_from_fixed_point(raw, *(_NO_MASK if m is None else m for m in masks))
+        assert got.dtype == np.float32 and got.tobytes() == want.tobytes()
+
+
+def test_planes_from_triplets_is_np_cross_and_norm_bit_for_bit():
+    from stereo_terrain.msac import planes_from_triplets
+
+    rng = np.random.default_rng(6)
+    for t in range(1000):
+        k = int(rng.integers(0, 70))
+        dtype = np.float32 if t % 3 == 0 else np.float64
+        p0, p1, p2 = ((rng.normal(size=(k, 3)) * 10.0 ** rng.uniform(-3, 3)).astype(dtype) for _ in range(3))
+        if t % 5 == 0:
+            p2 = p1.copy()  # collinear
+        n = np.cross(p1 - p0, p2 - p0)
+        norm = np.linalg.norm(n, axis=1)
+        ok = norm > 1e-9
+        n = n / np.where(ok, norm, 1.0)[:, None]
+        want = (n, -np.einsum("ij,ij->i", n, p0), ok)
+        got = planes_from_triplets(p0, p1, p2)
+        assert all(g.dtype == w.dtype and g.tobytes() == w.tobytes() for g, w in zip(got, want, strict=True))

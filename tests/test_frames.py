@@ -111,3 +111,16 @@ def test_bad_rig_files(tmp_path, text, match):
 def test_missing_rig_file(tmp_path):
     with pytest.raises(InputError, match="not found"):
         load_rig(tmp_path / "nope.yaml")
+
+
+@given(angles, angles, angles, st.tuples(coords, coords, coords), angles, st.tuples(coords, coords, coords))
+def test_products_and_inverses_are_what_a_checked_construction_gives(r, p, y, t, r2, t2):
+    """Issue 13: products and inverses skip the rigidity check; they are the transforms the
+    checked constructor builds from the same matrix (equal, read-only, rigid)."""
+    A, B = _T(r, p, y, t, "a", "b"), _T(r2, 0.3, -r2, t2, "b", "c")
+    for got in (A @ B, A.inverse(), (A @ B).inverse()):
+        checked = Transform(got.matrix, got.to_frame, got.from_frame)  # raises if not rigid
+        assert (got.to_frame, got.from_frame) == (checked.to_frame, checked.from_frame)
+        assert got.matrix.tobytes() == checked.matrix.tobytes()
+        assert got.matrix.dtype == np.float64 and not got.matrix.flags.writeable
+    assert (A @ B).name == "T_a_c" and A.inverse().name == "T_b_a"

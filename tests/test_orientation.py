@@ -129,3 +129,85 @@ def test_adaptive_hypotheses_are_reported():
         OrientationConfig(max_hypotheses_per_plane=50)
     with pytest.raises(ConfigError):
         OrientationConfig(confidence=1.5)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_one_batch_round_is_the_general_round_bit_for_bit(seed):
+    """Issue 13: the fused compiled round (one batch, the default) draws what the general
+    round draws and gives the same plane, inliers and ratio, bit for bit."""
+    from stereo_terrain.planes import orientation as o
+
+    samples = _samples(noise_m=0.004, outliers=0.1, seed=seed)
+    config = OrientationConfig(score_points=300 + 200 * seed)
+    P, N = samples.points, samples.normals
+    thr = np.clip(3.0 * samples.sigma_m, 0.012, 0.05).astype(np.float32)
+    lut, gr, gc = o.grid_lookup(samples)
+    up = np.array([0.0, 0.0, 1.0])
+    orient = (
+        up,
+        float(np.cos(np.radians(6.0))),
+        float(np.sin(np.radians(6.0))),
+        (1.0 / thr).astype(np.float32),
+    )
+    agree = float(np.cos(np.radians(config.normal_agreement_deg)))
+    remaining = np.random.default_rng(seed).random(len(P)) < 0.8  # a cloud with planes taken out
+    rest = np.flatnonzero(remaining)
+    first = rest[::2]
+    weights = np.random.default_rng(seed).uniform(0.1, 1.0, len(P)) if seed % 2 else np.ones(len(P))
+    rest_view = (rest, P[rest], N[rest], thr[rest], weights[rest] if seed % 2 else None)
+    cfg_general = (
+        config
+        if seed % 2 == 0
+        else OrientationConfig(score_points=config.score_points, confidence_weights=True)
+    )
+    for r in range(3):
+        a = o._best_plane(
+            P,
+            N,
+            thr,
+            lut,
+            gr,
+            gc,
+            first,
+            remaining,
+            rest_view,
+            np.random.default_rng(r),
+            cfg_general,
+            orient,
+            agree,
+        )
+        b = o._one_batch_round(
+            P, N, thr, weights, lut, gr, gc, first, remaining, rest, np.random.default_rng(r), config, orient
+        )
+        assert a is not None and b is not None
+        assert a[0].normal.tobytes() == b[0].normal.tobytes() and a[0].offset == b[0].offset
+        assert np.array_equal(np.flatnonzero(a[1]), b[1])
+        assert a[2] == b[2] and a[3] == b[3]
+
+
+def test_one_batch_round_without_a_valid_hypothesis_is_none():
+    from stereo_terrain.planes import orientation as o
+
+    samples = _samples()
+    thr = np.full(len(samples), 0.02, np.float32)
+    lut, gr, gc = o.grid_lookup(samples)
+    orient = (np.array([0.0, 0.0, 1.0]), 1.0, 0.0, (1.0 / thr).astype(np.float32))  # nothing passes
+    remaining = np.zeros(len(samples), dtype=bool)
+    remaining[:3] = True  # three points, far apart in the grid: no triplet
+    rest = np.flatnonzero(remaining)
+    got = o._one_batch_round(
+        samples.points,
+        samples.normals,
+        thr,
+        np.ones(len(samples)),
+        lut,
+        gr,
+        gc,
+        rest,
+        remaining,
+        rest,
+        np.random.default_rng(0),
+        OrientationConfig(),
+        orient,
+    )
+    assert got is None

@@ -316,3 +316,55 @@ def test_a_railing_with_more_points_than_the_risers_does_not_set_the_stair_axis(
     assert abs(model.yaw_rad) < np.radians(2.0)
     for s in model.steps:
         assert s.rise_m == pytest.approx(0.17, abs=EXACT_M)
+
+
+def _riser_edges_numpy(P, plane, v, v_lo, v_hi, *, thr, seed_z):
+    """``terrain._riser_edges`` as it was in NumPy (before issue 13's kernel)."""
+    from stereo_terrain._numeric import percentile
+    from stereo_terrain.terrain import _EDGE_BINS, _EDGE_BOTTOM_QUANTILE, _EDGE_GAP_M, _EDGE_QUANTILE
+
+    near = plane.residuals(P) < thr
+    lat = P[near] @ v
+    keep = (lat > v_lo) & (lat < v_hi)
+    z, lat = P[near, 2][keep], lat[keep]
+    if len(z) == 0:
+        return None
+    order = np.argsort(z)
+    z, lat = z[order], lat[order]
+    k = int(np.clip(np.searchsorted(z, seed_z), 0, len(z) - 1))
+    gaps = np.flatnonzero(np.diff(z) > _EDGE_GAP_M)
+    lo_i = int(gaps[gaps < k].max()) + 1 if np.any(gaps < k) else 0
+    hi_i = int(gaps[gaps >= k].min()) + 1 if np.any(gaps >= k) else len(z)
+    z, lat = z[lo_i:hi_i], lat[lo_i:hi_i]
+    bins = np.clip(((lat - v_lo) / max(v_hi - v_lo, 1e-9) * _EDGE_BINS).astype(int), 0, _EDGE_BINS - 1)
+    lows, highs = [], []
+    for b in range(_EDGE_BINS):
+        zb = z[bins == b]
+        if len(zb) >= 3:
+            lows.append(zb[int(0.02 * (len(zb) - 1) + 0.5)])
+            highs.append(zb[int(0.98 * (len(zb) - 1) + 0.5)])
+    if not lows:
+        return float(z[int(0.02 * (len(z) - 1) + 0.5)]), float(z[int(0.98 * (len(z) - 1) + 0.5)])
+    return float(percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(percentile(highs, _EDGE_QUANTILE))
+
+
+def test_riser_edges_kernel_is_the_numpy_version_bit_for_bit():
+    """Issue 13: the compiled slices give NumPy's edges (ties in height, gaps, empty and
+    narrow extents, slices with fewer than three samples)."""
+    from stereo_terrain.msac import Plane
+    from stereo_terrain.terrain import _riser_edges
+
+    rng = np.random.default_rng(0)
+    for t in range(1500):
+        n = int(rng.integers(0, 400))
+        z = rng.normal(0.2, 0.2, n) * rng.choice([20, 200, 1e6])
+        P = np.column_stack([rng.normal(0, 0.3, n), rng.uniform(-1, 1, n), np.round(z, 0) / 100])
+        if t % 3 == 0:
+            P[: n // 2, 2] += 0.3  # a gap in height
+        plane = Plane(np.array([1.0, rng.normal(0, 0.1), 0.0]), rng.normal(0, 0.1))
+        v = np.array([0.0, 1.0, 0.0])
+        v_lo, v_hi = sorted(rng.uniform(-1.2, 1.2, 2))
+        kw = {"thr": float(rng.uniform(0.05, 1.0)), "seed_z": float(rng.normal(0.2, 0.3))}
+        assert _riser_edges(P, plane, v, v_lo, v_hi, **kw) == _riser_edges_numpy(
+            P, plane, v, v_lo, v_hi, **kw
+        )

@@ -93,6 +93,18 @@ class Transform:
         m.setflags(write=False)
         object.__setattr__(self, "matrix", m)
 
+    @classmethod
+    def _trusted(cls, matrix: np.ndarray, to_frame: str, from_frame: str) -> Transform:
+        """A transform whose ``matrix`` (a new float64 array, made read-only here) is known
+        to be rigid: the product or inverse of checked transforms. Skips the check that
+        ``__post_init__`` runs on every construction (issue 13: a few of them per frame)."""
+        T = object.__new__(cls)
+        matrix.setflags(write=False)
+        object.__setattr__(T, "matrix", matrix)
+        object.__setattr__(T, "to_frame", to_frame)
+        object.__setattr__(T, "from_frame", from_frame)
+        return T
+
     @property
     def name(self) -> str:
         return f"T_{self.to_frame}_{self.from_frame}"
@@ -121,7 +133,7 @@ class Transform:
         m = np.eye(4)
         m[:3, :3] = r.T
         m[:3, 3] = -r.T @ self.translation
-        return Transform(m, self.from_frame, self.to_frame)
+        return Transform._trusted(m, self.from_frame, self.to_frame)
 
     def __matmul__(self, other: Transform) -> Transform:
         if not isinstance(other, Transform):
@@ -131,7 +143,8 @@ class Transform:
                 f"cannot compose {self.name} @ {other.name}: frame '{self.from_frame}' "
                 f"does not chain with '{other.to_frame}'"
             )
-        return Transform(self.matrix @ other.matrix, self.to_frame, other.from_frame)
+        # The product of two checked rigid transforms is rigid (to rounding): not checked again.
+        return Transform._trusted(self.matrix @ other.matrix, self.to_frame, other.from_frame)
 
     def apply(self, points: np.ndarray) -> np.ndarray:
         """Transform points.

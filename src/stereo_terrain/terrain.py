@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
+from ._terrain_kernels import riser_edge_slices
 from .checks import check_fields, check_min
 from .errors import ConfigError
 from .msac import Plane
@@ -255,26 +256,14 @@ def _riser_edges(
     """
     near = plane.residuals(P) < thr
     lat = P[near] @ v
-    keep = (lat > v_lo) & (lat < v_hi)
-    z, lat = P[near, 2][keep], lat[keep]
-    if len(z) == 0:
+    # The rest (extent, sort, connected heights, slices) in one compiled pass (issue 13).
+    kept, lows, highs, lo_all, hi_all = riser_edge_slices(
+        P[near, 2], lat, float(v_lo), float(v_hi), float(seed_z), _EDGE_GAP_M, _EDGE_BINS
+    )
+    if kept == 0:
         return None
-    order = np.argsort(z)
-    z, lat = z[order], lat[order]
-    k = int(np.clip(np.searchsorted(z, seed_z), 0, len(z) - 1))
-    gaps = np.flatnonzero(np.diff(z) > _EDGE_GAP_M)
-    lo_i = int(gaps[gaps < k].max()) + 1 if np.any(gaps < k) else 0
-    hi_i = int(gaps[gaps >= k].min()) + 1 if np.any(gaps >= k) else len(z)
-    z, lat = z[lo_i:hi_i], lat[lo_i:hi_i]
-    bins = np.clip(((lat - v_lo) / max(v_hi - v_lo, 1e-9) * _EDGE_BINS).astype(int), 0, _EDGE_BINS - 1)
-    lows, highs = [], []
-    for b in range(_EDGE_BINS):
-        zb = z[bins == b]  # still sorted: quantiles are look-ups
-        if len(zb) >= 3:
-            lows.append(zb[int(0.02 * (len(zb) - 1) + 0.5)])
-            highs.append(zb[int(0.98 * (len(zb) - 1) + 0.5)])
-    if not lows:
-        return float(z[int(0.02 * (len(z) - 1) + 0.5)]), float(z[int(0.98 * (len(z) - 1) + 0.5)])
+    if len(lows) == 0:
+        return float(lo_all), float(hi_all)
     # The top: a high percentile (a slice at the riser's ends may see less of it, two
     # slices of eight may hold a post). The bottom: the lowest slices (nothing stands
     # below a riser on its plane, while something in front, a box, may hide the bottom of

@@ -265,3 +265,76 @@ def triplets_from_draws(
         out[n, 0], out[n, 1], out[n, 2] = i0, j[0], j[1]
         n += 1
     return out[:n]
+
+
+@njit(cache=True, nogil=True)
+def oriented_round(
+    points: np.ndarray,
+    normals: np.ndarray,
+    threshold: np.ndarray,
+    inv_threshold: np.ndarray,
+    weights: np.ndarray,
+    grid_lut: np.ndarray,
+    grid_row: np.ndarray,
+    grid_col: np.ndarray,
+    first: np.ndarray,
+    offsets: np.ndarray,
+    remaining: np.ndarray,
+    count: int,
+    rest: np.ndarray,
+    score: np.ndarray,
+    up: np.ndarray,
+    cos_tol: float,
+    sin_tol: float,
+    agreement_cos: float,
+    iterations: int,
+) -> tuple[bool, np.ndarray, float, np.ndarray, float, int]:  # pragma: no cover - compiled
+    """One MSAC round of the orientation method without adaptive batches, in one call
+    (issue 13: the Python between the kernels cost more than the kernels): the triplets
+    from the draws (:func:`triplets_from_draws`), the cheapest oriented hypothesis scored
+    on ``rest[score]`` (:func:`best_oriented_hypothesis`), its IRLS refinement on the
+    points ``rest`` (:func:`refine_oriented_plane` on ``points[rest]``, the same sums in
+    the same order) and the inlier ratio on the scored points.
+
+    ``weights`` are per point (all of them, not only ``rest``).
+
+    Returns ``(found, normal, offset, inliers (M,) int64 ascending, ratio, hypotheses)``;
+    ``found`` is False when no triplet gave a valid oriented hypothesis.
+    """
+    trip = triplets_from_draws(grid_lut, grid_row, grid_col, first, offsets, remaining, count)
+    scored = np.empty(score.shape[0], dtype=np.int64)
+    for m in range(score.shape[0]):
+        scored[m] = rest[score[m]]
+    n, d, cost = best_oriented_hypothesis(
+        points, normals, inv_threshold, trip, scored, up, cos_tol, sin_tol, agreement_cos
+    )
+    empty = np.empty(0, dtype=np.int64)
+    if not cost < np.inf:
+        return False, n, d, empty, 0.0, trip.shape[0]
+    pr = np.empty((rest.shape[0], 3), dtype=points.dtype)
+    nr = np.empty((rest.shape[0], 3), dtype=normals.dtype)
+    tr = np.empty(rest.shape[0], dtype=threshold.dtype)
+    wr = np.empty(rest.shape[0], dtype=weights.dtype)
+    for k in range(rest.shape[0]):
+        i = rest[k]
+        pr[k, 0], pr[k, 1], pr[k, 2] = points[i, 0], points[i, 1], points[i, 2]
+        nr[k, 0], nr[k, 1], nr[k, 2] = normals[i, 0], normals[i, 1], normals[i, 2]
+        tr[k] = threshold[i]
+        wr[k] = weights[i]
+    n, d, inl_r = refine_oriented_plane(pr, nr, tr, wr, n, d, up, cos_tol, sin_tol, agreement_cos, iterations)
+    hits = 0
+    for m in range(score.shape[0]):
+        if inl_r[score[m]]:
+            hits += 1
+    ratio = hits / score.shape[0] if score.shape[0] > 0 else 0.0
+    total = 0
+    for k in range(rest.shape[0]):
+        if inl_r[k]:
+            total += 1
+    idx = np.empty(total, dtype=np.int64)
+    j = 0
+    for k in range(rest.shape[0]):
+        if inl_r[k]:
+            idx[j] = rest[k]
+            j += 1
+    return True, n, d, idx, ratio, trip.shape[0]

@@ -316,6 +316,50 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config
     return plane, inl, ratio, hypotheses
 
 
+def _one_batch_round(P, N, thr, weights, lut, gr, gc, first, remaining, rest, rng, config, orient):
+    """:func:`_best_plane` for one batch of hypotheses per round (``max_hypotheses_per_plane
+    == hypotheses_per_plane``, the default): the same draws from ``rng`` in the same order,
+    then the round in one compiled call (:func:`._kernels.oriented_round`), the same plane
+    and inliers bit for bit. Returns ``(plane, inlier indices (ascending), inlier ratio on
+    the scored subset, samples drawn)`` or None."""
+    from ._kernels import oriented_round
+
+    up, cos_tol, sin_tol, inv_thr = orient
+    batch = config.hypotheses_per_plane
+    radius = config.sample_radius_cells
+    # local_triplets' draws, then the scored subset's (the order of _best_plane).
+    # rng.choice(first, size) with replacement is first[rng.integers(0, len(first), size)]
+    # (NumPy's own definition: the same draws), without choice's Python overhead.
+    i0 = first[rng.integers(0, len(first), size=batch * 2)]
+    off = rng.integers(-radius, radius + 1, size=(batch * 2, 2, 2))
+    score = rng.choice(len(rest), size=min(config.score_points, len(rest)), replace=False)
+    agree_cos = float(np.cos(np.radians(config.normal_agreement_deg)))
+    ok, n, d, idx, ratio, drawn = oriented_round(
+        P,
+        N,
+        thr,
+        inv_thr,
+        weights,
+        lut,
+        gr,
+        gc,
+        i0,
+        off,
+        remaining,
+        batch,
+        rest,
+        score,
+        up,
+        cos_tol,
+        sin_tol,
+        agree_cos,
+        config.refine_iterations,
+    )
+    if not ok:
+        return None
+    return Plane(n, d), idx, ratio, drawn
+
+
 def extract_planes_orientation(
     cloud: PointCloud | GridSample,
     config: OrientationConfig | None = None,
@@ -380,6 +424,10 @@ def extract_planes_orientation(
         seedable &= ~low
 
     orient = (up, float(cos_tol), float(sin_tol), (1.0 / thr).astype(np.float32))
+    # One batch per round (the default): the whole round in one compiled call.
+    one_batch = config.max_hypotheses_per_plane == config.hypotheses_per_plane
+    use_conf = conf is not None and config.confidence_weights
+    weights = conf if use_conf else np.ones(n_pts)
     remaining = np.ones(n_pts, dtype=bool)
     segments: list[PlaneSegment] = []
     rounds_used = 0
@@ -398,25 +446,34 @@ def extract_planes_orientation(
         # fresh samples (the inlier ratio of the rest can be low when clutter dominates it)
         # before the loop stops; the number of hypotheses thus grows with need.
         found = None
-        rest_view = (rest, P[rest], N[rest], thr[rest], None if conf is None else conf[rest])
+        rest_view = None
         for _round in range(config.max_rounds):
             rounds_used += 1
-            found = _best_plane(
-                P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos
-            )
+            if one_batch:
+                found = _one_batch_round(
+                    P, N, thr, weights, lut, gr, gc, first, remaining, rest, rng, config, orient
+                )
+            else:
+                if rest_view is None:
+                    rest_view = (rest, P[rest], N[rest], thr[rest], None if conf is None else conf[rest])
+                found = _best_plane(
+                    P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos
+                )
+                if found is not None:
+                    found = (found[0], np.flatnonzero(found[1]), found[2], found[3])
             if found is not None:
                 hypotheses.append(found[3])
             if (
                 found is not None
-                and found[1].sum() >= config.min_plane_points
+                and len(found[1]) >= config.min_plane_points
                 and found[2] >= config.min_inlier_ratio
             ):
                 break
         if found is None:
             stop = "no hypothesis satisfied the orientation constraint"
             break
-        plane, inl, ratio, _ = found
-        count = int(inl.sum())
+        plane, idx, ratio, _ = found
+        count = len(idx)
         if count < config.min_plane_points:
             stop = f"best plane too small ({count} < {config.min_plane_points} points)"
             break
@@ -425,10 +482,9 @@ def extract_planes_orientation(
             break
         kind = classify_normal(plane.normal, up, config.angle_tol_deg)
         plane = orient_plane(plane, up, cam, kind)
-        idx = np.flatnonzero(inl)
         rms = float(np.sqrt(np.mean(plane.residuals(P[idx]) ** 2)))
         segments.append(PlaneSegment(plane, kind, idx, rms))
-        remaining &= ~inl
+        remaining[idx] = False
     params = {
         "angle_tol_deg": config.angle_tol_deg,
         "inlier_threshold_m_median": round(float(np.median(thr)), 4) if n_pts else None,

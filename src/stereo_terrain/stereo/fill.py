@@ -304,13 +304,11 @@ def fill_planar_regions(
     filled_mask : (H, W) bool, pixels whose value came from a plane
     """
     config = config or PlanarFillConfig()
-    out = disparity.copy()
-    filled = np.zeros(disparity.shape, dtype=bool)
     if not config.enabled:
-        return out, filled
+        return disparity.copy(), np.zeros(disparity.shape, dtype=bool)
     if regions is None:
         regions = find_flat_regions(left, config, valid)
-    out, filled = _fill(out, config, max_disparity_px, regions)
+    out, filled = _fill(disparity, config, max_disparity_px, regions)  # reads it, writes a copy
     if config.texture == "total" and config.invalidate:
         # A confident match where rows carry no horizontal texture is a streak: NaN it,
         # unless a plane filled the pixel; then bridge the holes along rows.
@@ -322,8 +320,9 @@ def fill_planar_regions(
     return out, filled
 
 
-def _fill(out, config, max_disparity_px, regions: FlatRegions):
-    disparity = out
+def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
+    """The fill of ``disparity`` (not written to) from ``regions``: ``(filled disparity,
+    filled mask)``, new arrays."""
     out = disparity.copy()
     filled = np.zeros(disparity.shape, dtype=bool)
     h, w = disparity.shape

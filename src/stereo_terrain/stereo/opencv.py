@@ -10,7 +10,11 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..rectify import RectifiedPair
-from . import DisparityMap, check_max_disparity, invalidate_sourceless
+from . import DisparityMap, check_max_disparity
+from ._disparity_kernels import disparity_from_fixed_point
+
+#: An empty mask: the kernel applies none.
+_NO_MASK = np.zeros((0, 0), dtype=bool)
 
 _MODES = {
     "sgbm": cv2.STEREO_SGBM_MODE_SGBM,
@@ -106,8 +110,12 @@ class OpenCVSGBM:
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
         n = check_max_disparity(max_disparity_px, pair.left.shape[1])
         raw = self._matcher(n).compute(pair.left, pair.right)
-        disp = raw.astype(np.float32)
-        disp *= np.float32(1.0 / 16.0)  # exact (a power of two), in place
-        np.copyto(disp, np.float32(np.nan), where=raw < 0)
-        invalidate_sourceless(disp, pair.rectification)
-        return DisparityMap(disp, n, pair.rectification, None, self.name)
+        rect = pair.rectification
+        # Scaled, OpenCV's invalid value and the sourceless pixels NaN
+        # (invalidate_sourceless) in one compiled pass, the same bits (issue 13).
+        disp = disparity_from_fixed_point(
+            raw,
+            _NO_MASK if rect.valid_left is None else rect.valid_left,
+            _NO_MASK if rect.valid_right is None else rect.valid_right,
+        )
+        return DisparityMap(disp, n, rect, None, self.name)
