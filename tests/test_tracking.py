@@ -217,8 +217,9 @@ def test_config_checks_and_yaml_section():
         TrackingConfig(yaw_gate_deg=25.0)
     with pytest.raises(ConfigError, match="confirm_sigma_m"):
         TrackingConfig(confirm_sigma_m=0.0)
-    with pytest.raises(ConfigError, match="floor_z_m"):
-        TrackingConfig(floor_z_m=math.nan)
+    for bad in (math.nan, "0.0", True):
+        with pytest.raises(ConfigError, match="floor_z_m"):
+            TrackingConfig(floor_z_m=bad)
     cfg = PipelineConfig.from_dict({"tracking": {"enabled": False, "drop_after_s": 3.0}})
     assert cfg.tracking == TrackingConfig(enabled=False, drop_after_s=3.0)
     with pytest.raises(ConfigError, match="tracking"):

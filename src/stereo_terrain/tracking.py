@@ -169,8 +169,11 @@ class TrackingConfig:
             )
         if self.max_inflation < 1:
             raise ConfigError(f"TrackingConfig.max_inflation must be >= 1, got {self.max_inflation}")
-        if self.floor_z_m is not None and not math.isfinite(self.floor_z_m):
-            raise ConfigError(f"TrackingConfig.floor_z_m must be finite or None, got {self.floor_z_m}")
+        floor = self.floor_z_m
+        if floor is not None and (
+            isinstance(floor, bool) or not isinstance(floor, int | float) or not math.isfinite(floor)
+        ):
+            raise ConfigError(f"TrackingConfig.floor_z_m must be a finite number or null, got {floor!r}")
         if self.min_visible_m < 0 or self.min_run_m < 0:
             raise ConfigError("TrackingConfig.min_visible_m and min_run_m must be >= 0")
         for name in ("confirm_frames", "tentative_misses", "new_track_frames", "max_steps", "step_misses"):
