@@ -101,6 +101,7 @@ class VerticalLinesConfig:
         check_fields(self)
         check_min(self, 2, "min_inliers")
         check_min(self, 1, "hypotheses", "bootstrap")
+        check_min(self, 0, "structure_sigma_deg")
         if not 0 < self.max_tilt_deg < 90:
             raise ConfigError(f"max_tilt_deg must be in (0, 90), got {self.max_tilt_deg}")
         if not 0 < self.detect_scale <= 1:
@@ -108,8 +109,6 @@ class VerticalLinesConfig:
         for name in ("min_length_px", "inlier_deg", "max_sigma_deg"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
-        if self.structure_sigma_deg < 0:
-            raise ConfigError(f"structure_sigma_deg must be >= 0, got {self.structure_sigma_deg}")
 
 
 def _segments(image: np.ndarray, valid: np.ndarray | None, min_length_px: float, scale: float) -> np.ndarray:
