@@ -368,3 +368,40 @@ def test_riser_edges_kernel_is_the_numpy_version_bit_for_bit():
         assert _riser_edges(P, plane, v, v_lo, v_hi, **kw) == _riser_edges_numpy(
             P, plane, v, v_lo, v_hi, **kw
         )
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 25.0])
+def test_an_unmatched_first_riser_stands_at_its_treads_front_edge(yaw_deg):
+    """The first riser is not a plane (a texture-poor face the matcher missed), but the
+    first tread is, and the second riser chains on it: the first step is at the tread's
+    front edge."""
+    yaw = np.radians(yaw_deg)
+    full = _stairs(n_steps=3, rise=0.17, run=0.29, yaw=yaw, distance=1.3)
+    u = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    first = [
+        s for s in full.segments if s.kind == VERTICAL and abs(s.plane.offset - 1.3 * np.cos(yaw)) < 1e-6
+    ]
+    assert len(first) == 1
+    # Image rows: the ground reaches the image's bottom, the risers do not (their feet are
+    # in view).
+    ground = [s for s in full.segments if s.kind == HORIZONTAL and abs(s.plane.offset) < 1e-9][0]
+    rows = np.full(len(full.samples.points), 200, np.int32)
+    rows[ground.indices] = 479
+    samples = GridSample(**{**full.samples.__dict__, "rows": rows})
+    kept = tuple(s for s in full.segments if s is not first[0])
+    assert build_terrain(PlaneSet(tuple(full.segments), samples, full.up, "test", CAM)).steps[
+        0
+    ].distance_m == (pytest.approx(1.3, abs=1e-4))
+    model = build_terrain(PlaneSet(kept, samples, full.up, "test", CAM))
+    assert model.obstacle == STAIRS and len(model.steps) == 3
+    assert model.steps[0].rise_m == pytest.approx(0.17, abs=0.005)
+    assert model.steps[0].distance_m == pytest.approx(
+        1.3 + 0.01 / u[0], abs=0.03
+    )  # the tread's first samples
+
+
+def test_a_lone_tread_with_no_riser_behind_it_is_not_a_step():
+    """A raised horizontal plane (a table top) and no riser plane chaining on it: none."""
+    full = _stairs(n_steps=1, rise=0.17, box_depth=0.5)
+    planes = tuple(s for s in full.segments if s.kind == HORIZONTAL)
+    assert build_terrain(PlaneSet(planes, full.samples, full.up, "test", CAM)).obstacle == NONE

@@ -68,13 +68,14 @@ from .planes.orientation import (
 from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
 from .stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
+from .stereo.manhattan import fill_manhattan_faces
 from .stereo.opencv import OpenCVSGBMConfig
 from .stereo.sgm import SGMConfig
 from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
 from .swing import SwingConfig, SwingPlan, plan_swing
 from .terrain import StairModel, TerrainConfig, build_terrain, estimate_step_sigmas
 from .tracking import TrackingConfig
-from .vanishing import VerticalLinesConfig, combine_with_lines, up_from_vertical_lines
+from .vanishing import VerticalLinesConfig, combine_with_lines, scene_lines
 
 RESULT_VERSION = 1
 
@@ -436,27 +437,55 @@ class Pipeline:
                 find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
             )
         lines_job = None
-        if self.T_yaw_camera_rect is None and self.config.vanishing.enabled:
-            # Without a rig, up also from the image's vertical lines: image only, so found
-            # on the other core while the matcher runs, as the fill's regions are.
+        want_up = self.T_yaw_camera_rect is None and self.config.vanishing.enabled
+        want_horizontal = self.config.fill.enabled and self.config.fill.manhattan
+        rig_up = None if self.T_yaw_camera_rect is None else self._rig_up_camera(self.T_yaw_camera_rect)
+        if want_up or (want_horizontal and (rig_up is not None or self.config.vanishing.enabled)):
+            # Image only, so found on the other core while the matcher runs, as the fill's
+            # regions are: without a rig, up from the image's vertical lines; and the
+            # scene's horizontal direction for the Manhattan fill.
             lines_job = _background().submit(
-                up_from_vertical_lines,
+                scene_lines,
                 pair.left,
                 pair.rectification,
                 self.config.vanishing,
+                known_up=rig_up,
+                want_up=want_up,
+                want_horizontal=want_horizontal,
                 prior_cone_deg=self.config.gravity.prior_cone_deg,
             )
         disp = self.backend.compute(pair, self.max_disparity_px)
         if regions is not None:
             # Texture-poor faces: disparity from their outline (see stereo/fill.py).
+            flat = regions.result()
             values, filled = fill_planar_regions(
                 disp.disparity,
                 pair.left,
                 self.config.fill,
                 max_disparity_px=disp.max_disparity_px,
                 valid=pair.rectification.valid_left,
-                regions=regions.result(),
+                regions=flat,
             )
+            found = None if lines_job is None else lines_job.result()
+            up = (
+                rig_up
+                if rig_up is not None
+                else (found.up.up if found and found.up and found.up.ok else None)
+            )
+            if want_horizontal and up is not None and found is not None and found.horizontal is not None:
+                # Faces with one end in view: planes of the scene's three directions
+                # (see stereo/manhattan.py).
+                values, filled = fill_manhattan_faces(
+                    disp.disparity,
+                    values,
+                    filled,
+                    flat,
+                    pair.rectification,
+                    up,
+                    found.horizontal,
+                    self.config.fill,
+                    max_disparity_px=disp.max_disparity_px,
+                )
             disp = dataclasses.replace(disp, disparity=values, filled=filled)
         lap("disparity")
         cfg = self.config
@@ -477,7 +506,7 @@ class Pipeline:
             T, source, before_planes = rig_T, "rig", coarse
         else:  # before_planes: what levelled the frame (its up is in the start's frame)
             T, source, before_planes = self._level_from_scene(cam_sample, coarse)
-            lines = None if lines_job is None else lines_job.result()
+            lines = None if lines_job is None else lines_job.result().up
             if lines is not None and lines.ok:
                 T, source, before_planes = _level_with_lines(
                     T, source, before_planes, lines, cfg.vanishing.overrule_planes

@@ -345,15 +345,19 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     if model.obstacle != NONE or config.max_obstacle_rise_m <= config.max_rise_m:
         return model
     # Safety net: is there a step too tall for a stair, that the robot cannot climb?
-    tall = _assemble(planes, dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m))
+    # (A first riser inferred from a tread alone is not enough for a step too tall to be a
+    # stair: that is a table top.)
+    tall = _assemble(
+        planes, dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m), tread_first=False
+    )
     if tall.obstacle == NONE or max(s.rise_m for s in tall.steps) <= config.max_rise_m:
         return model
     note = f"a step taller than a stair rise ({config.max_rise_m:.2f} m): {tall.note}"
     return dataclasses.replace(tall, note=note)
 
 
-def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
-    """:func:`build_terrain` for one set of limits."""
+def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = True) -> StairModel:
+    """:func:`build_terrain` for one set of limits (``tread_first``: see :func:`_assemble_along`)."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
@@ -438,7 +442,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig) -> StairModel:
             np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
         )
         family = [c for c, k in zip(cands, keep, strict=True) if k]
-        model = _assemble_along(planes, config, family, yaw, horizontals, h_z)
+        model = _assemble_along(planes, config, family, yaw, horizontals, h_z, tread_first=tread_first)
         if best is None or len(model.steps) > len(best.steps):
             best = model
     assert best is not None
@@ -452,9 +456,12 @@ def _assemble_along(
     yaw: float,
     horizontals: list,
     h_z: list[float],
+    *,
+    tread_first: bool = True,
 ) -> StairModel:
     """The staircase (or box, or nothing) whose risers are ``family`` along the stair axis
-    at ``yaw`` (the rest of :func:`_assemble`)."""
+    at ``yaw`` (the rest of :func:`_assemble`). ``tread_first``: the first step may stand at
+    a tread's front edge when its riser is no plane and a riser plane chains behind it."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
@@ -545,31 +552,40 @@ def _assemble_along(
 
     # Chain the candidates from the ground up: each starts where the step before it ended.
     # A riser's bottom edge may be hidden behind the nosing when that level is above the
-    # cameras. The first step must be a real riser plane.
-    chain: list[tuple[_Riser | None, float, Plane, Plane | None, float]] = []
-    level, last_s = ground_z, -np.inf
-    for s_pos, top, cand, riser_plane, tread_plane in cands_all:
-        if top < level + config.min_rise_m or top - level > config.max_rise_m + config.edge_margin_m:
-            continue
-        if s_pos < last_s + config.merge_distance_m:
-            continue
-        if cand is None:
-            if not chain:
+    # cameras. The first step must be a real riser plane, unless its riser was not matched
+    # (a texture-poor face) and a real riser plane chains on the tread behind it: then the
+    # first riser stands at that tread's front edge.
+    def chain_from(virtual_first: bool) -> list[tuple[_Riser | None, float, Plane, Plane | None, float]]:
+        chain: list[tuple[_Riser | None, float, Plane, Plane | None, float]] = []
+        level, last_s = ground_z, -np.inf
+        for s_pos, top, cand, riser_plane, tread_plane in cands_all:
+            if top < level + config.min_rise_m or top - level > config.max_rise_m + config.edge_margin_m:
                 continue
-        else:
-            if cand.z_lo < level - config.edge_margin_m:
-                continue  # reaches below the current level: a wall or a side face
-            if float(percentile(P[cand.idx, 2], _LOW_INLIER_PCT)) < level - config.edge_margin_m:
-                # Its band of edges sits on this level, but the plane's own points go on
-                # below it: a wall or a junk plane through several objects, not a riser.
+            if s_pos < last_s + config.merge_distance_m:
                 continue
-            # Its foot may be out of sight: behind the nosing when that level is above the
-            # cameras, or below the image's bottom edge (then its bottom is the image's).
-            hidden = level > cam[2] - config.edge_margin_m or cand.foot_hidden
-            if cand.z_lo > level + config.chain_tolerance_m and not hidden:
-                continue  # floats above the current level: not the next step
-        chain.append((cand, top, riser_plane, tread_plane, s_pos))
-        level, last_s = top, s_pos
+            if cand is None:
+                if not chain and not virtual_first:
+                    continue
+            else:
+                if cand.z_lo < level - config.edge_margin_m:
+                    continue  # reaches below the current level: a wall or a side face
+                if float(percentile(P[cand.idx, 2], _LOW_INLIER_PCT)) < level - config.edge_margin_m:
+                    # Its band of edges sits on this level, but the plane's own points go on
+                    # below it: a wall or a junk plane through several objects, not a riser.
+                    continue
+                # Its foot may be out of sight: behind the nosing when that level is above the
+                # cameras, or below the image's bottom edge (then its bottom is the image's).
+                hidden = level > cam[2] - config.edge_margin_m or cand.foot_hidden
+                if cand.z_lo > level + config.chain_tolerance_m and not hidden:
+                    continue  # floats above the current level: not the next step
+            chain.append((cand, top, riser_plane, tread_plane, s_pos))
+            level, last_s = top, s_pos
+        return chain
+
+    chain = chain_from(False)
+    loose = chain_from(True) if tread_first else []
+    if loose and loose[0][0] is None and any(c[0] is not None for c in loose[1:]) and len(loose) > len(chain):
+        chain = loose
 
     # Stairs filling the view: the first riser's foot (and the floor before it) is below
     # the image, so the first tread was taken for the ground. A riser in front of the

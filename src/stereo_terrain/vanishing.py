@@ -82,6 +82,14 @@ class VerticalLinesConfig:
         :func:`combine_with_lines`). On 60 realistic rendered scenes overruling puts 75% of
         them within 2 deg (73% without); on the real scenes the lines' up is the one that
         makes their door frames and wall slats vertical (docs/benchmarks.md).
+    horizontal_scale : float
+        With up known from a rig, the segments behind :func:`horizontal_direction` are
+        found on the image resized by this (long lines are enough for a direction; LSD at
+        half size costs a fifth). Without a rig the full-size segments of the vertical
+        lines are used again.
+    horizontal_window_deg : float
+        Segments whose horizontal direction is within this angle of the histogram's peak
+        (modulo 90 deg) support it.
     """
 
     enabled: bool = True
@@ -96,6 +104,8 @@ class VerticalLinesConfig:
     bootstrap: int = 30
     seed: int = 0
     overrule_planes: bool = True
+    horizontal_scale: float = 0.5
+    horizontal_window_deg: float = 4.0
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -104,8 +114,11 @@ class VerticalLinesConfig:
         check_min(self, 0, "structure_sigma_deg")
         if not 0 < self.max_tilt_deg < 90:
             raise ConfigError(f"max_tilt_deg must be in (0, 90), got {self.max_tilt_deg}")
-        if not 0 < self.detect_scale <= 1:
-            raise ConfigError(f"detect_scale must be in (0, 1], got {self.detect_scale}")
+        for name in ("detect_scale", "horizontal_scale"):
+            if not 0 < getattr(self, name) <= 1:
+                raise ConfigError(f"{name} must be in (0, 1], got {getattr(self, name)}")
+        if not 0 < self.horizontal_window_deg < 45:
+            raise ConfigError(f"horizontal_window_deg must be in (0, 45), got {self.horizontal_window_deg}")
         for name in ("min_length_px", "inlier_deg", "max_sigma_deg"):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
@@ -140,12 +153,23 @@ def _unit_rows(a: np.ndarray) -> np.ndarray:
     return a / np.linalg.norm(a, axis=1, keepdims=True)
 
 
+def line_segments(
+    image: np.ndarray, rectification: Rectification, config: VerticalLinesConfig, scale: float
+) -> np.ndarray:
+    """LSD segments ``(N, 4)`` (x1, y1, x2, y2 in pixels of ``image``, the rectified left
+    image) found at ``scale``, at least ``config.min_length_px`` long (in pixels of a
+    640-pixel-wide raw image), away from the border of the valid region."""
+    length = config.min_length_px * rectification.raw_size[0] / 640.0
+    return _segments(image, rectification.valid_left, length, scale)
+
+
 def up_from_vertical_lines(
     image: np.ndarray,
     rectification: Rectification,
     config: VerticalLinesConfig | None = None,
     *,
     prior_cone_deg: float = 45.0,
+    segments: np.ndarray | None = None,
 ) -> GravityEstimate:
     """Up in the rectified left camera from the vanishing point of the image's vertical lines.
 
@@ -158,6 +182,8 @@ def up_from_vertical_lines(
     config : VerticalLinesConfig
     prior_cone_deg : float
         The weak prior: up lies within this angle of the camera's up (-y).
+    segments : (N, 4) array, optional
+        :func:`line_segments` of ``image`` at ``config.detect_scale``, when already found.
 
     Returns
     -------
@@ -171,8 +197,7 @@ def up_from_vertical_lines(
     def failed(reason: str, fraction: float = 0.0) -> GravityEstimate:
         return GravityEstimate(np.full(3, np.nan), frame, math.inf, False, 0.0, fraction, reason)
 
-    scale = rectification.raw_size[0] / 640.0
-    s = _segments(image, rectification.valid_left, config.min_length_px * scale, config.detect_scale)
+    s = line_segments(image, rectification, config, config.detect_scale) if segments is None else segments
     d = s[:, 2:] - s[:, :2]
     tilt = np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
     s, d = s[tilt <= config.max_tilt_deg], d[tilt <= config.max_tilt_deg]
@@ -286,3 +311,110 @@ def combine_with_lines(
     return GravityEstimate(
         up, planes.frame, sigma, True, planes.horizontal_fraction, planes.vertical_fraction, reason
     )
+
+
+def horizontal_direction(
+    segments: np.ndarray, rectification: Rectification, up: np.ndarray, config: VerticalLinesConfig
+) -> np.ndarray | None:
+    """The scene's dominant horizontal direction in the rectified left camera, modulo 90
+    deg, from its non-vertical line segments, given ``up`` (same frame); None when fewer
+    than ``config.min_inliers`` segments agree on one.
+
+    A segment and the camera centre span a plane with normal ``m``; if the segment is the
+    image of a horizontal 3D line, the line's direction is ``m x up``. Nosings, tread edges,
+    skirting boards and door tops are such lines, along the staircase or across it: in a
+    built (Manhattan) scene their directions fall in two families 90 deg apart, so the
+    length-weighted histogram of the directions' angles in the horizontal plane, modulo 90
+    deg, has one peak; the direction is the weighted circular mean of the segments within
+    ``horizontal_window_deg`` of it. Sloped lines (handrails, the staircase's slope line)
+    and grain fall elsewhere and do not move the peak.
+    """
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    if len(segments) == 0:
+        return None
+    d = segments[:, 2:] - segments[:, :2]
+    tilt = np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
+    s, d = segments[tilt > config.max_tilt_deg], d[tilt > config.max_tilt_deg]
+    if len(s) < config.min_inliers:
+        return None
+    f, cx, cy = rectification.focal_px, rectification.cx, rectification.cy
+    ones = np.ones(len(s))
+    p1 = np.column_stack([(s[:, 0] - cx) / f, (s[:, 1] - cy) / f, ones])
+    p2 = np.column_stack([(s[:, 2] - cx) / f, (s[:, 3] - cy) / f, ones])
+    m = np.cross(p1, p2)
+    t = np.cross(m, up)
+    norm = np.linalg.norm(t, axis=1)
+    # A segment whose plane nearly contains up (a near-vertical line) fixes no horizontal
+    # direction.
+    keep = norm > 0.2 * np.linalg.norm(m, axis=1)
+    t, length = t[keep] / norm[keep, None], np.hypot(d[keep, 0], d[keep, 1])
+    if len(t) < config.min_inliers:
+        return None
+    e1 = np.cross(up, [0.0, 0.0, 1.0])
+    if np.linalg.norm(e1) < 1e-6:  # a camera looking straight up or down
+        e1 = np.cross(up, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    # Angles modulo 90 deg, as points on a circle (x4): the peak and the mean wrap.
+    quad = 4.0 * np.arctan2(t @ e2, t @ e1)
+    bins = np.bincount(np.round(np.degrees(quad) / 4.0).astype(int) % 90, weights=length, minlength=90)
+    k = np.exp(-0.5 * (np.arange(-6, 7) / 2.0) ** 2)
+    smooth = np.array([bins[(i + np.arange(-6, 7)) % 90] @ k for i in range(90)])
+    peak = math.radians(4.0 * float(np.argmax(smooth)))
+    off = np.angle(np.exp(1j * (quad - peak)))  # in (-pi, pi]: 4x the angle to the peak
+    near = np.abs(off) <= math.radians(4.0 * config.horizontal_window_deg)
+    if near.sum() < config.min_inliers:
+        return None
+    mean = peak + float(np.angle(np.sum(length[near] * np.exp(1j * off[near]))))
+    a = mean / 4.0
+    return math.cos(a) * e1 + math.sin(a) * e2
+
+
+@dataclass(frozen=True)
+class SceneLines:
+    """What the image's line segments say, found beside the matcher (:func:`scene_lines`).
+
+    Attributes
+    ----------
+    up : GravityEstimate or None
+        :func:`up_from_vertical_lines` (None when up was known and not asked for).
+    horizontal : (3,) float64 or None
+        :func:`horizontal_direction` in the rectified left camera (None when asked for and
+        not found, or not asked for).
+    """
+
+    up: GravityEstimate | None
+    horizontal: np.ndarray | None
+
+
+def scene_lines(
+    image: np.ndarray,
+    rectification: Rectification,
+    config: VerticalLinesConfig,
+    *,
+    known_up: np.ndarray | None = None,
+    want_up: bool = True,
+    want_horizontal: bool = True,
+    prior_cone_deg: float = 45.0,
+) -> SceneLines:
+    """Up from the vertical lines (unless ``known_up``, e.g. a rig's, is given or
+    ``want_up`` is False) and the dominant horizontal direction (``want_horizontal``; with
+    the given up, else with the lines' when they fix it), from one LSD pass."""
+    up_est = None
+    if known_up is None and want_up:
+        segments = line_segments(image, rectification, config, config.detect_scale)
+        up_est = up_from_vertical_lines(
+            image, rectification, config, prior_cone_deg=prior_cone_deg, segments=segments
+        )
+        up = up_est.up if up_est.ok else None
+    else:
+        up = known_up
+        segments = (
+            line_segments(image, rectification, config, config.horizontal_scale)
+            if want_horizontal and up is not None
+            else np.empty((0, 4))
+        )
+    horizontal = None
+    if want_horizontal and up is not None:
+        horizontal = horizontal_direction(segments, rectification, up, config)
+    return SceneLines(up_est, horizontal)

@@ -111,6 +111,21 @@ class PlanarFillConfig:
         (pixels; 0 = off), see :func:`fill_rows`.
     row_fill_max_step_px : float
         ... and differ by at most this (pixels).
+    manhattan : bool
+        Regions that no free plane explains (a face with one end in view: its support is
+        one vertical segment) are filled by the Manhattan fill when up and a horizontal
+        direction of the scene are known (:mod:`stereo_terrain.stereo.manhattan`).
+    manhattan_reach_px : float
+        A face's pixel takes the plane of the support cluster nearest to it along the
+        face's horizontal lines, when that is at most this far (pixels across the lines).
+    manhattan_min_support : int
+        Fewest support disparities behind one plane of the Manhattan fill.
+    manhattan_edge_deg : float
+        An outline edge follows a face family's horizontal lines when within this angle of
+        the direction to their vanishing point.
+    manhattan_max_planes : int
+        Most planes (support clusters) the Manhattan fill puts in one region (several
+        risers of one shade merge into one region above the cameras).
     """
 
     enabled: bool = True
@@ -136,9 +151,19 @@ class PlanarFillConfig:
     invalidate: bool = False
     row_fill_max_gap_px: int = 0
     row_fill_max_step_px: float = 2.0
+    manhattan: bool = True
+    manhattan_reach_px: float = 20.0
+    manhattan_min_support: int = 8
+    manhattan_edge_deg: float = 6.0
+    manhattan_max_planes: int = 8
 
     def __post_init__(self) -> None:
         check_fields(self)
+        check_min(self, 1, "manhattan_max_planes")
+        check_min(self, 3, "manhattan_min_support")
+        check_min(self, 0, "manhattan_reach_px")
+        if not 0 < self.manhattan_edge_deg < 45:
+            raise ConfigError(f"manhattan_edge_deg must be in (0, 45), got {self.manhattan_edge_deg}")
         check_min(self, 1, "ring_px", "max_support_points")
         check_min(self, 3, "hypotheses", "texture_window_px")
         check_min(self, 1, "split_bridge_px", "close_px")
@@ -173,6 +198,9 @@ class FlatRegions:
         Sobel ``d/dx`` of the smoothed image (the fill's vertical edges come from it).
     ill_posed : (H, W) bool or None
         ``"horizontal"`` mode only (see :func:`flat_regions`).
+    gy : (H, W) float32
+        Sobel ``d/dy`` of the smoothed image (the Manhattan fill reads the faces' outline
+        directions from ``gx`` and ``gy``, :mod:`stereo_terrain.stereo.manhattan`).
     """
 
     count: int
@@ -180,6 +208,7 @@ class FlatRegions:
     stats: np.ndarray = field(repr=False)
     gx: np.ndarray = field(repr=False)
     ill_posed: np.ndarray | None = field(repr=False)
+    gy: np.ndarray = field(repr=False)
 
 
 def find_flat_regions(
@@ -204,7 +233,7 @@ def flat_regions(
     ``"horizontal"`` mode, the pixels whose rows carry too little ``|dI/dx|`` to match
     (before the split at horizontal edges); None in the ``"total"`` mode.
     """
-    count, labels, stats, gx, ill_posed = _flat_regions(image, config, valid)
+    count, labels, stats, gx, ill_posed, _ = _flat_regions(image, config, valid)
     return count, labels, stats, _vertical_edges(gx, config), ill_posed
 
 
@@ -216,9 +245,10 @@ def _vertical_edges(gx: np.ndarray, config: PlanarFillConfig) -> np.ndarray:
 
 def _flat_regions(
     image: np.ndarray, config: PlanarFillConfig, valid: np.ndarray | None
-) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """:func:`flat_regions` with the Sobel ``gx`` in place of the edge mask: the fill needs
-    the edges only around the regions it fits, not over the whole image (issue 13)."""
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """:func:`flat_regions` with the Sobel ``gx`` in place of the edge mask (the fill needs
+    the edges only around the regions it fits, not over the whole image; issue 13), and the
+    Sobel ``gy`` last."""
     g = cv2.GaussianBlur(image.astype(np.float32), (0, 0), config.smooth_sigma_px)
     gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
@@ -269,7 +299,7 @@ def _flat_regions(
         flat[~valid] = 0
     flat = cv2.erode(flat, np.ones((3, 3), np.uint8))
     count, labels, stats = connected_regions(flat)  # OpenCV's, faster (issue 13)
-    return count, labels, stats, gx, ill_posed
+    return count, labels, stats, gx, ill_posed, gy
 
 
 def fill_planar_regions(

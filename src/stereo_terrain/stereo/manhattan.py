@@ -1,0 +1,263 @@
+"""Manhattan fill: texture-poor faces from the vertical edges at their ends.
+
+The planar fill (:mod:`stereo_terrain.stereo.fill`) fits a free plane ``d = a u + b v + c``
+to the disparities on a face's outline. A painted riser whose far end leaves the image,
+or several risers of one shade merged into one region above the cameras, give it only
+vertical segments (the ends of the steps) to fit: a vertical segment fixes no plane, and
+the region is left to the matcher, whose values there are noise.
+
+Built scenes are Manhattan: treads and floors are horizontal, risers and walls vertical,
+and the vertical faces come in two families at right angles, along the staircase and
+across it. Given up and one horizontal direction ``h`` of the scene (from the image's
+lines, :func:`stereo_terrain.vanishing.horizontal_direction`), a face's normal is one of
+``up``, ``h`` and ``up x h``, and a plane of known normal ``n`` has a single unknown: its
+disparity is ``d + doffs = s g(u, v)`` with ``g = n . K^-1 (u, v, 1)`` (``s`` = f B over
+the plane's distance from the camera). One support disparity fixes ``s``.
+
+For each texture-poor region that the planar fill left:
+
+1. the support: the matcher's disparities on vertical edges in it and beside it in its
+   own rows (its ends; not the edges of the faces above and below it);
+2. the face's family: its outline's non-vertical edges are the images of horizontal 3D
+   lines in it, which point at the vanishing point of ``up x n``; the vertical family
+   whose lines the edges follow is the face's candidate against the horizontal one;
+3. per candidate normal, the support split into planes by MSAC on ``s`` (one per
+   cluster of support, at most ``manhattan_max_planes``); the normal whose planes explain
+   the most support wins (along a vertical segment a vertical face's disparity is
+   constant and a tread's changes with the row, so the segment tells them apart);
+4. each pixel of the region (and of its ring not claimed by another region) lies on one
+   of the face's horizontal lines; it takes the plane whose support covers the nearest
+   interval of those lines, within ``manhattan_reach_px``. So two risers of one shade
+   merged into one region are split at their ends' heights.
+
+This is what lets a riser with one end in view, or no texture at all, become a plane in
+the cloud; it is not a matcher: where the support is wrong (an occluding edge whose
+disparity belongs to the face behind), so is the fill.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from ..rectify import Rectification
+from .fill import FlatRegions, PlanarFillConfig, _vertical_edges
+
+#: Outline edges within this angle of the image's vertical are the faces' ends, not
+#: their horizontal lines.
+_VERTICAL_EDGE_DEG = 30.0
+#: A support cluster must cover at least this many pixels across the face's lines.
+_MIN_SPAN_PX = 5.0
+#: Lines steeper than this in the image (|dv/du|) make the cross-line coordinate
+#: ill-conditioned: such a face is left alone.
+_MAX_LINE_SLOPE = 1.0
+
+
+def fill_manhattan_faces(
+    disparity: np.ndarray,
+    filled_disparity: np.ndarray,
+    filled: np.ndarray,
+    regions: FlatRegions,
+    rectification: Rectification,
+    up: np.ndarray,
+    horizontal: np.ndarray,
+    config: PlanarFillConfig,
+    *,
+    max_disparity_px: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Fill the texture-poor regions the planar fill left with Manhattan planes.
+
+    Parameters
+    ----------
+    disparity : (H, W) float32
+        The matcher's disparity (the support is read from it), NaN invalid.
+    filled_disparity, filled : (H, W) float32, (H, W) bool
+        The planar fill's output and mask (not written to).
+    regions : FlatRegions
+        The planar fill's regions of the rectified left image.
+    rectification : Rectification
+        Intrinsics of the rectified pair (``focal_px``, ``cx``, ``cy``, ``doffs_px``).
+    up, horizontal : (3,) arrays
+        Up and one horizontal direction of the scene in the rectified left camera.
+    config : PlanarFillConfig
+    max_disparity_px : float, optional
+        Filled values stay in ``(0, max_disparity_px)``.
+
+    Returns
+    -------
+    filled_disparity : (H, W) float32, a new array
+    filled : (H, W) bool, a new array: the planar fill's mask and the pixels filled here
+    """
+    out, mask = filled_disparity.copy(), filled.copy()
+    up = np.asarray(up, dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    h = np.asarray(horizontal, dtype=np.float64)
+    h = h - (h @ up) * up
+    if not np.linalg.norm(h) > 1e-6:
+        return out, mask
+    h /= np.linalg.norm(h)
+    line_dirs = (h, np.cross(up, h))  # the horizontal lines of the two vertical families
+    H, W = disparity.shape
+    stats, labels = regions.stats, regions.labels
+    large = (stats[:, 4] >= config.min_region_fraction * H * W) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
+    large[0] = False
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
+    row_kernel = np.ones((1, 2 * config.ring_px + 1), np.uint8)
+    rng = np.random.default_rng(config.seed)
+    for k in np.flatnonzero(large):
+        x, y, bw, bh, _ = (int(a) for a in stats[k])
+        x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
+        x1, y1 = min(W, x + bw + config.ring_px), min(H, y + bh + config.ring_px)
+        box_labels = labels[y0:y1, x0:x1]
+        region = box_labels == k
+        if mask[y0:y1, x0:x1][region].mean() > 0.5:
+            continue  # the planar fill's free plane explains it
+        ring = cv2.dilate(region.astype(np.uint8), kernel).astype(bool)
+        # The support: vertical edges beside the face in its own rows (its ends), not those
+        # of the faces above and below it.
+        beside = cv2.dilate(region.astype(np.uint8), row_kernel).astype(bool)
+        box = disparity[y0:y1, x0:x1]
+        support = beside & np.isfinite(box) & _vertical_edges(regions.gx[y0:y1, x0:x1], config)
+        vs, us = np.nonzero(support)
+        if len(us) < 2 * config.manhattan_min_support:
+            continue
+        u, v = us + float(x0), vs + float(y0)
+        d = box[vs, us].astype(np.float64)
+        if len(u) > config.max_support_points:
+            pick = rng.choice(len(u), config.max_support_points, replace=False)
+            u, v, d = u[pick], v[pick], d[pick]
+        gx, gy = regions.gx[y0:y1, x0:x1], regions.gy[y0:y1, x0:x1]
+        outline = ring & ~cv2.erode(region.astype(np.uint8), kernel).astype(bool)
+        scores = [_outline_alignment(outline, gx, gy, x0, y0, ld, rectification, config) for ld in line_dirs]
+        if max(scores) <= 0.0:
+            continue  # no horizontal outline edge: the face's family is unknown
+        line_dir = line_dirs[int(np.argmax(scores))]
+        x_ref = x + bw / 2.0
+        lam, slope = _line_coordinate(u, v, line_dir, rectification, x_ref)
+        if float(np.median(slope)) > _MAX_LINE_SLOPE:
+            continue
+        best: tuple[int, np.ndarray, list[tuple[float, float, float]]] | None = None
+        for normal in (np.cross(line_dir, up), up):
+            g = _normal_gain(normal, u, v, rectification)
+            if np.any(np.abs(g) < 1e-3):
+                continue  # the plane passes (nearly) through the camera
+            planes, explained = _support_planes(u, v, d, g, lam, rectification.doffs_px, rng, config)
+            if planes and (best is None or explained > best[0]):
+                best = (explained, normal, planes)
+        if best is None or best[0] < config.min_inlier_ratio * len(u):
+            continue
+        _, normal, planes = best
+        other = (box_labels != k) & large[box_labels]
+        rv, ru = np.nonzero(ring & ~other & ~mask[y0:y1, x0:x1])
+        qu, qv = ru + float(x0), rv + float(y0)
+        q_lam, _ = _line_coordinate(qu, qv, line_dir, rectification, x_ref)
+        lo = np.array([p[1] for p in planes])[:, None]
+        hi = np.array([p[2] for p in planes])[:, None]
+        gap = np.maximum(0.0, np.maximum(lo - q_lam[None, :], q_lam[None, :] - hi))
+        nearest = np.argmin(gap, axis=0)
+        reach = gap[nearest, np.arange(len(qu))] <= config.manhattan_reach_px
+        s = np.array([p[0] for p in planes])[nearest[reach]]
+        values = s * _normal_gain(normal, qu[reach], qv[reach], rectification) - rectification.doffs_px
+        ok = values > 0
+        if max_disparity_px is not None:
+            ok &= values < max_disparity_px
+        rows, cols = rv[reach][ok] + y0, ru[reach][ok] + x0
+        out[rows, cols] = values[ok].astype(np.float32)
+        mask[rows, cols] = True
+    return out, mask
+
+
+def _normal_gain(normal: np.ndarray, u: np.ndarray, v: np.ndarray, rect: Rectification) -> np.ndarray:
+    """``g = n . K^-1 (u, v, 1)``: a plane of normal ``n`` has ``d + doffs = s g``."""
+    f = rect.focal_px
+    return normal[0] * (u - rect.cx) / f + normal[1] * (v - rect.cy) / f + normal[2]
+
+
+def _line_coordinate(
+    u: np.ndarray, v: np.ndarray, line_dir: np.ndarray, rect: Rectification, x_ref: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which of the 3D lines along ``line_dir`` each pixel's image line is: the row at which
+    the image line through ``(u, v)`` towards their vanishing point crosses column
+    ``x_ref``; and the line's slope ``|dv/du|`` there."""
+    f = rect.focal_px
+    # The image direction of the line at (u, v): d/dl of the projection of X + l line_dir.
+    du = f * line_dir[0] - (u - rect.cx) * line_dir[2]
+    dv = f * line_dir[1] - (v - rect.cy) * line_dir[2]
+    slope = dv / np.where(np.abs(du) < 1e-9, 1e-9, du)
+    return v + (x_ref - u) * slope, np.abs(slope)
+
+
+def _outline_alignment(
+    outline: np.ndarray,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    x0: int,
+    y0: int,
+    line_dir: np.ndarray,
+    rect: Rectification,
+    config: PlanarFillConfig,
+) -> float:
+    """Gradient-weighted share of the strong, non-vertical edges of a face's ``outline``
+    (a band around its boundary, in a box at ``x0, y0``) that follow the image lines of
+    ``line_dir``."""
+    vs, us = np.nonzero(outline)
+    ex, ey = gx[vs, us], gy[vs, us]
+    m = np.hypot(ex, ey)
+    strong = m > np.float32(8.0 * config.edge_gradient)
+    # Along the edge: (-gy, gx) / |g|; not within _VERTICAL_EDGE_DEG of the image's vertical.
+    ex, ey, m = -ey[strong] / m[strong], ex[strong] / m[strong], m[strong]
+    keep = np.abs(ey) < math.cos(math.radians(_VERTICAL_EDGE_DEG))
+    if not keep.any():
+        return 0.0
+    u, v = us[strong][keep] + float(x0), vs[strong][keep] + float(y0)
+    f = rect.focal_px
+    du = f * line_dir[0] - (u - rect.cx) * line_dir[2]
+    dv = f * line_dir[1] - (v - rect.cy) * line_dir[2]
+    cos = np.abs(ex[keep] * du + ey[keep] * dv) / (np.hypot(du, dv) + 1e-12)
+    aligned = cos > math.cos(math.radians(config.manhattan_edge_deg))
+    return float(np.sum(m[keep] * aligned) / np.sum(m[keep]))
+
+
+def _support_planes(
+    u: np.ndarray,
+    v: np.ndarray,
+    d: np.ndarray,
+    g: np.ndarray,
+    lam: np.ndarray,
+    doffs: float,
+    rng: np.random.Generator,
+    config: PlanarFillConfig,
+) -> tuple[list[tuple[float, float, float]], int]:
+    """The support split into planes of one normal (``g`` per support pixel): greedy MSAC
+    on ``s``, each plane refit by least squares on its inliers. Returns ``(s, lam_lo,
+    lam_hi)`` per plane (the interval of the face's lines its support covers, 2nd-98th
+    percentile) and the number of support pixels they explain."""
+    thr = config.inlier_threshold_px
+    target = d + doffs
+    free = np.ones(len(u), dtype=bool)
+    planes: list[tuple[float, float, float]] = []
+    explained = 0
+    for _ in range(config.manhattan_max_planes):
+        idx = np.flatnonzero(free)
+        if len(idx) < config.manhattan_min_support:
+            break
+        draws = idx[rng.integers(0, len(idx), min(config.hypotheses, len(idx)))]
+        hyp = target[draws] / g[draws]
+        residual = target[idx, None] - hyp[None, :] * g[idx, None]
+        s = float(hyp[np.argmin(np.minimum(residual**2, thr**2).sum(axis=0))])
+        inl = free & (np.abs(target - s * g) < thr)
+        if inl.sum() < config.manhattan_min_support:
+            break
+        s = float(np.sum(g[inl] * target[inl]) / np.sum(g[inl] ** 2))
+        inl = free & (np.abs(target - s * g) < thr)
+        free &= ~inl
+        if inl.sum() < config.manhattan_min_support:
+            continue
+        lo, hi = np.percentile(lam[inl], [2, 98])
+        if hi - lo < _MIN_SPAN_PX:
+            continue  # a speck, not a face's end
+        planes.append((s, float(lo), float(hi)))
+        explained += int(inl.sum())
+    return planes, explained
