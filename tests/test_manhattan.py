@@ -133,7 +133,9 @@ def _both_fills(img, disparity, rect, **kw):
     regions = find_flat_regions(img, config)
     planar, planar_mask = fill_planar_regions(disparity, img, config, regions=regions)
     up, along = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0])
-    out, mask = fill_manhattan_faces(disparity, planar, planar_mask, regions, rect, up, along, config, **kw)
+    out, mask = fill_manhattan_faces(
+        disparity, planar, planar_mask, regions, img, rect, up, along, config, **kw
+    )
     return planar_mask, out, mask
 
 

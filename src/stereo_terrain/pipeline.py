@@ -69,6 +69,7 @@ from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectifi
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
 from .stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
 from .stereo.manhattan import fill_manhattan_faces
+from .stereo.manhattan import warm_up as warm_up_manhattan
 from .stereo.opencv import OpenCVSGBMConfig
 from .stereo.sgm import SGMConfig
 from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
@@ -480,6 +481,7 @@ class Pipeline:
                     values,
                     filled,
                     flat,
+                    pair.left,
                     pair.rectification,
                     up,
                     found.horizontal,
@@ -724,6 +726,7 @@ def warm_up_kernels(
         config.method,
         config.fill.enabled,
         config.fill.texture,
+        config.fill.manhattan,
         with_rig,
         None if backend is None else type(backend).__name__,
     )
@@ -739,6 +742,8 @@ def warm_up_kernels(
     try:
         pipeline = Pipeline(calib, rig if with_rig else None, warm_config, backend=backend, warm_up=False)
         pipeline.run(left, right)
+        if config.fill.enabled and config.fill.manhattan:
+            warm_up_manhattan()
     except Exception:  # an optimisation only: a config the tiny pair does not suit runs cold
         logging.getLogger(__name__).debug("kernel warm-up skipped", exc_info=True)
     _WARMED.add(key)

@@ -584,7 +584,7 @@ def _assemble_along(
 
     chain = chain_from(False)
     loose = chain_from(True) if tread_first else []
-    if loose and loose[0][0] is None and any(c[0] is not None for c in loose[1:]) and len(loose) > len(chain):
+    if len(loose) > max(1, len(chain)) and loose[0][0] is None and loose[1][0] is not None:
         chain = loose
 
     # Stairs filling the view: the first riser's foot (and the floor before it) is below

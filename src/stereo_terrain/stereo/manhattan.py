@@ -43,6 +43,7 @@ import cv2
 import numpy as np
 
 from ..rectify import Rectification
+from ._manhattan_kernels import fill_face
 from .fill import FlatRegions, PlanarFillConfig, _vertical_edges
 
 #: Outline edges within this angle of the image's vertical are the faces' ends, not
@@ -53,6 +54,15 @@ _MIN_SPAN_PX = 5.0
 #: Lines steeper than this in the image (|dv/du|) make the cross-line coordinate
 #: ill-conditioned: such a face is left alone.
 _MAX_LINE_SLOPE = 1.0
+#: Candidates that explain at least this share of the best one's support tie.
+_TIE_SHARE = 0.95
+#: Support disparities are subsampled to at most this many per region.
+_MAX_SUPPORT = 500
+#: Neighbouring faces whose mean grey levels differ by more than this are not one plane
+#: ... (same normal: cosine above this; same distance: s within this share).
+_SHADE_STEP_GREY = 6.0
+_SAME_NORMAL_COS = 0.999
+_SAME_PLANE_SHARE = 0.02
 
 
 def fill_manhattan_faces(
@@ -60,6 +70,7 @@ def fill_manhattan_faces(
     filled_disparity: np.ndarray,
     filled: np.ndarray,
     regions: FlatRegions,
+    image: np.ndarray,
     rectification: Rectification,
     up: np.ndarray,
     horizontal: np.ndarray,
@@ -77,6 +88,8 @@ def fill_manhattan_faces(
         The planar fill's output and mask (not written to).
     regions : FlatRegions
         The planar fill's regions of the rectified left image.
+    image : (H, W) uint8
+        The rectified left image (the faces' shading).
     rectification : Rectification
         Intrinsics of the rectified pair (``focal_px``, ``cx``, ``cy``, ``doffs_px``).
     up, horizontal : (3,) arrays
@@ -105,8 +118,15 @@ def fill_manhattan_faces(
     large[0] = False
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
     row_kernel = np.ones((1, 2 * config.ring_px + 1), np.uint8)
+    wide_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (6 * config.ring_px + 1,) * 2)
     rng = np.random.default_rng(config.seed)
-    for k in np.flatnonzero(large):
+    # The faces filled here, largest region first: their planes (normal, s) and shading,
+    # and which pixels hold which.
+    face_of = np.full((H, W), -1, np.int32)
+    camera = np.array([rectification.focal_px, rectification.cx, rectification.cy, rectification.doffs_px])
+    faces: list[tuple[np.ndarray, float, float]] = []
+    order = np.flatnonzero(large)
+    for k in order[np.argsort(-stats[order, 4], kind="stable")]:
         x, y, bw, bh, _ = (int(a) for a in stats[k])
         x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
         x1, y1 = min(W, x + bw + config.ring_px), min(H, y + bh + config.ring_px)
@@ -125,48 +145,101 @@ def fill_manhattan_faces(
             continue
         u, v = us + float(x0), vs + float(y0)
         d = box[vs, us].astype(np.float64)
-        if len(u) > config.max_support_points:
-            pick = rng.choice(len(u), config.max_support_points, replace=False)
+        if len(u) > _MAX_SUPPORT:
+            pick = rng.choice(len(u), _MAX_SUPPORT, replace=False)
             u, v, d = u[pick], v[pick], d[pick]
-        gx, gy = regions.gx[y0:y1, x0:x1], regions.gy[y0:y1, x0:x1]
         outline = ring & ~cv2.erode(region.astype(np.uint8), kernel).astype(bool)
-        scores = [_outline_alignment(outline, gx, gy, x0, y0, ld, rectification, config) for ld in line_dirs]
+        scores = _outline_alignment(
+            outline,
+            regions.gx[y0:y1, x0:x1],
+            regions.gy[y0:y1, x0:x1],
+            x0,
+            y0,
+            line_dirs,
+            rectification,
+            config,
+        )
         if max(scores) <= 0.0:
             continue  # no horizontal outline edge: the face's family is unknown
-        line_dir = line_dirs[int(np.argmax(scores))]
+        other = (box_labels != k) & large[box_labels]
+        ext = ring & ~other & ~mask[y0:y1, x0:x1]
         x_ref = x + bw / 2.0
-        lam, slope = _line_coordinate(u, v, line_dir, rectification, x_ref)
-        if float(np.median(slope)) > _MAX_LINE_SLOPE:
-            continue
-        best: tuple[int, np.ndarray, list[tuple[float, float, float]]] | None = None
-        for normal in (np.cross(line_dir, up), up):
+        # Candidates: the vertical family the outline follows, a tread with the same
+        # horizontal lines, the other vertical family. Support on concave corners lies on
+        # both vertical families (the ends of several steps on the side wall): of the
+        # candidates that explain about as much support, the one with the fewest planes
+        # wins (a uniform wall is one plane, not a stack of risers).
+        first = int(np.argmax(scores))
+        candidates = [
+            (line_dirs[first], np.cross(line_dirs[first], up)),
+            (line_dirs[first], up),
+            (line_dirs[1 - first], np.cross(line_dirs[1 - first], up)),
+        ]
+        found = []
+        for line_dir, normal in candidates:
+            lam, slope = _line_coordinate(u, v, line_dir, rectification, x_ref)
+            if float(np.median(slope)) > _MAX_LINE_SLOPE:
+                continue
             g = _normal_gain(normal, u, v, rectification)
             if np.any(np.abs(g) < 1e-3):
                 continue  # the plane passes (nearly) through the camera
             planes, explained = _support_planes(u, v, d, g, lam, rectification.doffs_px, rng, config)
-            if planes and (best is None or explained > best[0]):
-                best = (explained, normal, planes)
-        if best is None or best[0] < config.min_inlier_ratio * len(u):
+            if planes and explained >= config.min_inlier_ratio * len(u):
+                found.append((explained, len(planes), line_dir, normal, planes))
+        # A concave corner's support (the ends of steps against a side wall) lies on the
+        # wall's plane too: a face across an edge from a face already filled, shaded
+        # differently, is not that face's plane.
+        shade = float(image[y0:y1, x0:x1][region].mean())
+        nearby: set[int] = set()
+        if faces:
+            around = cv2.dilate(region.astype(np.uint8), wide_kernel).astype(bool) & ~region
+            nearby = {int(i) for i in np.unique(face_of[y0:y1, x0:x1][around]) if i >= 0}
+        found = [f for f in found if not _repeats_a_neighbour(f[3], f[4], shade, nearby, faces)]
+        if not found:
             continue
-        _, normal, planes = best
-        other = (box_labels != k) & large[box_labels]
-        rv, ru = np.nonzero(ring & ~other & ~mask[y0:y1, x0:x1])
-        qu, qv = ru + float(x0), rv + float(y0)
-        q_lam, _ = _line_coordinate(qu, qv, line_dir, rectification, x_ref)
-        lo = np.array([p[1] for p in planes])[:, None]
-        hi = np.array([p[2] for p in planes])[:, None]
-        gap = np.maximum(0.0, np.maximum(lo - q_lam[None, :], q_lam[None, :] - hi))
-        nearest = np.argmin(gap, axis=0)
-        reach = gap[nearest, np.arange(len(qu))] <= config.manhattan_reach_px
-        s = np.array([p[0] for p in planes])[nearest[reach]]
-        values = s * _normal_gain(normal, qu[reach], qv[reach], rectification) - rectification.doffs_px
-        ok = values > 0
-        if max_disparity_px is not None:
-            ok &= values < max_disparity_px
-        rows, cols = rv[reach][ok] + y0, ru[reach][ok] + x0
-        out[rows, cols] = values[ok].astype(np.float32)
-        mask[rows, cols] = True
+        most = max(f[0] for f in found)
+        _, _, line_dir, normal, planes = min(
+            (f for f in found if f[0] >= _TIE_SHARE * most), key=lambda f: f[1]
+        )
+        fill_face(
+            ext,
+            x0,
+            y0,
+            np.array([p[0] for p in planes]),
+            np.array([p[1] for p in planes]),
+            np.array([p[2] for p in planes]),
+            normal,
+            line_dir,
+            camera,
+            x_ref,
+            float(config.manhattan_reach_px),
+            np.inf if max_disparity_px is None else float(max_disparity_px),
+            out,
+            mask,
+            face_of,
+            len(faces),
+        )
+        faces.extend((normal, p[0], shade) for p in planes)
     return out, mask
+
+
+def _repeats_a_neighbour(
+    normal: np.ndarray,
+    planes: list[tuple[float, float, float]],
+    shade: float,
+    nearby: set[int],
+    faces: list[tuple[np.ndarray, float, float]],
+) -> bool:
+    """Whether one of ``planes`` (of ``normal``) is the plane of a neighbouring face in
+    ``faces`` whose mean grey level differs from ``shade`` by more than
+    ``_SHADE_STEP_GREY`` (one plane of one paint is shaded alike)."""
+    for i in nearby:
+        n_i, s_i, shade_i = faces[i]
+        if abs(shade - shade_i) <= _SHADE_STEP_GREY or float(normal @ n_i) < _SAME_NORMAL_COS:
+            continue
+        if any(abs(p[0] - s_i) <= _SAME_PLANE_SHARE * abs(s_i) for p in planes):
+            return True
+    return False
 
 
 def _normal_gain(normal: np.ndarray, u: np.ndarray, v: np.ndarray, rect: Rectification) -> np.ndarray:
@@ -195,29 +268,33 @@ def _outline_alignment(
     gy: np.ndarray,
     x0: int,
     y0: int,
-    line_dir: np.ndarray,
+    line_dirs: tuple[np.ndarray, ...],
     rect: Rectification,
     config: PlanarFillConfig,
-) -> float:
-    """Gradient-weighted share of the strong, non-vertical edges of a face's ``outline``
-    (a band around its boundary, in a box at ``x0, y0``) that follow the image lines of
-    ``line_dir``."""
+) -> list[float]:
+    """For each of ``line_dirs``: the gradient-weighted share of the strong, non-vertical
+    edges of a face's ``outline`` (a band around its boundary, in a box at ``x0, y0``) that
+    follow the image lines of that direction."""
     vs, us = np.nonzero(outline)
-    ex, ey = gx[vs, us], gy[vs, us]
-    m = np.hypot(ex, ey)
-    strong = m > np.float32(8.0 * config.edge_gradient)
+    gxs, gys = gx[vs, us], gy[vs, us]
+    m = np.hypot(gxs, gys)
     # Along the edge: (-gy, gx) / |g|; not within _VERTICAL_EDGE_DEG of the image's vertical.
-    ex, ey, m = -ey[strong] / m[strong], ex[strong] / m[strong], m[strong]
-    keep = np.abs(ey) < math.cos(math.radians(_VERTICAL_EDGE_DEG))
+    keep = (m > np.float32(8.0 * config.edge_gradient)) & (
+        np.abs(gxs) < m * np.float32(math.cos(math.radians(_VERTICAL_EDGE_DEG)))
+    )
     if not keep.any():
-        return 0.0
-    u, v = us[strong][keep] + float(x0), vs[strong][keep] + float(y0)
-    f = rect.focal_px
-    du = f * line_dir[0] - (u - rect.cx) * line_dir[2]
-    dv = f * line_dir[1] - (v - rect.cy) * line_dir[2]
-    cos = np.abs(ex[keep] * du + ey[keep] * dv) / (np.hypot(du, dv) + 1e-12)
-    aligned = cos > math.cos(math.radians(config.manhattan_edge_deg))
-    return float(np.sum(m[keep] * aligned) / np.sum(m[keep]))
+        return [0.0] * len(line_dirs)
+    m, ex, ey = m[keep], -gys[keep] / m[keep], gxs[keep] / m[keep]
+    u, v = us[keep] + float(x0), vs[keep] + float(y0)
+    f, total = rect.focal_px, float(np.sum(m))
+    cos_tol = math.cos(math.radians(config.manhattan_edge_deg))
+    shares = []
+    for line_dir in line_dirs:
+        du = f * line_dir[0] - (u - rect.cx) * line_dir[2]
+        dv = f * line_dir[1] - (v - rect.cy) * line_dir[2]
+        cos = np.abs(ex * du + ey * dv) / (np.hypot(du, dv) + 1e-12)
+        shares.append(float(np.sum(m[cos > cos_tol])) / total)
+    return shares
 
 
 def _support_planes(
@@ -261,3 +338,27 @@ def _support_planes(
         planes.append((s, float(lo), float(hi)))
         explained += int(inl.sum())
     return planes, explained
+
+
+def warm_up() -> None:
+    """Load (or compile) the fill's compiled kernel now, not in the first frame that needs it
+    (the pipeline's warm-up pair need not have a face for it)."""
+    one = np.ones(1)
+    fill_face(
+        np.ones((2, 2), bool),
+        0,
+        0,
+        one,
+        one,
+        one,
+        np.array([0.0, 0.0, 1.0]),
+        np.array([1.0, 0.0, 0.0]),
+        np.array([100.0, 1.0, 1.0, 0.0]),
+        1.0,
+        1.0,
+        10.0,
+        np.zeros((2, 2), np.float32),
+        np.zeros((2, 2), bool),
+        np.zeros((2, 2), np.int32),
+        0,
+    )
