@@ -15,7 +15,7 @@ from stereo_terrain.errors import ConfigError
 from stereo_terrain.frames import rotation_from_rpy
 from stereo_terrain.rectify import compute_rectification
 from stereo_terrain.stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
-from stereo_terrain.stereo.manhattan import fill_manhattan_faces
+from stereo_terrain.stereo.manhattan import _repeats_a_neighbour, fill_manhattan_faces
 from stereo_terrain.vanishing import VerticalLinesConfig, horizontal_direction
 
 W, H, F, B = 640, 480, 500.0, 0.08
@@ -185,3 +185,100 @@ def test_bad_manhattan_config_raises(kw):
 def test_bad_horizontal_config_raises(kw):
     with pytest.raises(ConfigError):
         VerticalLinesConfig(**kw)
+
+
+def test_a_uniform_side_wall_whose_support_is_the_ends_of_steps_is_one_wall():
+    """A painted side wall to the right of a staircase's ends: its only support is the
+    steps' ends (concave corners, on the wall and on each riser alike). It is one plane of
+    the wall's family, never a stack of riser planes at the steps' depths."""
+    rect = _rectification()
+    f, cx, cy = rect.focal_px, rect.cx, rect.cy
+    rng = np.random.default_rng(5)
+    wall_x, cam_h, rise, run, first = 0.5, 0.5, 0.17, 0.3, 1.2  # metres
+    depths = [first + i * run for i in range(4)]
+    boundary = np.full(H, -1.0)  # the wall's left edge in each row
+    for i, z in enumerate(depths):  # riser i's end: a vertical segment on the wall
+        top = cy + f * (cam_h - (i + 1) * rise) / z
+        bottom = cy + f * (cam_h - i * rise) / z
+        rows = np.arange(max(0, int(np.ceil(top))), min(H, int(bottom) + 1))
+        boundary[rows] = cx + f * wall_x / z
+    boundary[: int(np.argmax(boundary >= 0))] = boundary[boundary >= 0][0]
+    boundary[boundary < 0] = cx + f * wall_x / depths[0]
+    cols = np.arange(W)[None, :]
+    wall = cols > boundary[:, None] + 0.5
+    img = rng.uniform(20.0, 120.0, (H, W)).astype(np.float32)  # textured steps
+    img[wall] = 180.0
+    img = np.clip(img + rng.normal(0.0, 0.5, img.shape), 0, 255).astype(np.uint8)
+    truth = (B * (cols - cx) / wall_x).astype(np.float32) * np.ones((H, 1), np.float32)
+    disparity = rng.uniform(0.0, 60.0, (H, W)).astype(np.float32)
+    band = np.abs(cols - boundary[:, None]) <= 8
+    disparity[band] = truth[band]  # the steps' ends: right on the wall (and the risers)
+    config = PlanarFillConfig()
+    regions = find_flat_regions(img, config)
+    planar, planar_mask = fill_planar_regions(disparity, img, config, regions=regions)
+    up, along = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0])  # risers along x
+    out, mask = fill_manhattan_faces(
+        disparity, planar, planar_mask, regions, img, rect, up, along, config, max_disparity_px=96
+    )
+    new = mask & ~planar_mask & wall
+    assert new.sum() > 1000  # the wall is filled ...
+    assert np.max(np.abs(out - truth)[new]) < FILL_TOL_PX  # ... as the wall
+
+
+def test_risers_of_one_shade_merged_into_one_region_are_split_at_their_ends():
+    """Head-on risers above the cameras, painted alike, are one region (each riser's foot
+    hides behind the nosing below it); their ends on a side wall are vertical segments at
+    three depths. Each riser takes its own plane, split at its end's rows."""
+    rect = _rectification()
+    f, cx, cy = rect.focal_px, rect.cx, rect.cy
+    rng = np.random.default_rng(6)
+    wall_x, rise, run, first = 0.4, 0.17, 0.3, 1.2  # metres; the cameras at the floor
+    depths = [first + i * run for i in range(3)]
+    truth = np.full((H, W), np.nan, np.float32)
+    risers = np.zeros((H, W), bool)
+    boundary = np.full(H, np.nan)
+    for i, z in enumerate(depths):  # above the cameras: riser i+1's foot is behind riser i
+        top = int(np.ceil(cy - f * (i + 1) * rise / z))
+        bottom = int(cy - f * i * rise / z) if i == 0 else int(np.ceil(cy - f * i * rise / depths[i - 1])) - 1
+        end = cx + f * wall_x / z
+        boundary[top : bottom + 1] = end
+        risers[top : bottom + 1, int(end) - 160 : int(end) + 1] = True
+        truth[top : bottom + 1, : int(end) + 1] = f * B / z
+    boundary[np.isnan(boundary)] = cx + f * wall_x / depths[0]
+    cols = np.arange(W)[None, :]
+    wall = cols > boundary[:, None] + 0.5
+    wall_truth = (B * (cols - cx) / wall_x).astype(np.float32) * np.ones((H, 1), np.float32)
+    truth = np.where(wall, wall_truth, truth)
+    img = rng.uniform(20.0, 120.0, (H, W)).astype(np.float32)  # textured elsewhere
+    img[risers] = 150.0
+    img[wall] = 90.0
+    img = np.clip(img + rng.normal(0.0, 0.5, img.shape), 0, 255).astype(np.uint8)
+    disparity = rng.uniform(0.0, 60.0, (H, W)).astype(np.float32)
+    band = (np.abs(cols - boundary[:, None]) <= 8) & np.isfinite(truth)
+    disparity[band] = truth[band]  # the risers' ends, on the wall
+    config = PlanarFillConfig()
+    regions = find_flat_regions(img, config)
+    planar, planar_mask = fill_planar_regions(disparity, img, config, regions=regions)
+    up, along = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    out, mask = fill_manhattan_faces(
+        disparity, planar, planar_mask, regions, img, rect, up, along, config, max_disparity_px=96
+    )
+    inner = risers & (cols < boundary[:, None] - 12)
+    filled_risers = mask & ~planar_mask & inner
+    assert filled_risers.sum() > 0.6 * inner.sum()
+    err = np.abs(out - truth)[filled_risers]
+    assert np.median(err) < FILL_TOL_PX
+    assert np.mean(err < 0.5) > 0.75  # one plane for all would be 2-5 px off on two of them
+
+
+def test_a_face_does_not_take_the_plane_of_a_differently_shaded_neighbour():
+    """The neighbour rule: a candidate plane that is a neighbouring face's plane (same
+    normal, same distance) is refused when the two are shaded differently (a riser against
+    its side wall), allowed when they are shaded alike (one wall split by a door frame)."""
+    wall = (np.array([1.0, 0.0, 0.0]), 40.0, 90.0)  # normal, s, grey level
+    same_plane = [(40.3, 0.0, 10.0)]
+    assert _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), same_plane, 150.0, {0}, [wall])
+    assert not _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), same_plane, 92.0, {0}, [wall])
+    assert not _repeats_a_neighbour(np.array([0.0, 0.0, 1.0]), same_plane, 150.0, {0}, [wall])
+    assert not _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), [(45.0, 0.0, 10.0)], 150.0, {0}, [wall])
+    assert not _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), same_plane, 150.0, set(), [wall])
