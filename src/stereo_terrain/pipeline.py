@@ -22,7 +22,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -67,7 +67,7 @@ from .planes.orientation import (
 )
 from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
-from .stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
+from .stereo.fill import FlatRegions, PlanarFillConfig, fill_planar_regions, find_flat_regions
 from .stereo.manhattan import fill_manhattan_faces
 from .stereo.manhattan import warm_up as warm_up_manhattan
 from .stereo.opencv import OpenCVSGBMConfig
@@ -76,7 +76,7 @@ from .stereo.vertical import VerticalAlignConfig, VerticalOffset, align_vertical
 from .swing import SwingConfig, SwingPlan, plan_swing
 from .terrain import StairModel, TerrainConfig, build_terrain, estimate_step_sigmas
 from .tracking import TrackingConfig
-from .vanishing import VerticalLinesConfig, combine_with_lines, scene_lines
+from .vanishing import SceneLines, VerticalLinesConfig, combine_with_lines, horizontal_direction, scene_lines
 
 RESULT_VERSION = 1
 
@@ -457,38 +457,7 @@ class Pipeline:
             )
         disp = self.backend.compute(pair, self.max_disparity_px)
         if regions is not None:
-            # Texture-poor faces: disparity from their outline (see stereo/fill.py).
-            flat = regions.result()
-            values, filled = fill_planar_regions(
-                disp.disparity,
-                pair.left,
-                self.config.fill,
-                max_disparity_px=disp.max_disparity_px,
-                valid=pair.rectification.valid_left,
-                regions=flat,
-            )
-            found = None if lines_job is None else lines_job.result()
-            up = (
-                rig_up
-                if rig_up is not None
-                else (found.up.up if found and found.up and found.up.ok else None)
-            )
-            if want_horizontal and up is not None and found is not None and found.horizontal is not None:
-                # Faces with one end in view: planes of the scene's three directions
-                # (see stereo/manhattan.py).
-                values, filled = fill_manhattan_faces(
-                    disp.disparity,
-                    values,
-                    filled,
-                    flat,
-                    pair.left,
-                    pair.rectification,
-                    up,
-                    found.horizontal,
-                    self.config.fill,
-                    max_disparity_px=disp.max_disparity_px,
-                )
-            disp = dataclasses.replace(disp, disparity=values, filled=filled)
+            disp = self._fill(disp, pair, regions.result(), lines_job, rig_up, want_horizontal)
         lap("disparity")
         cfg = self.config
         cam_sample = sample_disparity(
@@ -554,6 +523,60 @@ class Pipeline:
             choice,
             self.config.method,
         )
+
+    def _fill(
+        self,
+        disp: DisparityMap,
+        pair: RectifiedPair,
+        flat: FlatRegions,
+        lines_job: Future[SceneLines] | None,
+        rig_up: np.ndarray | None,
+        manhattan: bool,
+    ) -> DisparityMap:
+        """Texture-poor faces: the planar fill (disparity from their outline, see
+        stereo/fill.py), then the Manhattan fill (faces with one end in view: planes of the
+        scene's three directions, see stereo/manhattan.py) when up and a horizontal
+        direction are known: up from the rig, else from the image's vertical lines, else
+        (they do not fix it) a first estimate from the planar-filled disparity's planes."""
+        cfg = self.config
+        values, filled = fill_planar_regions(
+            disp.disparity,
+            pair.left,
+            cfg.fill,
+            max_disparity_px=disp.max_disparity_px,
+            valid=pair.rectification.valid_left,
+            regions=flat,
+        )
+        found = None if lines_job is None else lines_job.result()
+        if manhattan and found is not None:
+            up, horizontal = rig_up, found.horizontal
+            if up is None and found.up is not None and found.up.ok:
+                up = found.up.up
+            elif up is None:
+                first = sample_disparity(
+                    dataclasses.replace(disp, disparity=values, filled=filled),
+                    _identity_camera_rect(),
+                    cfg.cloud,
+                    target_points=cfg.orientation.target_points,
+                )
+                coarse = estimate_up(first, cfg.gravity)
+                if coarse.ok:
+                    up = coarse.up
+                    horizontal = horizontal_direction(found.segments, pair.rectification, up, cfg.vanishing)
+            if up is not None and horizontal is not None:
+                values, filled = fill_manhattan_faces(
+                    disp.disparity,
+                    values,
+                    filled,
+                    flat,
+                    pair.left,
+                    pair.rectification,
+                    up,
+                    horizontal,
+                    cfg.fill,
+                    max_disparity_px=disp.max_disparity_px,
+                )
+        return dataclasses.replace(disp, disparity=values, filled=filled)
 
     def _rig_up_camera(self, rig_T: Transform) -> np.ndarray:
         """The rig's up in the rectified camera frame (read-only), computed once per rig

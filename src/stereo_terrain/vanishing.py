@@ -381,10 +381,13 @@ class SceneLines:
     horizontal : (3,) float64 or None
         :func:`horizontal_direction` in the rectified left camera (None when asked for and
         not found, or not asked for).
+    segments : (N, 4) float64
+        The LSD segments behind them (for :func:`horizontal_direction` with another up).
     """
 
     up: GravityEstimate | None
     horizontal: np.ndarray | None
+    segments: np.ndarray
 
 
 def scene_lines(
@@ -417,4 +420,4 @@ def scene_lines(
     horizontal = None
     if want_horizontal and up is not None:
         horizontal = horizontal_direction(segments, rectification, up, config)
-    return SceneLines(up_est, horizontal)
+    return SceneLines(up_est, horizontal, segments)
