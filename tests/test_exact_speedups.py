@@ -84,6 +84,20 @@ def test_median_is_np_median_bit_for_bit():
     assert np.isnan(median(np.array([1.0, np.nan])))
 
 
+def test_median_of_float32_is_np_median_bit_for_bit():
+    from stereo_terrain._numeric import median
+
+    rng = np.random.default_rng(6)
+    for t in range(2000):
+        n = int(rng.integers(1, 80)) if t % 10 else int(rng.integers(1, 3000))
+        a = (rng.normal(size=n) * 10.0 ** rng.uniform(-3, 3)).astype(np.float32)
+        if t % 5 == 0:
+            a = np.round(a * 0.01, 0)  # ties, and -0.0 beside 0.0
+        got, want = median(a), np.median(a)
+        assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
+    assert np.isnan(median(np.array([1.0, np.nan], np.float32)))
+
+
 def test_disparity_from_fixed_point_is_the_numpy_passes_bit_for_bit():
     """Issue 13: the OpenCV backend's one compiled pass (scaling, OpenCV's invalid value,
     ``invalidate_sourceless``) gives the four NumPy passes' bits, half-pixel matches (ties
