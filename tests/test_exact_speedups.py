@@ -143,3 +143,22 @@ def test_planes_from_triplets_is_np_cross_and_norm_bit_for_bit():
         want = (n, -np.einsum("ij,ij->i", n, p0), ok)
         got = planes_from_triplets(p0, p1, p2)
         assert all(g.dtype == w.dtype and g.tobytes() == w.tobytes() for g, w in zip(got, want, strict=True))
+
+
+def test_box_means_masks_are_the_numpy_ones_bit_for_bit():
+    """cloud._box_means masks the disparities by cv2.bitwise_and and makes its 0/1 bytes
+    by cv2.threshold (issue 13): np.where's and np.minimum's bits."""
+    import cv2
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        dd = rng.uniform(-5.0, 90.0, (61, 83)).astype(np.float32)
+        dd[rng.random(dd.shape) < 0.2] = np.nan
+        dd[rng.random(dd.shape) < 0.05] = -0.0
+        dd[rng.random(dd.shape) < 0.02] = np.inf
+        in_range = cv2.inRange(dd, 0.0, 60.0)
+        want_valid = np.minimum(in_range, 1)
+        want = np.where(want_valid.view(bool), dd, np.float32(0.0))
+        got = cv2.bitwise_and(dd, dd, mask=in_range)
+        cv2.threshold(in_range, 0, 1, cv2.THRESH_BINARY, dst=in_range)
+        assert got.tobytes() == want.tobytes() and in_range.tobytes() == want_valid.tobytes()
