@@ -70,6 +70,7 @@ def main() -> None:
     ref: list[list[float]] = [[], []]
     stages: list[dict[str, list[float]]] = [{}, {}]
     same_json = same_disp = 0
+    differ: list[str] = []
     scores: list[list[Any]] = [[], []]
     dirs = sorted(d for d in args.scenes_dir.iterdir() if d.is_dir())[: args.scenes]
     for s, d in enumerate(dirs):
@@ -90,7 +91,10 @@ def main() -> None:
             firsts.append(first)
         if args.compare:
             js = [f.to_json_dict() for f in firsts]
-            same_json += _same_without_timing(js[0]) == _same_without_timing(js[1])
+            if _same_without_timing(js[0]) == _same_without_timing(js[1]):
+                same_json += 1
+            else:
+                differ.append(d.name)
             h = [
                 hashlib.sha1(np.ascontiguousarray(f.disparity.disparity).tobytes()).hexdigest()
                 for f in firsts
@@ -126,6 +130,8 @@ def main() -> None:
     if args.compare:
         n = len(dirs)
         print(f"first frames the same bit for bit: result JSON {same_json}/{n}, disparity {same_disp}/{n}")
+        if differ:
+            print(f"results that differ: {', '.join(differ)}")
         for k in range(2):
             if scores[k]:
                 m = summarize(scores[k])
