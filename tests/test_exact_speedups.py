@@ -162,3 +162,28 @@ def test_box_means_masks_are_the_numpy_ones_bit_for_bit():
         got = cv2.bitwise_and(dd, dd, mask=in_range)
         cv2.threshold(in_range, 0, 1, cv2.THRESH_BINARY, dst=in_range)
         assert got.tobytes() == want.tobytes() and in_range.tobytes() == want_valid.tobytes()
+
+
+def test_truncated_family_error_sums_are_the_numpy_passes_bit_for_bit():
+    """estimate_up's hypothesis scores by one compiled pass (issue 13): NumPy's column sums
+    of the truncated squared sines, bit for bit, for two hypotheses or more (NumPy sums a
+    single column pairwise: estimate_up keeps NumPy's passes there)."""
+    from stereo_terrain._gravity_kernels import truncated_family_error_sums
+
+    rng = np.random.default_rng(8)
+    s2 = np.float32(math.sin(math.radians(10.0)) ** 2)
+    for t in range(200):
+        S, H = int(rng.integers(1, 2500)), int(rng.integers(2, 320))
+        N = rng.normal(size=(S, 3))
+        N /= np.linalg.norm(N, axis=1, keepdims=True)
+        U = rng.normal(size=(H, 3))
+        U /= np.linalg.norm(U, axis=1, keepdims=True)
+        if t % 5 == 0:
+            N[: S // 2] = U[0]  # exact family members: cosines of +-1
+        cosines = N.astype(np.float32) @ U.T.astype(np.float32)
+        D2 = np.square(cosines)
+        err = np.minimum(1.0 - D2, D2)
+        np.minimum(err, s2, out=err)
+        want = err.sum(axis=0)
+        got = truncated_family_error_sums(cosines, s2)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()

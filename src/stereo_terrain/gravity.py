@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ._gravity_kernels import truncated_family_error_sums
 from ._numeric import median
 from .checks import check_fields, check_min
 from .cloud import GridSample
@@ -305,17 +306,25 @@ def estimate_up(
         return _failed(frame, "no surface near horizontal or vertical for any plausible up")
     U = np.vstack(hyps)
     score_idx = rng.choice(n, size=min(config.score_points, n), replace=False)
-    D2 = np.square(N[score_idx].astype(np.float32) @ U.T.astype(np.float32))  # (S, H) cos^2
+    cosines = N[score_idx].astype(np.float32) @ U.T.astype(np.float32)  # (S, H)
     s2 = np.float32(math.sin(math.radians(config.family_tol_deg)) ** 2)
-    err = np.minimum(1.0 - D2, D2)  # squared sine to the nearest family
     # The weak prior "camera roughly upright": a broad Gaussian on the angle to the prior
     # up breaks ties between families that a slanted surface (the envelope of a noisy
     # staircase, a ramp) can make look vertical when up turns far.
     prior_w = np.exp(
         -0.5 * (np.arccos(np.clip(U @ prior, -1.0, 1.0)) / math.radians(config.prior_sigma_deg)) ** 2
     )
-    np.minimum(err, s2, out=err)
-    score = (len(score_idx) * s2 - err.sum(axis=0)) * prior_w
+    # Each sample's squared sine to the nearest family (parallel or orthogonal to up),
+    # truncated at s2, summed per hypothesis: one compiled pass, NumPy's bits (with one
+    # hypothesis NumPy's column sum is a pairwise one: NumPy's own passes then).
+    if cosines.shape[1] > 1:
+        err_sums = truncated_family_error_sums(cosines, s2)
+    else:
+        D2 = np.square(cosines)
+        err = np.minimum(1.0 - D2, D2)
+        np.minimum(err, s2, out=err)
+        err_sums = err.sum(axis=0)
+    score = (len(score_idx) * s2 - err_sums) * prior_w
     u = U[int(np.argmax(score))]
     # Refinement: least squares on the family members, tolerance tightened; a step that
     # leaves the prior cone is not taken.
@@ -356,6 +365,13 @@ def estimate_up(
             f"the surfaces fix up only to {sigma:.1f} deg (one wall family and no floor?)",
         )
     return GravityEstimate(u, frame, sigma, True, h_frac, v_frac, "plane families of the scene")
+
+
+def load_gravity_kernels() -> None:
+    """Load (or compile) :func:`estimate_up`'s compiled kernel now rather than in its first
+    call (the pipeline's warm-up: with a rig that agrees with the scene the estimate does
+    not run on the warm-up pair)."""
+    truncated_family_error_sums(np.zeros((1, 2), np.float32), np.float32(0.0))
 
 
 def floor_up(

@@ -52,6 +52,7 @@ from .gravity import (
     estimate_up,
     floor_up,
     levelling,
+    load_gravity_kernels,
     refine_up_from_planes,
     yaw_frame_from_up,
 )
@@ -710,6 +711,7 @@ def warm_up_kernels(
     try:
         pipeline = Pipeline(calib, rig if with_rig else None, warm_config, backend=backend, warm_up=False)
         pipeline.run(left, right)
+        load_gravity_kernels()  # the rig check's, which a rig that agrees with the pair skips
     except Exception:  # an optimisation only: a config the tiny pair does not suit runs cold
         logging.getLogger(__name__).debug("kernel warm-up skipped", exc_info=True)
     _WARMED.add(key)
