@@ -84,6 +84,20 @@ def test_median_is_np_median_bit_for_bit():
     assert np.isnan(median(np.array([1.0, np.nan])))
 
 
+def test_median_of_float32_is_np_median_bit_for_bit():
+    from stereo_terrain._numeric import median
+
+    rng = np.random.default_rng(6)
+    for t in range(2000):
+        n = int(rng.integers(1, 80)) if t % 10 else int(rng.integers(1, 3000))
+        a = (rng.normal(size=n) * 10.0 ** rng.uniform(-3, 3)).astype(np.float32)
+        if t % 5 == 0:
+            a = np.round(a * 0.01, 0)  # ties, and -0.0 beside 0.0
+        got, want = median(a), np.median(a)
+        assert type(got) is type(want) and np.asarray(got).tobytes() == np.asarray(want).tobytes()
+    assert np.isnan(median(np.array([1.0, np.nan], np.float32)))
+
+
 def test_disparity_from_fixed_point_is_the_numpy_passes_bit_for_bit():
     """Issue 13: the OpenCV backend's one compiled pass (scaling, OpenCV's invalid value,
     ``invalidate_sourceless``) gives the four NumPy passes' bits, half-pixel matches (ties
@@ -129,3 +143,47 @@ def test_planes_from_triplets_is_np_cross_and_norm_bit_for_bit():
         want = (n, -np.einsum("ij,ij->i", n, p0), ok)
         got = planes_from_triplets(p0, p1, p2)
         assert all(g.dtype == w.dtype and g.tobytes() == w.tobytes() for g, w in zip(got, want, strict=True))
+
+
+def test_box_means_masks_are_the_numpy_ones_bit_for_bit():
+    """cloud._box_means masks the disparities by cv2.bitwise_and and makes its 0/1 bytes
+    by cv2.threshold (issue 13): np.where's and np.minimum's bits."""
+    import cv2
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        dd = rng.uniform(-5.0, 90.0, (61, 83)).astype(np.float32)
+        dd[rng.random(dd.shape) < 0.2] = np.nan
+        dd[rng.random(dd.shape) < 0.05] = -0.0
+        dd[rng.random(dd.shape) < 0.02] = np.inf
+        in_range = cv2.inRange(dd, 0.0, 60.0)
+        want_valid = np.minimum(in_range, 1)
+        want = np.where(want_valid.view(bool), dd, np.float32(0.0))
+        got = cv2.bitwise_and(dd, dd, mask=in_range)
+        cv2.threshold(in_range, 0, 1, cv2.THRESH_BINARY, dst=in_range)
+        assert got.tobytes() == want.tobytes() and in_range.tobytes() == want_valid.tobytes()
+
+
+def test_truncated_family_error_sums_are_the_numpy_passes_bit_for_bit():
+    """estimate_up's hypothesis scores by one compiled pass (issue 13): NumPy's column sums
+    of the truncated squared sines, bit for bit, for two hypotheses or more (NumPy sums a
+    single column pairwise: estimate_up keeps NumPy's passes there)."""
+    from stereo_terrain._gravity_kernels import truncated_family_error_sums
+
+    rng = np.random.default_rng(8)
+    s2 = np.float32(math.sin(math.radians(10.0)) ** 2)
+    for t in range(200):
+        S, H = int(rng.integers(1, 2500)), int(rng.integers(2, 320))
+        N = rng.normal(size=(S, 3))
+        N /= np.linalg.norm(N, axis=1, keepdims=True)
+        U = rng.normal(size=(H, 3))
+        U /= np.linalg.norm(U, axis=1, keepdims=True)
+        if t % 5 == 0:
+            N[: S // 2] = U[0]  # exact family members: cosines of +-1
+        cosines = N.astype(np.float32) @ U.T.astype(np.float32)
+        D2 = np.square(cosines)
+        err = np.minimum(1.0 - D2, D2)
+        np.minimum(err, s2, out=err)
+        want = err.sum(axis=0)
+        got = truncated_family_error_sums(cosines, s2)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()

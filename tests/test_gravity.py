@@ -207,3 +207,95 @@ def test_gravity_from_a_rendered_scene_without_floor(yaw_deg, pitch_deg, roll_de
 
 #: Bound on the gravity error of a rendered scene without floor (measured 0.2-0.4 deg).
 NO_FLOOR_TOL_DEG = 1.5
+
+
+def _irls_reference(cons, u, floor):
+    """The Gauss-Newton of refine_up_from_planes as NumPy matrices (before issue 13's
+    scalar version): up and the widened largest variance, or None."""
+    from stereo_terrain.gravity import _CAUCHY_SCALE, _tangent_basis
+    from stereo_terrain.planes.orientation import HORIZONTAL
+
+    weights = np.ones(len(cons))
+    for _ in range(8):
+        B = _tangent_basis(u)
+        H, g, chi = np.zeros((2, 2)), np.zeros(2), np.zeros(len(cons))
+        for k, (kind, n, cov_n) in enumerate(cons):
+            if kind == HORIZONTAL:
+                W = np.linalg.inv(B @ cov_n @ B.T + floor * np.eye(2))
+                r = B @ n
+                chi[k] = math.sqrt(float(r @ W @ r) / 2)
+                H += weights[k] * W
+                g += weights[k] * W @ r
+            else:
+                J = (B @ n)[None, :]
+                W = np.linalg.inv(np.array([[u @ cov_n @ u + floor]]))
+                r = np.array([-n @ u])
+                chi[k] = math.sqrt(float(r @ W @ r))
+                H += weights[k] * J.T @ W @ J
+                g += weights[k] * J.T @ W @ r
+        if np.linalg.cond(H) > 1e8:
+            return None
+        delta = np.linalg.solve(H, g)
+        u = u + B.T @ delta
+        u /= np.linalg.norm(u)
+        weights = 1.0 / (1.0 + (chi / _CAUCHY_SCALE) ** 2)
+        if np.linalg.norm(delta) < 1e-7:
+            break
+    dof = sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) - 2
+    chi2 = float(np.sum(weights * chi * chi)) / float(np.sum(weights)) * (dof + 2)
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    return u, scale * float(np.linalg.eigvalsh(np.linalg.inv(H))[-1])
+
+
+def test_scalar_gauss_newton_is_the_matrix_one():
+    """refine_up_from_planes's Gauss-Newton in Python floats (issue 13) gives the matrix
+    formulation's up and variance to rounding, and fails where it fails."""
+    from stereo_terrain.gravity import _irls_up
+    from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL
+
+    rng = np.random.default_rng(13)
+    floor = math.radians(0.3) ** 2
+    for t in range(300):
+        R = rotation_from_rpy(*rng.normal(0.0, 0.05, 3))
+        cons = []
+        for _ in range(int(rng.integers(1, 7))):
+            if rng.random() < 0.4:
+                kind, n = HORIZONTAL, R @ np.array([0.0, 0.0, 1.0])
+            else:
+                a = rng.uniform(0, math.pi) if t % 4 else rng.choice([0.0, 1e-4])  # one wall family
+                kind, n = VERTICAL, R @ np.array([math.cos(a), math.sin(a), 0.0])
+            n = n + rng.normal(0.0, 0.01, 3)
+            E = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+            cov = sum(np.outer(E[:, k], E[:, k]) * 10.0 ** rng.uniform(-7, -3) for k in (1, 2))
+            cons.append((kind, n / np.linalg.norm(n), cov))
+        if sum(2 if c[0] == HORIZONTAL else 1 for c in cons) < 2:
+            continue
+        u0 = np.array([0.0, 0.0, 1.0]) + rng.normal(0.0, 0.03, 3)
+        u0 /= np.linalg.norm(u0)
+        want = _irls_reference(cons, u0.copy(), floor)
+        got = _irls_up(cons, (float(u0[0]), float(u0[1]), float(u0[2])), floor)
+        assert (got is None) == (want is None), t
+        if got is not None and want is not None:
+            assert np.abs(got[0] - want[0]).max() < 1e-12, t
+            assert got[1] == pytest.approx(want[1], rel=1e-8), t
+
+
+def test_the_rig_check_runs_only_when_the_planes_do_not_settle_it(monkeypatch):
+    """With a rig the local normals' estimate (the rig check) is skipped when the planes
+    found in the rig's frame agree with it; a rig 15 deg off still runs it (issue 13)."""
+    from stereo_terrain import pipeline as pipeline_module
+    from stereo_terrain.frames import Rig, camera_mount
+
+    scene = render_scene(default_scene_spec())
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return estimate_up(*args, **kwargs)
+
+    monkeypatch.setattr(pipeline_module, "estimate_up", counted)
+    good = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert calls == [] and "agrees" in good.gravity.note
+    wrong = Pipeline(scene.calibration, Rig(camera_mount(0.55, 0.0)), warm_up=False)
+    g = wrong.run(scene.left, scene.right).gravity
+    assert calls == [1] and g.rig_disagreement_deg > 10.0

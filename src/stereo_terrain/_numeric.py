@@ -64,13 +64,22 @@ def percentile(values: Sequence[float] | np.ndarray, q: Any) -> Any:
 
 def median(values: Sequence[float] | np.ndarray, axis: int | None = None) -> Any:
     """``np.median(values, axis)`` for a float64 array, 1-D (``axis`` None or 0) or 2-D
-    along ``axis=0``.
+    along ``axis=0``, or a 1-D float32 one.
 
     NumPy's partition (same kth) and its mean of the middle one or two values (``(0 + x) / 1``,
     ``(0 + x + y) / 2``), so the same bits; NaN, other dtypes, shapes or axes, and empty input
     are handed to ``np.median``.
     """
     a = np.asarray(values)
+    if a.dtype == np.float32 and a.ndim == 1 and axis in (None, 0) and a.shape[0] and not np.isnan(a).any():
+        # float32: np.mean's float32 sum and division (NumPy keeps a float32 mean float32).
+        n = a.shape[0]
+        h = n // 2
+        part = np.partition(a, [h - 1, h, -1] if n % 2 == 0 else [(n - 1) // 2, -1])
+        zero = np.float32(0.0)
+        if n % 2:
+            return (zero + part[h]) / np.float32(1.0)
+        return (zero + part[h - 1] + part[h]) / np.float32(2.0)
     if (
         a.dtype != np.float64
         or a.ndim not in (1, 2)

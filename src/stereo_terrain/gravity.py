@@ -38,6 +38,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ._gravity_kernels import truncated_family_error_sums
+from ._numeric import median
 from .checks import check_fields, check_min
 from .cloud import GridSample
 from .errors import ConfigError
@@ -304,17 +306,25 @@ def estimate_up(
         return _failed(frame, "no surface near horizontal or vertical for any plausible up")
     U = np.vstack(hyps)
     score_idx = rng.choice(n, size=min(config.score_points, n), replace=False)
-    D2 = np.square(N[score_idx].astype(np.float32) @ U.T.astype(np.float32))  # (S, H) cos^2
+    cosines = N[score_idx].astype(np.float32) @ U.T.astype(np.float32)  # (S, H)
     s2 = np.float32(math.sin(math.radians(config.family_tol_deg)) ** 2)
-    err = np.minimum(1.0 - D2, D2)  # squared sine to the nearest family
     # The weak prior "camera roughly upright": a broad Gaussian on the angle to the prior
     # up breaks ties between families that a slanted surface (the envelope of a noisy
     # staircase, a ramp) can make look vertical when up turns far.
     prior_w = np.exp(
         -0.5 * (np.arccos(np.clip(U @ prior, -1.0, 1.0)) / math.radians(config.prior_sigma_deg)) ** 2
     )
-    np.minimum(err, s2, out=err)
-    score = (len(score_idx) * s2 - err.sum(axis=0)) * prior_w
+    # Each sample's squared sine to the nearest family (parallel or orthogonal to up),
+    # truncated at s2, summed per hypothesis: one compiled pass, NumPy's bits (with one
+    # hypothesis NumPy's column sum is a pairwise one: NumPy's own passes then).
+    if cosines.shape[1] > 1:
+        err_sums = truncated_family_error_sums(cosines, s2)
+    else:
+        D2 = np.square(cosines)
+        err = np.minimum(1.0 - D2, D2)
+        np.minimum(err, s2, out=err)
+        err_sums = err.sum(axis=0)
+    score = (len(score_idx) * s2 - err_sums) * prior_w
     u = U[int(np.argmax(score))]
     # Refinement: least squares on the family members, tolerance tightened; a step that
     # leaves the prior cone is not taken.
@@ -355,6 +365,13 @@ def estimate_up(
             f"the surfaces fix up only to {sigma:.1f} deg (one wall family and no floor?)",
         )
     return GravityEstimate(u, frame, sigma, True, h_frac, v_frac, "plane families of the scene")
+
+
+def load_gravity_kernels() -> None:
+    """Load (or compile) :func:`estimate_up`'s compiled kernel now rather than in its first
+    call (the pipeline's warm-up: with a rig that agrees with the scene the estimate does
+    not run on the warm-up pair)."""
+    truncated_family_error_sums(np.zeros((1, 2), np.float32), np.float32(0.0))
 
 
 def floor_up(
@@ -467,6 +484,108 @@ def _tangent_basis(u: np.ndarray) -> np.ndarray:
     return np.vstack([a, _cross3(u, a)])
 
 
+def _sym2_eigen(a: float, b: float, d: float) -> tuple[float, float]:
+    """Largest and smallest eigenvalue of the symmetric 2x2 ``[[a, b], [b, d]]`` (the
+    smallest as the determinant over the largest, which keeps its digits near singular)."""
+    big = 0.5 * (a + d + math.sqrt((a - d) ** 2 + 4.0 * b * b))
+    return big, ((a * d - b * b) / big if big > 0 else 0.0)
+
+
+def _irls_up(
+    cons: list[tuple[str, np.ndarray, np.ndarray]], u0: tuple[float, float, float], floor: float
+) -> tuple[np.ndarray, float] | None:
+    """The iteratively reweighted Gauss-Newton of :func:`refine_up_from_planes` on the
+    sphere, in Python floats (issue 13: its 2x2 and 3-vector NumPy calls, a dozen per plane
+    and step, cost about 1 ms a frame; the same arithmetic written out is a tenth of it and
+    agrees to rounding). Returns up and the largest variance of its tangent covariance
+    widened by the weighted chi^2 (before the structural floor), or None when the planes
+    do not fix up (``H``'s condition number above 1e8)."""
+    rows = []  # (horizontal?, normal, covariance's 6 unique entries)
+    for kind, n, c in cons:
+        cl = c.tolist()
+        rows.append(
+            (
+                kind == HORIZONTAL,
+                (float(n[0]), float(n[1]), float(n[2])),
+                (cl[0][0], cl[0][1], cl[0][2], cl[1][1], cl[1][2], cl[2][2]),
+            )
+        )
+    k = len(rows)
+    weights = [1.0] * k
+    chi = [0.0] * k
+    u0_, u1, u2 = u0
+    h00 = h01 = h11 = 0.0
+    for _ in range(8):
+        # The tangent basis of _tangent_basis: a = u x e_x (or u x e_y), b = u x a.
+        a0, a1, a2 = 0.0, u2, -u1
+        if math.sqrt(a1 * a1 + a2 * a2) < 0.5:
+            a0, a1, a2 = -u2, 0.0, u0_
+        na = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        a0, a1, a2 = a0 / na, a1 / na, a2 / na
+        b0, b1, b2 = u1 * a2 - u2 * a1, u2 * a0 - u0_ * a2, u0_ * a1 - u1 * a0
+        h00 = h01 = h11 = g0 = g1 = 0.0
+        for i, (horizontal, (n0, n1, n2), (c00, c01, c02, c11, c12, c22)) in enumerate(rows):
+            r_a, r_b = a0 * n0 + a1 * n1 + a2 * n2, b0 * n0 + b1 * n1 + b2 * n2  # B n
+            w = weights[i]
+            if horizontal:  # up = n: W = (B C B^T + floor I)^-1, residual B n, J = I
+                ca0, ca1, ca2 = (
+                    c00 * a0 + c01 * a1 + c02 * a2,
+                    c01 * a0 + c11 * a1 + c12 * a2,
+                    c02 * a0 + c12 * a1 + c22 * a2,
+                )
+                cb0, cb1, cb2 = (
+                    c00 * b0 + c01 * b1 + c02 * b2,
+                    c01 * b0 + c11 * b1 + c12 * b2,
+                    c02 * b0 + c12 * b1 + c22 * b2,
+                )
+                m00 = a0 * ca0 + a1 * ca1 + a2 * ca2 + floor  # B C B^T + floor I
+                m01 = b0 * ca0 + b1 * ca1 + b2 * ca2
+                m11 = b0 * cb0 + b1 * cb1 + b2 * cb2 + floor
+                det = m00 * m11 - m01 * m01
+                w00, w01, w11 = m11 / det, -m01 / det, m00 / det
+                wr_a, wr_b = w00 * r_a + w01 * r_b, w01 * r_a + w11 * r_b
+                chi[i] = math.sqrt(max(r_a * wr_a + r_b * wr_b, 0.0) / 2.0)
+                h00 += w * w00
+                h01 += w * w01
+                h11 += w * w11
+                g0 += w * wr_a
+                g1 += w * wr_b
+            else:  # n . up = 0: one residual, J = (B n)^T, W = 1 / (u C u + floor)
+                ucu = (
+                    u0_ * (c00 * u0_ + c01 * u1 + c02 * u2)
+                    + u1 * (c01 * u0_ + c11 * u1 + c12 * u2)
+                    + u2 * (c02 * u0_ + c12 * u1 + c22 * u2)
+                )
+                w_inv = 1.0 / (ucu + floor)
+                r0 = -(n0 * u0_ + n1 * u1 + n2 * u2)
+                chi[i] = math.sqrt(r0 * w_inv * r0)
+                s_a, s_b = w * r_a * w_inv, w * r_b * w_inv
+                h00 += s_a * r_a
+                h01 += s_a * r_b
+                h11 += s_b * r_b
+                g0 += s_a * r0
+                g1 += s_b * r0
+        big, small = _sym2_eigen(h00, h01, h11)
+        if not small > 0 or big / small > 1e8:
+            return None
+        det = h00 * h11 - h01 * h01
+        d0, d1 = (h11 * g0 - h01 * g1) / det, (h00 * g1 - h01 * g0) / det
+        u0_, u1, u2 = u0_ + a0 * d0 + b0 * d1, u1 + a1 * d0 + b1 * d1, u2 + a2 * d0 + b2 * d1
+        nu = math.sqrt(u0_ * u0_ + u1 * u1 + u2 * u2)
+        u0_, u1, u2 = u0_ / nu, u1 / nu, u2 / nu
+        weights = [1.0 / (1.0 + (c / _CAUCHY_SCALE) ** 2) for c in chi]
+        if math.sqrt(d0 * d0 + d1 * d1) < 1e-7:
+            break
+    # cov = H^-1: its largest eigenvalue is 1 / H's smallest.
+    var_max = 1.0 / _sym2_eigen(h00, h01, h11)[1]
+    # Residual scatter beyond the model (weighted chi^2 per degree of freedom) widens sigma.
+    dof = sum(1 if horizontal else 0 for horizontal, _, _ in rows) + k - 2
+    sw = sum(weights)
+    chi2 = sum(w * c * c for w, c in zip(weights, chi, strict=True)) / max(sw, 1e-9) * (dof + 2)
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    return np.array([u0_, u1, u2]), scale * var_max
+
+
 def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None) -> GravityEstimate:
     """Fine gravity-up from extracted planes (stage 2 above), in the planes' frame.
 
@@ -501,8 +620,9 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
         q = q - q.mean(axis=0)
         lam, E = np.linalg.eigh(q.T @ q)
         sig = depth_sigma[seg.indices]
-        # np.median where nothing is NaN (nanmedian's own path then, at a third of its time)
-        noise = float(np.nanmedian(sig) if np.isnan(sig).any() else np.median(sig))
+        # np.median's bits where nothing is NaN (nanmedian's own path then; _numeric.median
+        # at a fifth of np.median's time)
+        noise = float(np.nanmedian(sig) if np.isnan(sig).any() else median(sig))
         sigma2 = max(seg.rms_m, noise, 1e-3) ** 2
         inflate = min(per_independent, seg.count / 3.0) if seg.count > 3 else 1.0
         cov_n = inflate * sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
@@ -513,50 +633,16 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
     h_frac, v_frac = n_h / total, n_v / total
     if sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) < 2:  # up has 2 degrees of freedom
         return _failed(frame, "too few planes to fix up", h_frac, v_frac)
-    weights = np.ones(len(cons))
-    floor_2 = floor * np.eye(2)
-    for _ in range(8):
-        B = _tangent_basis(u)
-        H = np.zeros((2, 2))
-        g = np.zeros(2)
-        chi = np.zeros(len(cons))
-        for k, (kind, n, cov_n) in enumerate(cons):
-            # J^T W J and J^T W r written out where J is the identity or one row: the same
-            # products, without a dozen tiny matrix calls per plane (issue 13).
-            if kind == HORIZONTAL:  # up = n: the tangent components of n, 2 residuals (J = I)
-                W = np.linalg.inv(B @ cov_n @ B.T + floor_2)
-                r = B @ n
-                chi[k] = math.sqrt(float(r @ W @ r) / 2)
-                wW = weights[k] * W
-                H += wW
-                g += wW @ r
-            else:  # n . up = 0: one residual, J = (B n)^T; W = 1 / C (what inv gives a 1x1)
-                w_inv = 1.0 / (float(u @ cov_n @ u) + floor)
-                r0, Jr = -float(n @ u), B @ n
-                chi[k] = math.sqrt(r0 * w_inv * r0)
-                a = weights[k] * Jr * w_inv
-                H += np.outer(a, Jr)
-                g += a * r0
-        if np.linalg.cond(H) > 1e8:
-            return _failed(
-                frame,
-                "the planes do not fix up (need a horizontal plane or two wall directions)",
-                h_frac,
-                v_frac,
-            )
-        delta = np.linalg.solve(H, g)
-        u = u + B.T @ delta
-        u /= np.linalg.norm(u)
-        weights = 1.0 / (1.0 + (chi / _CAUCHY_SCALE) ** 2)
-        if float(np.linalg.norm(delta)) < 1e-7:
-            break
-    cov = np.linalg.inv(H)
-    # Residual scatter beyond the model (weighted chi^2 per degree of freedom) widens sigma.
-    dof = sum(2 if kind == HORIZONTAL else 1 for kind, _, _ in cons) - 2
-    chi2 = float(np.sum(weights * chi * chi)) / max(float(np.sum(weights)), 1e-9) * (dof + 2)
-    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
-    # The structural floor once more for the whole result: the planes share it.
-    sigma = math.degrees(math.sqrt(scale * float(np.linalg.eigvalsh(cov)[-1]) + floor))
+    solved = _irls_up(cons, (float(u[0]), float(u[1]), float(u[2])), floor)
+    if solved is None:
+        return _failed(
+            frame,
+            "the planes do not fix up (need a horizontal plane or two wall directions)",
+            h_frac,
+            v_frac,
+        )
+    u, var_max = solved
+    sigma = math.degrees(math.sqrt(var_max + floor))
     ok = sigma <= config.max_sigma_deg
     why = "planes of the scene" if ok else f"the planes fix up only to {sigma:.1f} deg"
     return GravityEstimate(u, frame, sigma, ok, h_frac, v_frac, why)
