@@ -356,3 +356,29 @@ def test_one_video_and_a_missing_one_says_which(tmp_path):
         open_devices(str(video), str(tmp_path / "missing.avi"))
     with pytest.raises(InputError, match="left video .* is a folder"):
         open_devices(str(tmp_path), str(video))
+
+
+def test_a_stop_that_surfaces_as_an_error_stops_the_loop(scene, pipeline, monkeypatch):
+    """SIGTERM inside a compiled kernel can surface as an ordinary error: once a stop is
+    requested, that error stops the loop (interrupted) instead of counting as a failed
+    frame after which the loop goes on."""
+    from stereo_terrain.runtime.loop import request_stop
+
+    real_run = pipeline.run
+    calls = {"n": 0}
+
+    def interrupted(left, right):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            request_stop()
+            raise SystemError("error return without exception set")
+        return real_run(left, right)
+
+    monkeypatch.setattr(pipeline, "run", interrupted)
+    frames = [_frame(scene, float(i), i) for i in range(4)]
+    src = FrameSource(frames)
+    s = LiveLoop(Capture(src), pipeline, lambda m: None).run()
+    assert s.interrupted and s.processed == 1 and s.failed == 0 and src.closed
+    # The next loop starts afresh.
+    s = LiveLoop(Capture(FrameSource([_frame(scene, 0.0, 0)])), pipeline, lambda m: None).run()
+    assert not s.interrupted and s.processed == 1

@@ -129,7 +129,10 @@ def stop_on_sigterm() -> Iterator[None]:
         yield
         return
 
+    from ..runtime.loop import request_stop
+
     def interrupt(signum: int, frame: Any) -> None:
+        request_stop()  # also seen when the interrupt below surfaces as another error
         raise KeyboardInterrupt
 
     previous = signal.signal(signal.SIGTERM, interrupt)

@@ -14,6 +14,7 @@ import dataclasses
 import itertools
 import logging
 import math
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -34,6 +35,17 @@ from .capture import END, FRAME, NONE, SKEW, UNREADABLE, Capture, Clock, StereoF
 from .messages import terrain_message, terrain_t
 
 log = logging.getLogger(__name__)
+
+#: Set by :func:`request_stop` (the SIGTERM handler): the live loop stops at the next frame
+#: boundary even when the interrupt itself surfaced inside a compiled kernel or a library as
+#: an ordinary error, which the loop would otherwise count as one failed frame and go on.
+_stop_requested = threading.Event()
+
+
+def request_stop() -> None:
+    """Ask every running :class:`LiveLoop` to stop, as Ctrl-C does (signal-handler safe)."""
+    _stop_requested.set()
+
 
 #: Pairs whose latencies the summary keeps.
 LATENCY_WINDOW = 20_000
@@ -357,6 +369,8 @@ class LiveLoop:
             self._unreadable(f"pair {frame.index}: {exc}")
             return
         except Exception as exc:  # keep running on the robot; the traceback goes to the log
+            if _stop_requested.is_set():
+                raise KeyboardInterrupt from exc  # a stop that surfaced as this error
             self.summary.failed += 1
             self._quality |= terrain_t.QUALITY_UNREADABLE
             log.warning("pipeline failed on pair %d", frame.index, exc_info=True)
@@ -480,8 +494,11 @@ class LiveLoop:
         """Loop until the source ends, a limit is reached or Ctrl-C; returns the summary."""
         cfg = self.config
         start = self.clock()
+        _stop_requested.clear()
         try:
             while True:
+                if _stop_requested.is_set():
+                    raise KeyboardInterrupt
                 if cfg.max_frames and self.summary.processed >= cfg.max_frames:
                     break
                 if cfg.max_duration_s and self.clock() - start >= cfg.max_duration_s:
