@@ -561,7 +561,7 @@ class Pipeline:
                     target_points=cfg.orientation.target_points,
                 )
                 coarse = estimate_up(first, cfg.gravity)
-                if coarse.ok:
+                if coarse.ok and coarse.sigma_deg <= cfg.fill.manhattan_max_up_sigma_deg:
                     up = coarse.up
                     horizontal = horizontal_direction(found.segments, pair.rectification, up, cfg.vanishing)
             if up is not None and horizontal is not None:

@@ -126,6 +126,11 @@ class PlanarFillConfig:
     manhattan_max_planes : int
         Most planes (support clusters) the Manhattan fill puts in one region (several
         risers of one shade merge into one region above the cameras).
+    manhattan_max_up_sigma_deg : float
+        Without a rig, when the image's vertical lines do not fix up, the Manhattan fill
+        uses a first estimate from the planar-filled disparity's planes only when its
+        sigma is at most this: its faces take that up's directions, and the planes then
+        found in them would confirm a wrong up.
     """
 
     enabled: bool = True
@@ -156,12 +161,13 @@ class PlanarFillConfig:
     manhattan_min_support: int = 8
     manhattan_edge_deg: float = 6.0
     manhattan_max_planes: int = 8
+    manhattan_max_up_sigma_deg: float = 1.0
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "manhattan_max_planes")
         check_min(self, 3, "manhattan_min_support")
-        check_min(self, 0, "manhattan_reach_px")
+        check_min(self, 0, "manhattan_reach_px", "manhattan_max_up_sigma_deg")
         if not 0 < self.manhattan_edge_deg < 45:
             raise ConfigError(f"manhattan_edge_deg must be in (0, 45), got {self.manhattan_edge_deg}")
         check_min(self, 1, "ring_px", "max_support_points")
