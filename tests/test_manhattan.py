@@ -15,7 +15,7 @@ from stereo_terrain.errors import ConfigError
 from stereo_terrain.frames import rotation_from_rpy
 from stereo_terrain.rectify import compute_rectification
 from stereo_terrain.stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
-from stereo_terrain.stereo.manhattan import _repeats_a_neighbour, fill_manhattan_faces
+from stereo_terrain.stereo.manhattan import _repeats_a_neighbour, _stacked, fill_manhattan_faces
 from stereo_terrain.vanishing import VerticalLinesConfig, horizontal_direction
 
 W, H, F, B = 640, 480, 500.0, 0.08
@@ -242,7 +242,7 @@ def test_risers_of_one_shade_merged_into_one_region_are_split_at_their_ends():
         bottom = int(cy - f * i * rise / z) if i == 0 else int(np.ceil(cy - f * i * rise / depths[i - 1])) - 1
         end = cx + f * wall_x / z
         boundary[top : bottom + 1] = end
-        risers[top : bottom + 1, int(end) - 160 : int(end) + 1] = True
+        risers[top : bottom + 1, : int(end) + 1] = True  # the far ends leave the image
         truth[top : bottom + 1, : int(end) + 1] = f * B / z
     boundary[np.isnan(boundary)] = cx + f * wall_x / depths[0]
     cols = np.arange(W)[None, :]
@@ -277,8 +277,19 @@ def test_a_face_does_not_take_the_plane_of_a_differently_shaded_neighbour():
     its side wall), allowed when they are shaded alike (one wall split by a door frame)."""
     wall = (np.array([1.0, 0.0, 0.0]), 40.0, 90.0)  # normal, s, grey level
     same_plane = [(40.3, 0.0, 10.0)]
-    assert _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), same_plane, 150.0, {0}, [wall])
-    assert not _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), same_plane, 92.0, {0}, [wall])
-    assert not _repeats_a_neighbour(np.array([0.0, 0.0, 1.0]), same_plane, 150.0, {0}, [wall])
-    assert not _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), [(45.0, 0.0, 10.0)], 150.0, {0}, [wall])
-    assert not _repeats_a_neighbour(np.array([1.0, 0.0, 0.0]), same_plane, 150.0, set(), [wall])
+    x, tol = np.array([1.0, 0.0, 0.0]), 1.0
+    assert _repeats_a_neighbour(x, same_plane, 150.0, {0}, [wall], tol)
+    assert not _repeats_a_neighbour(x, same_plane, 92.0, {0}, [wall], tol)
+    assert not _repeats_a_neighbour(np.array([0.0, 0.0, 1.0]), same_plane, 150.0, {0}, [wall], tol)
+    assert not _repeats_a_neighbour(x, [(45.0, 0.0, 10.0)], 150.0, {0}, [wall], tol)
+    assert not _repeats_a_neighbour(x, same_plane, 150.0, set(), [wall], tol)
+
+
+def test_planes_that_claim_the_same_lines_at_two_distances_contradict():
+    """One face has one plane along each of its horizontal lines: stacked intervals are a
+    face's risers; overlapping ones at two distances are no Manhattan face; near-equal
+    planes (their disparities within the merge tolerance) are one."""
+    stack = [(-30.0, 100.0, 140.0), (-35.0, 150.0, 200.0)]
+    assert _stacked(stack, 0.5) == sorted(stack)
+    assert _stacked([(-30.0, 100.0, 190.0), (-35.0, 120.0, 200.0)], 0.5) == []
+    assert _stacked([(70.0, 66.0, 379.0), (70.3, 74.0, 367.0)], 0.5) == [(70.0, 66.0, 379.0)]

@@ -131,6 +131,9 @@ class PlanarFillConfig:
         uses a first estimate from the planar-filled disparity's planes only when its
         sigma is at most this: its faces take that up's directions, and the planes then
         found in them would confirm a wrong up.
+    manhattan_check_deg : float
+        A region the planar fill filled with a plane more than this far from all three of
+        the scene's directions is fitted again by the Manhattan fill (0 = never).
     """
 
     enabled: bool = True
@@ -162,12 +165,13 @@ class PlanarFillConfig:
     manhattan_edge_deg: float = 6.0
     manhattan_max_planes: int = 8
     manhattan_max_up_sigma_deg: float = 1.0
+    manhattan_check_deg: float = 20.0
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "manhattan_max_planes")
         check_min(self, 3, "manhattan_min_support")
-        check_min(self, 0, "manhattan_reach_px", "manhattan_max_up_sigma_deg")
+        check_min(self, 0, "manhattan_reach_px", "manhattan_max_up_sigma_deg", "manhattan_check_deg")
         if not 0 < self.manhattan_edge_deg < 45:
             raise ConfigError(f"manhattan_edge_deg must be in (0, 45), got {self.manhattan_edge_deg}")
         check_min(self, 1, "ring_px", "max_support_points")

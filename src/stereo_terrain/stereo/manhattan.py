@@ -59,10 +59,13 @@ _TIE_SHARE = 0.95
 #: Support disparities are subsampled to at most this many per region.
 _MAX_SUPPORT = 500
 #: Neighbouring faces whose mean grey levels differ by more than this are not one plane
-#: ... (same normal: cosine above this; same distance: s within this share).
+#: ... (same normal: cosine above this).
 _SHADE_STEP_GREY = 6.0
 _SAME_NORMAL_COS = 0.999
-_SAME_PLANE_SHARE = 0.02
+#: Two planes of one face may share this much of the shorter one's interval of lines ...
+_MAX_OVERLAP = 0.25
+#: ... and are one when their disparities differ by at most this (pixels).
+_MERGE_PX = 1.5
 
 
 def fill_manhattan_faces(
@@ -112,6 +115,7 @@ def fill_manhattan_faces(
         return out, mask
     h /= np.linalg.norm(h)
     line_dirs = (h, np.cross(up, h))  # the horizontal lines of the two vertical families
+    normals = np.array([up, h, np.cross(up, h)])  # the scene's three plane normals
     H, W = disparity.shape
     stats, labels = regions.stats, regions.labels
     large = (stats[:, 4] >= config.min_region_fraction * H * W) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
@@ -132,8 +136,16 @@ def fill_manhattan_faces(
         x1, y1 = min(W, x + bw + config.ring_px), min(H, y + bh + config.ring_px)
         box_labels = labels[y0:y1, x0:x1]
         region = box_labels == k
+        refit = False
         if mask[y0:y1, x0:x1][region].mean() > 0.5:
-            continue  # the planar fill's free plane explains it
+            # The planar fill's free plane: kept when it is one of the scene's directions,
+            # fitted again here when it is not (a painted riser whose outline support holds
+            # a railing in front of it slopes the wrong way).
+            if config.manhattan_check_deg <= 0 or _is_manhattan(
+                out[y0:y1, x0:x1], region, x0, y0, rectification, normals, config.manhattan_check_deg
+            ):
+                continue
+            refit = True
         ring = cv2.dilate(region.astype(np.uint8), kernel).astype(bool)
         # The support: vertical edges beside the face in its own rows (its ends), not those
         # of the faces above and below it.
@@ -162,7 +174,10 @@ def fill_manhattan_faces(
         if max(scores) <= 0.0:
             continue  # no horizontal outline edge: the face's family is unknown
         other = (box_labels != k) & large[box_labels]
-        ext = ring & ~other & ~mask[y0:y1, x0:x1]
+        # The pixels to fill: the region and its ring, not another region's or a filled
+        # pixel (a refitted region's own pixels are refilled).
+        held = mask[y0:y1, x0:x1] & ~region if refit else mask[y0:y1, x0:x1]
+        ext = ring & ~other & ~held
         x_ref = x + bw / 2.0
         # Candidates: the vertical family the outline follows, a tread with the same
         # horizontal lines, the other vertical family. Support on concave corners lies on
@@ -184,8 +199,11 @@ def fill_manhattan_faces(
             if np.any(np.abs(g) < 1e-3):
                 continue  # the plane passes (nearly) through the camera
             planes, explained = _support_planes(u, v, d, g, lam, rectification.doffs_px, rng, config)
+            # Planes whose disparities differ by less than the merge tolerance are one.
+            s_tol = _MERGE_PX / float(np.median(np.abs(g)))
+            planes = _stacked(planes, s_tol)
             if planes and explained >= config.min_inlier_ratio * len(u):
-                found.append((explained, len(planes), line_dir, normal, planes))
+                found.append((explained, len(planes), line_dir, normal, planes, s_tol))
         # A concave corner's support (the ends of steps against a side wall) lies on the
         # wall's plane too: a face across an edge from a face already filled, shaded
         # differently, is not that face's plane.
@@ -194,11 +212,11 @@ def fill_manhattan_faces(
         if faces:
             around = cv2.dilate(region.astype(np.uint8), wide_kernel).astype(bool) & ~region
             nearby = {int(i) for i in np.unique(face_of[y0:y1, x0:x1][around]) if i >= 0}
-        found = [f for f in found if not _repeats_a_neighbour(f[3], f[4], shade, nearby, faces)]
+        found = [f for f in found if not _repeats_a_neighbour(f[3], f[4], shade, nearby, faces, f[5])]
         if not found:
             continue
         most = max(f[0] for f in found)
-        _, _, line_dir, normal, planes = min(
+        _, _, line_dir, normal, planes, _ = min(
             (f for f in found if f[0] >= _TIE_SHARE * most), key=lambda f: f[1]
         )
         fill_face(
@@ -229,17 +247,66 @@ def _repeats_a_neighbour(
     shade: float,
     nearby: set[int],
     faces: list[tuple[np.ndarray, float, float]],
+    s_tol: float,
 ) -> bool:
-    """Whether one of ``planes`` (of ``normal``) is the plane of a neighbouring face in
-    ``faces`` whose mean grey level differs from ``shade`` by more than
-    ``_SHADE_STEP_GREY`` (one plane of one paint is shaded alike)."""
+    """Whether one of ``planes`` (of ``normal``) is the plane (``s`` within ``s_tol``) of a
+    neighbouring face in ``faces`` whose mean grey level differs from ``shade`` by more
+    than ``_SHADE_STEP_GREY`` (one plane of one paint is shaded alike)."""
     for i in nearby:
         n_i, s_i, shade_i = faces[i]
         if abs(shade - shade_i) <= _SHADE_STEP_GREY or float(normal @ n_i) < _SAME_NORMAL_COS:
             continue
-        if any(abs(p[0] - s_i) <= _SAME_PLANE_SHARE * abs(s_i) for p in planes):
+        if any(abs(p[0] - s_i) <= s_tol for p in planes):
             return True
     return False
+
+
+def _stacked(planes: list[tuple[float, float, float]], s_tol: float) -> list[tuple[float, float, float]]:
+    """The planes of one face as a stack along its lines, or [] when they contradict: along
+    each of a face's horizontal lines there is one plane, so two planes (``s``, interval
+    of lines) whose intervals overlap by more than ``_MAX_OVERLAP`` of the shorter one
+    claim the same lines at two distances. Planes whose ``s`` differ by at most ``s_tol``
+    (one plane's support split by the inlier threshold) are one."""
+    merged: list[tuple[float, float, float]] = []
+    for s, lo, hi in sorted(planes, key=lambda p: p[0]):
+        if merged and abs(s - merged[-1][0]) <= s_tol:
+            s0, lo0, hi0 = merged[-1]
+            merged[-1] = (s0, min(lo0, lo), max(hi0, hi))
+        else:
+            merged.append((s, lo, hi))
+    by_line = sorted(merged, key=lambda p: p[1])
+    for a, b in zip(by_line, by_line[1:], strict=False):
+        overlap = min(a[2], b[2]) - b[1]
+        if overlap > _MAX_OVERLAP * min(a[2] - a[1], b[2] - b[1]):
+            return []
+    return merged
+
+
+def _is_manhattan(
+    values: np.ndarray,
+    region: np.ndarray,
+    x0: int,
+    y0: int,
+    rect: Rectification,
+    normals: np.ndarray,
+    tol_deg: float,
+) -> bool:
+    """Whether the plane of the filled ``values`` on ``region`` (a box at ``x0, y0``) is
+    within ``tol_deg`` of one of the scene's plane ``normals``. A plane ``d = a u + b v + c``
+    has the normal ``(a f, b f, c + doffs + a cx + b cy)`` in the camera."""
+    vs, us = np.nonzero(region & np.isfinite(values))
+    if len(us) < 3:
+        return True
+    step = max(1, len(us) // 300)
+    vs, us = vs[::step], us[::step]
+    A = np.column_stack([us + float(x0), vs + float(y0), np.ones(len(us))])
+    (a, b, c), *_ = np.linalg.lstsq(A, values[vs, us].astype(np.float64), rcond=None)
+    f = rect.focal_px
+    n = np.array([a * f, b * f, c + rect.doffs_px + a * rect.cx + b * rect.cy])
+    norm = float(np.linalg.norm(n))
+    if not norm > 0:
+        return True
+    return float(np.max(np.abs(normals @ (n / norm)))) >= math.cos(math.radians(tol_deg))
 
 
 def _normal_gain(normal: np.ndarray, u: np.ndarray, v: np.ndarray, rect: Rectification) -> np.ndarray:
