@@ -56,8 +56,15 @@ _MIN_SPAN_PX = 5.0
 _MAX_LINE_SLOPE = 1.0
 #: Candidates that explain at least this share of the best one's support tie.
 _TIE_SHARE = 0.95
+#: A face's family is known when at least this share of its outline's strong,
+#: non-vertical edges follow that family's lines.
+_MIN_ALIGNMENT = 0.3
 #: Support disparities are subsampled to at most this many per region.
-_MAX_SUPPORT = 500
+_MAX_SUPPORT = 300
+#: MSAC hypotheses per plane (one unknown: a few dozen draws find a cluster of 8 of 300).
+_HYPOTHESES = 32
+#: The outline's edges are a statistic: every other pixel will do.
+_OUTLINE_STRIDE = 2
 #: Neighbouring faces whose mean grey levels differ by more than this are not one plane
 #: ... (same normal: cosine above this).
 _SHADE_STEP_GREY = 6.0
@@ -171,8 +178,8 @@ def fill_manhattan_faces(
             rectification,
             config,
         )
-        if max(scores) <= 0.0:
-            continue  # no horizontal outline edge: the face's family is unknown
+        if max(scores) < _MIN_ALIGNMENT:
+            continue  # its outline follows neither family's lines: its family is unknown
         other = (box_labels != k) & large[box_labels]
         # The pixels to fill: the region and its ring, not another region's or a filled
         # pixel (a refitted region's own pixels are refilled).
@@ -343,6 +350,7 @@ def _outline_alignment(
     edges of a face's ``outline`` (a band around its boundary, in a box at ``x0, y0``) that
     follow the image lines of that direction."""
     vs, us = np.nonzero(outline)
+    vs, us = vs[::_OUTLINE_STRIDE], us[::_OUTLINE_STRIDE]
     gxs, gys = gx[vs, us], gy[vs, us]
     m = np.hypot(gxs, gys)
     # Along the edge: (-gy, gx) / |g|; not within _VERTICAL_EDGE_DEG of the image's vertical.
@@ -387,7 +395,7 @@ def _support_planes(
         idx = np.flatnonzero(free)
         if len(idx) < config.manhattan_min_support:
             break
-        draws = idx[rng.integers(0, len(idx), min(config.hypotheses, len(idx)))]
+        draws = idx[rng.integers(0, len(idx), min(_HYPOTHESES, len(idx)))]
         hyp = target[draws] / g[draws]
         residual = target[idx, None] - hyp[None, :] * g[idx, None]
         s = float(hyp[np.argmin(np.minimum(residual**2, thr**2).sum(axis=0))])
