@@ -43,8 +43,21 @@ text_like = st.one_of(
 )
 
 
+#: Where the fuzzed files go: one folder for the module, removed after it (hundreds of
+#: examples each left a folder in /tmp before).
+_ROOT: list[Path] = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _fuzz_root():
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as root:
+        _ROOT.append(Path(root))
+        yield
+        _ROOT.pop()
+
+
 def _file(data: bytes, name: str) -> Path:
-    d = Path(tempfile.mkdtemp(prefix="fuzz-"))
+    d = Path(tempfile.mkdtemp(dir=_ROOT[-1]))
     p = d / name
     p.write_bytes(data)
     return p
