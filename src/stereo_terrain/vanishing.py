@@ -149,6 +149,22 @@ def _segments(image: np.ndarray, valid: np.ndarray | None, min_length_px: float,
     return s[ok]
 
 
+def _tilt_deg(segments: np.ndarray) -> np.ndarray:
+    """Each segment's angle to the image's vertical, degrees (0-90)."""
+    d = segments[:, 2:] - segments[:, :2]
+    return np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
+
+
+def _normalised_ends(segments: np.ndarray, rectification: Rectification) -> tuple[np.ndarray, np.ndarray]:
+    """The segments' two ends as rays ``K^-1 (x, y, 1)`` of the rectified camera, ``(N, 3)``
+    each (normalised image coordinates)."""
+    f, cx, cy = rectification.focal_px, rectification.cx, rectification.cy
+    ones = np.ones(len(segments))
+    p1 = np.column_stack([(segments[:, 0] - cx) / f, (segments[:, 1] - cy) / f, ones])
+    p2 = np.column_stack([(segments[:, 2] - cx) / f, (segments[:, 3] - cy) / f, ones])
+    return p1, p2
+
+
 def _unit_rows(a: np.ndarray) -> np.ndarray:
     return a / np.linalg.norm(a, axis=1, keepdims=True)
 
@@ -198,16 +214,13 @@ def up_from_vertical_lines(
         return GravityEstimate(np.full(3, np.nan), frame, math.inf, False, 0.0, fraction, reason)
 
     s = line_segments(image, rectification, config, config.detect_scale) if segments is None else segments
+    s = s[_tilt_deg(s) <= config.max_tilt_deg]
     d = s[:, 2:] - s[:, :2]
-    tilt = np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
-    s, d = s[tilt <= config.max_tilt_deg], d[tilt <= config.max_tilt_deg]
     n = len(s)
     if n < config.min_inliers:
         return failed(f"{n} near-vertical line segment(s) in the image (need {config.min_inliers})")
-    f, cx, cy = rectification.focal_px, rectification.cx, rectification.cy
     # Normalised image coordinates: the vanishing point is then up's direction itself.
-    p1 = np.column_stack([(s[:, 0] - cx) / f, (s[:, 1] - cy) / f, np.ones(n)])
-    p2 = np.column_stack([(s[:, 2] - cx) / f, (s[:, 3] - cy) / f, np.ones(n)])
+    p1, p2 = _normalised_ends(s, rectification)
     lines = np.cross(p1, p2)
     lines /= np.linalg.norm(lines[:, :2], axis=1, keepdims=True)
     mid = (p1 + p2) / 2.0
@@ -332,15 +345,11 @@ def horizontal_direction(
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
     if len(segments) == 0:
         return None
-    d = segments[:, 2:] - segments[:, :2]
-    tilt = np.degrees(np.arctan2(np.abs(d[:, 0]), np.abs(d[:, 1])))
-    s, d = segments[tilt > config.max_tilt_deg], d[tilt > config.max_tilt_deg]
+    s = segments[_tilt_deg(segments) > config.max_tilt_deg]
+    d = s[:, 2:] - s[:, :2]
     if len(s) < config.min_inliers:
         return None
-    f, cx, cy = rectification.focal_px, rectification.cx, rectification.cy
-    ones = np.ones(len(s))
-    p1 = np.column_stack([(s[:, 0] - cx) / f, (s[:, 1] - cy) / f, ones])
-    p2 = np.column_stack([(s[:, 2] - cx) / f, (s[:, 3] - cy) / f, ones])
+    p1, p2 = _normalised_ends(s, rectification)
     m = np.cross(p1, p2)
     t = np.cross(m, up)
     norm = np.linalg.norm(t, axis=1)

@@ -21,10 +21,13 @@ For each texture-poor region that the planar fill left:
 2. the face's family: its outline's non-vertical edges are the images of horizontal 3D
    lines in it, which point at the vanishing point of ``up x n``; the vertical family
    whose lines the edges follow is the face's candidate against the horizontal one;
-3. per candidate normal, the support split into planes by MSAC on ``s`` (one per
-   cluster of support, at most ``manhattan_max_planes``); the normal whose planes explain
-   the most support wins (along a vertical segment a vertical face's disparity is
-   constant and a tread's changes with the row, so the segment tells them apart);
+3. per candidate normal (that vertical family, a tread, the other vertical family), the
+   support split into planes by MSAC on ``s`` (one per cluster of support, at most
+   ``manhattan_max_planes``), which must stack along the face's lines; of the candidates
+   that explain about as much support as the best, the one with the fewest planes wins,
+   unless its plane is that of a differently shaded neighbouring face (along a vertical
+   segment a vertical face's disparity is constant and a tread's changes with the row,
+   so the segment tells them apart);
 4. each pixel of the region (and of its ring not claimed by another region) lies on one
    of the face's horizontal lines; it takes the plane whose support covers the nearest
    interval of those lines, within ``manhattan_reach_px``. So two risers of one shade
@@ -153,7 +156,6 @@ def fill_manhattan_faces(
             ):
                 continue
             refit = True
-        ring = cv2.dilate(region.astype(np.uint8), kernel).astype(bool)
         # The support: vertical edges beside the face in its own rows (its ends), not those
         # of the faces above and below it.
         beside = cv2.dilate(region.astype(np.uint8), row_kernel).astype(bool)
@@ -167,6 +169,7 @@ def fill_manhattan_faces(
         if len(u) > _MAX_SUPPORT:
             pick = rng.choice(len(u), _MAX_SUPPORT, replace=False)
             u, v, d = u[pick], v[pick], d[pick]
+        ring = cv2.dilate(region.astype(np.uint8), kernel).astype(bool)
         outline = ring & ~cv2.erode(region.astype(np.uint8), kernel).astype(bool)
         scores = _outline_alignment(
             outline,
@@ -211,6 +214,8 @@ def fill_manhattan_faces(
             planes = _stacked(planes, s_tol)
             if planes and explained >= config.min_inlier_ratio * len(u):
                 found.append((explained, len(planes), line_dir, normal, planes, s_tol))
+        if not found:
+            continue
         # A concave corner's support (the ends of steps against a side wall) lies on the
         # wall's plane too: a face across an edge from a face already filled, shaded
         # differently, is not that face's plane.
@@ -322,16 +327,23 @@ def _normal_gain(normal: np.ndarray, u: np.ndarray, v: np.ndarray, rect: Rectifi
     return normal[0] * (u - rect.cx) / f + normal[1] * (v - rect.cy) / f + normal[2]
 
 
+def _line_image_direction(
+    u: np.ndarray, v: np.ndarray, line_dir: np.ndarray, rect: Rectification
+) -> tuple[np.ndarray, np.ndarray]:
+    """The image direction ``(du, dv)`` (not normalised) at pixel ``(u, v)`` of the 3D line
+    along ``line_dir`` through it: d/dl of the projection of ``X + l line_dir``, pointing
+    at the lines' vanishing point (``_manhattan_kernels.fill_face`` writes it out again)."""
+    f = rect.focal_px
+    return f * line_dir[0] - (u - rect.cx) * line_dir[2], f * line_dir[1] - (v - rect.cy) * line_dir[2]
+
+
 def _line_coordinate(
     u: np.ndarray, v: np.ndarray, line_dir: np.ndarray, rect: Rectification, x_ref: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which of the 3D lines along ``line_dir`` each pixel's image line is: the row at which
     the image line through ``(u, v)`` towards their vanishing point crosses column
     ``x_ref``; and the line's slope ``|dv/du|`` there."""
-    f = rect.focal_px
-    # The image direction of the line at (u, v): d/dl of the projection of X + l line_dir.
-    du = f * line_dir[0] - (u - rect.cx) * line_dir[2]
-    dv = f * line_dir[1] - (v - rect.cy) * line_dir[2]
+    du, dv = _line_image_direction(u, v, line_dir, rect)
     slope = dv / np.where(np.abs(du) < 1e-9, 1e-9, du)
     return v + (x_ref - u) * slope, np.abs(slope)
 
@@ -361,12 +373,11 @@ def _outline_alignment(
         return [0.0] * len(line_dirs)
     m, ex, ey = m[keep], -gys[keep] / m[keep], gxs[keep] / m[keep]
     u, v = us[keep] + float(x0), vs[keep] + float(y0)
-    f, total = rect.focal_px, float(np.sum(m))
+    total = float(np.sum(m))
     cos_tol = math.cos(math.radians(config.manhattan_edge_deg))
     shares = []
     for line_dir in line_dirs:
-        du = f * line_dir[0] - (u - rect.cx) * line_dir[2]
-        dv = f * line_dir[1] - (v - rect.cy) * line_dir[2]
+        du, dv = _line_image_direction(u, v, line_dir, rect)
         cos = np.abs(ex * du + ey * dv) / (np.hypot(du, dv) + 1e-12)
         shares.append(float(np.sum(m[cos > cos_tol])) / total)
     return shares
