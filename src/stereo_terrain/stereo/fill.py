@@ -15,7 +15,9 @@ disparities. A plane face is a plane in (u, v, d) space, so:
 
 Textured regions are not flat, so they are never touched. Regions whose disparities do not
 agree on one plane (two faces of the same shade, a textureless background) are left
-alone.
+alone, and so are those whose outline shows a surface behind the plane (an outline holds
+the face's own disparity or an occluder's, never one behind the face: such a plane is an
+occluder's edge fattened by the matcher, see :func:`_occluded_support`).
 
 Opt-in, for webcam photos of wood and paint (the renderer's ``realistic`` profile), all off
 by default: ``invalidate`` NaNs the matcher's output where rows carry too little
