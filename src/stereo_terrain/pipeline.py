@@ -540,6 +540,7 @@ class Pipeline:
         direction are known: up from the rig, else from the image's vertical lines, else
         (they do not fix it) a first estimate from the planar-filled disparity's planes."""
         cfg = self.config
+        occluded: list[int] = []
         values, filled = fill_planar_regions(
             disp.disparity,
             pair.left,
@@ -547,6 +548,7 @@ class Pipeline:
             max_disparity_px=disp.max_disparity_px,
             valid=pair.rectification.valid_left,
             regions=flat,
+            occluded=occluded,
         )
         found = None if lines_job is None else lines_job.result()
         if manhattan and found is not None:
@@ -569,7 +571,7 @@ class Pipeline:
                     disp.disparity,
                     values,
                     filled,
-                    flat,
+                    flat.without(occluded) if occluded else flat,  # an occluder's edge holds them
                     pair.left,
                     pair.rectification,
                     up,

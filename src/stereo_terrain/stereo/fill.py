@@ -15,7 +15,9 @@ disparities. A plane face is a plane in (u, v, d) space, so:
 
 Textured regions are not flat, so they are never touched. Regions whose disparities do not
 agree on one plane (two faces of the same shade, a textureless background) are left
-alone.
+alone, and so are those whose outline shows a surface behind the plane (an outline holds
+the face's own disparity or an occluder's, never one behind the face: such a plane is an
+occluder's edge fattened by the matcher, see :func:`_occluded_support`).
 
 Opt-in, for webcam photos of wood and paint (the renderer's ``realistic`` profile), all off
 by default: ``invalidate`` NaNs the matcher's output where rows carry too little
@@ -30,6 +32,7 @@ Middlebury density (84% -> 62-74%): see ``benchmarks/bench_fill_streaks.py``.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import cv2
@@ -41,6 +44,8 @@ from ..msac import plane_msac
 from ._regions import connected_regions
 
 TEXTURE_MODES = ("total", "horizontal")
+#: :func:`_fit_support`'s answer for a plane refused as an occluder's.
+_OCCLUDED = np.full(3, np.nan)
 
 
 @dataclass(frozen=True)
@@ -134,6 +139,14 @@ class PlanarFillConfig:
     manhattan_check_deg : float
         A region the planar fill filled with a plane more than this far from all three of
         the scene's directions is fitted again by the Manhattan fill (0 = never).
+    max_behind_ratio : float
+        A region's plane is refused when more than this share of its support lies behind
+        it (by more than twice ``inlier_threshold_px``), away from its inliers: an
+        outline's disparity is the face's own or an occluder's, never behind the face, so
+        such a plane is an occluder's (1 = off; see :func:`_occluded_support`).
+    support_gap_px : int
+        Support behind the plane within this many pixels of its inliers does not count
+        against it: the ring of a face's own silhouette reaches the background there.
     """
 
     enabled: bool = True
@@ -166,6 +179,8 @@ class PlanarFillConfig:
     manhattan_max_planes: int = 8
     manhattan_max_up_sigma_deg: float = 1.0
     manhattan_check_deg: float = 20.0
+    max_behind_ratio: float = 0.15
+    support_gap_px: int = 8
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -175,6 +190,9 @@ class PlanarFillConfig:
         if not 0 < self.manhattan_edge_deg < 45:
             raise ConfigError(f"manhattan_edge_deg must be in (0, 45), got {self.manhattan_edge_deg}")
         check_min(self, 1, "ring_px", "max_support_points")
+        check_min(self, 0, "support_gap_px")
+        if not 0 <= self.max_behind_ratio <= 1:
+            raise ConfigError(f"max_behind_ratio must be in [0, 1], got {self.max_behind_ratio}")
         check_min(self, 3, "hypotheses", "texture_window_px")
         check_min(self, 1, "split_bridge_px", "close_px")
         check_min(
@@ -219,6 +237,13 @@ class FlatRegions:
     gx: np.ndarray = field(repr=False)
     ill_posed: np.ndarray | None = field(repr=False)
     gy: np.ndarray = field(repr=False)
+
+    def without(self, labels: list[int]) -> FlatRegions:
+        """These regions less ``labels``: their area set to 0 in a copy of ``stats``, so
+        that no fill takes them (``labels`` itself is shared, unchanged)."""
+        stats = self.stats.copy()
+        stats[labels, 4] = 0
+        return dataclasses.replace(self, stats=stats)
 
 
 def find_flat_regions(
@@ -320,6 +345,7 @@ def fill_planar_regions(
     max_disparity_px: float | None = None,
     valid: np.ndarray | None = None,
     regions: FlatRegions | None = None,
+    occluded: list[int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Fill texture-poor planar regions of ``disparity`` from their supported plane.
 
@@ -337,6 +363,10 @@ def fill_planar_regions(
     regions : FlatRegions, optional
         :func:`find_flat_regions` of ``left`` with the same ``config`` and ``valid``, when
         already computed (found here otherwise).
+    occluded : list of int, optional
+        When given, the labels of the regions whose plane was refused as an occluder's
+        (``max_behind_ratio``) are appended to it: their support holds no plane of their
+        own, so no other fill should take them either (:meth:`FlatRegions.without`).
 
     Returns
     -------
@@ -348,7 +378,9 @@ def fill_planar_regions(
         return disparity.copy(), np.zeros(disparity.shape, dtype=bool)
     if regions is None:
         regions = find_flat_regions(left, config, valid)
-    out, filled = _fill(disparity, config, max_disparity_px, regions)  # reads it, writes a copy
+    out, filled, refused = _fill(disparity, config, max_disparity_px, regions)  # reads it, writes a copy
+    if occluded is not None:
+        occluded.extend(refused)
     if config.texture == "total" and config.invalidate:
         # A confident match where rows carry no horizontal texture is a streak: NaN it,
         # unless a plane filled the pixel; then bridge the holes along rows.
@@ -362,8 +394,9 @@ def fill_planar_regions(
 
 def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
     """The fill of ``disparity`` (not written to) from ``regions``: ``(filled disparity,
-    filled mask)``, new arrays."""
+    filled mask)``, new arrays, and the labels of the regions refused as occluded."""
     out = disparity.copy()
+    occluded: list[int] = []
     filled = np.zeros(disparity.shape, dtype=bool)
     h, w = disparity.shape
     labels, stats, gx, ill_posed = (
@@ -406,21 +439,12 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
         if len(uvd) > config.max_support_points:
             uvd = uvd[rng.choice(len(uvd), config.max_support_points, replace=False)]
         trip = rng.integers(0, len(uvd), size=(config.hypotheses, 3))
-        res = plane_msac(uvd, config.inlier_threshold_px, trip, hypothesis_ok=lambda n: np.abs(n[:, 2]) > 0.3)
-        if res.model is None:
+        coef = _fit_support(uvd, trip, config, bw, bh)
+        if coef is _OCCLUDED:
+            occluded.append(int(k))
             continue
-        inl = res.inliers
-        if inl.mean() < config.min_inlier_ratio:
+        if coef is None:
             continue
-        iu, iv = uvd[inl, 0], uvd[inl, 1]
-        if np.ptp(iu) < config.min_span_ratio * bw or np.ptp(iv) < config.min_span_ratio * bh:
-            continue
-        n, c = res.model.normal, res.model.offset
-        # Least-squares refit on the inliers: d = a u + b v + e.
-        A = np.column_stack([iu, iv, np.ones(len(iu))])
-        coef, *_ = np.linalg.lstsq(A, uvd[inl, 2], rcond=None)
-        if not np.all(np.isfinite(coef)):
-            coef = np.array([-n[0] / n[2], -n[1] / n[2], -c / n[2]])
         rv, ru = np.nonzero(region)
         plane_d = (coef[0] * (ru + x0) + coef[1] * (rv + y0) + coef[2]).astype(np.float32)
         # The face has no texture of its own: its matches carry no information, so the
@@ -430,7 +454,61 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
             replace &= plane_d < max_disparity_px
         out[rv[replace] + y0, ru[replace] + x0] = plane_d[replace]
         filled[rv[replace] + y0, ru[replace] + x0] = True
-    return out, filled
+    return out, filled, occluded
+
+
+def _fit_support(uvd, trip, config: PlanarFillConfig, bw: int, bh: int) -> np.ndarray | None:
+    """The plane ``d = a u + b v + c`` (``(a, b, c)``) that a region's support ``uvd``
+    (N, 3: u, v, d) carries; None when no plane is supported across the region's box
+    (``bw`` x ``bh``), ``_OCCLUDED`` when its support says it is an occluder's
+    (:func:`_occluded_support`). ``trip`` (K, 3): MSAC's minimal samples."""
+    res = plane_msac(uvd, config.inlier_threshold_px, trip, hypothesis_ok=lambda n: np.abs(n[:, 2]) > 0.3)
+    if res.model is None:
+        return None
+    inl = res.inliers
+    if inl.mean() < config.min_inlier_ratio:
+        return None
+    iu, iv = uvd[inl, 0], uvd[inl, 1]
+    if np.ptp(iu) < config.min_span_ratio * bw or np.ptp(iv) < config.min_span_ratio * bh:
+        return None
+    n, c = res.model.normal, res.model.offset
+    # Least-squares refit on the inliers: d = a u + b v + e.
+    A = np.column_stack([iu, iv, np.ones(len(iu))])
+    coef, *_ = np.linalg.lstsq(A, uvd[inl, 2], rcond=None)
+    if not np.all(np.isfinite(coef)):
+        coef = np.array([-n[0] / n[2], -n[1] / n[2], -c / n[2]])
+    if _occluded_support(uvd, coef, config):
+        return _OCCLUDED
+    return coef
+
+
+def _occluded_support(uvd, coef, config: PlanarFillConfig) -> bool:
+    """Whether a region's support ``uvd`` shows a surface behind its plane ``coef``.
+
+    An outline's disparity is the face's own (a crease, or the face's silhouette, which the
+    matcher fattens outwards) or an occluder's, in front of the face (fattened onto the
+    face's side of the edge); it is not behind the face. A plane that more than
+    ``max_behind_ratio`` of the support lies behind (by more than twice the inlier
+    threshold) is an occluder's: the face shows behind it. Behind points within
+    ``support_gap_px`` of the plane's inliers do not count: they are the ring of the face's
+    own silhouette reaching the background.
+    """
+    t = config.inlier_threshold_px
+    resid = (uvd[:, 2] - uvd[:, 0] * coef[0] - uvd[:, 1] * coef[1] - coef[2]) / np.sqrt(
+        1 + coef[0] ** 2 + coef[1] ** 2
+    )
+    behind = resid < -2 * t
+    if behind.mean() <= config.max_behind_ratio:
+        return False
+    u = uvd[:, 0].astype(np.int32)
+    v = uvd[:, 1].astype(np.int32)
+    u0, v0 = u.min(), v.min()
+    near = np.zeros((v.max() - v0 + 1, u.max() - u0 + 1), np.uint8)
+    inl = np.abs(resid) < t
+    near[v[inl] - v0, u[inl] - u0] = 1
+    r = config.support_gap_px
+    near = cv2.dilate(near, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
+    return bool(np.mean(behind & (near[v - v0, u - u0] == 0)) > config.max_behind_ratio)
 
 
 def ill_posed_mask(
