@@ -231,8 +231,8 @@ def time_scene(scene: BenchScene, config: PipelineConfig, repeat: int) -> SceneO
     # The reference: OpenCV 3-way with the pipeline's matching parameters, at the disparity
     # range of the calibration (not the pipeline's own choice), on the pair it matched.
     n = config.max_disparity_px or default_max_disparity(pipeline.rectification, config.min_depth_m)
-    matcher = create_sgbm(config.sgbm, n, mode="sgbm_3way")
     left, right = first.rectified.left, first.rectified.right
+    matcher = create_sgbm(config.sgbm, n, mode="sgbm_3way", width=left.shape[1])
     matcher.compute(left, right)  # its own first call (allocations) is not timed
     frames: list[float] = []
     stages: dict[str, list[float]] = {}

@@ -34,7 +34,17 @@ class OpenCVSGBMConfig:
         Odd matching block size (3-11).
     p1_per_px, p2_per_px : int
         SGM penalties per block pixel; OpenCV gets ``P = p * block_size**2`` (Hirschmüller's
-        P1 for 1-px disparity changes, P2 for larger ones).
+        P1 for 1-px disparity changes, P2 for larger ones), times ``width /
+        penalty_width_px`` when that is set. Wood grain and plank gaps are horizontal
+        texture, which a horizontal baseline cannot match row by row: with these (OpenCV's
+        usual 8 and 32) each row of a plank face picks its own match, and 24 and 200 hold
+        the face together (issue 11; README, "Wooden stairs").
+    penalty_width_px : int
+        When > 0, the penalties are scaled by ``image width / penalty_width_px``. A face
+        spans half as many pixels in an image half as wide, so the matching cost its pixels
+        add up along a path halves while a jump's penalty does not: unscaled, the same
+        penalties smooth a 320 px image twice as hard as a 640 px one. 0 (default): not
+        scaled.
     uniqueness_ratio_pct : int
         Best cost must beat the second best by this margin (percent).
     speckle_window_px, speckle_range_px : int
@@ -42,17 +52,23 @@ class OpenCVSGBMConfig:
         range are invalidated.
     mode : str
         ``sgbm`` (5 paths), ``sgbm_3way`` (fast), ``hh`` (full 8 paths), ``hh4``.
+    match_exposure : bool
+        Map the right image's grey levels onto the left's (gain and offset from the two
+        images' means and standard deviations over the pixels with a source) before
+        matching (default False; see :func:`match_exposure`).
     """
 
     block_size_px: int = 5
     p1_per_px: int = 8
     p2_per_px: int = 32
+    penalty_width_px: int = 0
     uniqueness_ratio_pct: int = 10
     speckle_window_px: int = 100
     speckle_range_px: int = 2
     disp12_max_diff_px: int = 1
     pre_filter_cap: int = 63
     mode: str = "sgbm_3way"
+    match_exposure: bool = False
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -64,6 +80,7 @@ class OpenCVSGBMConfig:
             "speckle_range_px",
             "disp12_max_diff_px",
             "pre_filter_cap",
+            "penalty_width_px",
         )
         if self.block_size_px < 1 or self.block_size_px % 2 == 0 or self.block_size_px > 11:
             raise ConfigError(f"block_size_px must be odd in [1, 11], got {self.block_size_px}")
@@ -73,17 +90,27 @@ class OpenCVSGBMConfig:
             raise ConfigError(f"unknown SGBM mode '{self.mode}'; choose one of {sorted(_MODES)}")
 
 
-def create_sgbm(config: OpenCVSGBMConfig, num_disparities: int, *, mode: str | None = None) -> cv2.StereoSGBM:
+def create_sgbm(
+    config: OpenCVSGBMConfig,
+    num_disparities: int,
+    *,
+    mode: str | None = None,
+    width: int | None = None,
+) -> cv2.StereoSGBM:
     """The ``cv2.StereoSGBM`` matcher of ``config`` for disparities ``[0, num_disparities)``
-    (``mode`` overrides ``config.mode``; the bench times OpenCV's 3-way mode alone with it)."""
+    and images ``width`` pixels wide (None: the penalties as given); ``mode`` overrides
+    ``config.mode`` (the bench times OpenCV's 3-way mode alone with it)."""
     c = config
-    area = c.block_size_px * c.block_size_px
+    scale = float(c.block_size_px * c.block_size_px)
+    if width is not None and c.penalty_width_px > 0:
+        scale *= width / c.penalty_width_px
+    p1 = max(1, round(c.p1_per_px * scale))
     return cv2.StereoSGBM.create(
         minDisparity=0,
         numDisparities=num_disparities,
         blockSize=c.block_size_px,
-        P1=c.p1_per_px * area,
-        P2=c.p2_per_px * area,
+        P1=p1,
+        P2=max(p1 + 1, round(c.p2_per_px * scale)),
         disp12MaxDiff=c.disp12_max_diff_px,
         preFilterCap=c.pre_filter_cap,
         uniquenessRatio=c.uniqueness_ratio_pct,
@@ -100,17 +127,20 @@ class OpenCVSGBM:
 
     def __init__(self, config: OpenCVSGBMConfig | None = None) -> None:
         self.config = config or OpenCVSGBMConfig()
-        self._matchers: dict[int, cv2.StereoSGBM] = {}
+        self._matchers: dict[tuple[int, int], cv2.StereoSGBM] = {}
 
-    def _matcher(self, n: int) -> cv2.StereoSGBM:
-        if n not in self._matchers:
-            self._matchers[n] = create_sgbm(self.config, n)
-        return self._matchers[n]
+    def _matcher(self, n: int, width: int) -> cv2.StereoSGBM:
+        if (n, width) not in self._matchers:
+            self._matchers[n, width] = create_sgbm(self.config, n, width=width)
+        return self._matchers[n, width]
 
     def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
         n = check_max_disparity(max_disparity_px, pair.left.shape[1])
-        raw = self._matcher(n).compute(pair.left, pair.right)
         rect = pair.rectification
+        right = pair.right
+        if self.config.match_exposure:
+            right = match_exposure(pair.left, right, rect.valid_left, rect.valid_right)
+        raw = self._matcher(n, pair.left.shape[1]).compute(pair.left, right)
         # Scaled, OpenCV's invalid value and the sourceless pixels NaN
         # (invalidate_sourceless) in one compiled pass, the same bits (issue 13).
         disp = disparity_from_fixed_point(
@@ -119,3 +149,43 @@ class OpenCVSGBM:
             _NO_MASK if rect.valid_right is None else rect.valid_right,
         )
         return DisparityMap(disp, n, rect, None, self.name)
+
+
+def match_exposure(
+    left: np.ndarray,
+    right: np.ndarray,
+    valid_left: np.ndarray | None = None,
+    valid_right: np.ndarray | None = None,
+) -> np.ndarray:
+    """The right image with the left one's exposure: ``right * gain + offset`` such that its
+    mean and standard deviation (over the pixels with a source) are the left image's.
+
+    Two webcams expose on their own: a right image 20 % brighter changes every matching
+    cost (OpenCV's cost adds the intensity difference to that of the x derivatives, and
+    both scale with the gain), and on faces whose only texture is weak wood grain the
+    wrong match then wins. Both cameras see mostly the same scene, so the images' global
+    statistics give the gain and offset.
+
+    Parameters
+    ----------
+    left, right : (H, W) uint8
+        Rectified images.
+    valid_left, valid_right : (H, W) bool or None
+        Pixels with a raw source (others are not counted).
+
+    Returns
+    -------
+    (H, W) uint8, a new array (``right`` itself when either image is flat).
+    """
+    ml, sl = cv2.meanStdDev(left, mask=_mask(valid_left, left.shape))
+    mr, sr = cv2.meanStdDev(right, mask=_mask(valid_right, right.shape))
+    if not (sl[0, 0] > 1.0 and sr[0, 0] > 1.0):
+        return right
+    gain = float(sl[0, 0] / sr[0, 0])
+    grey = np.arange(256, dtype=np.float64) * gain + float(ml[0, 0] - gain * mr[0, 0])
+    return cv2.LUT(right, np.clip(np.rint(grey), 0, 255).astype(np.uint8))
+
+
+def _mask(valid: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray | None:
+    """``valid`` as an OpenCV mask, or None when it does not fit the image."""
+    return None if valid is None or valid.shape != shape else valid.view(np.uint8)
