@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from .gravity import GravityEstimate, angle_deg
+from .gravity import GravityEstimate, _tangent_basis, angle_deg
 from .rectify import Rectification
 from .vanishing import VerticalLinesConfig, normalised_ends
 
@@ -74,15 +74,6 @@ def _unit_rows(a: np.ndarray) -> np.ndarray:
     """Rows of ``a`` normalised (NaN where a row is zero)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         return a / np.linalg.norm(a, axis=1, keepdims=True)
-
-
-def _tangent(u: np.ndarray) -> np.ndarray:
-    """(2, 3): two unit vectors orthogonal to ``u`` and to each other."""
-    a = np.cross(u, (1.0, 0.0, 0.0))
-    if np.linalg.norm(a) < 0.5:
-        a = np.cross(u, (0.0, 1.0, 0.0))
-    a /= np.linalg.norm(a)
-    return np.vstack([a, np.cross(u, a)])
 
 
 class _Segments:
@@ -198,7 +189,7 @@ def _starts(
 ) -> list[np.ndarray]:
     """Ups to fit from: ``u0`` and the best-scored distinct ups of the hypotheses (step 1
     of :func:`up_from_line_frame`)."""
-    basis = _tangent(u0)
+    basis = _tangent_basis(u0)
     yaw = np.arange(_YAW_STEPS) * (0.5 * math.pi / _YAW_STEPS)
     h1 = np.cos(yaw)[:, None] * basis[0] + np.sin(yaw)[:, None] * basis[1]
     rng = np.random.default_rng(config.seed)
@@ -241,7 +232,7 @@ def _directions(u: np.ndarray, thetas: np.ndarray) -> np.ndarray:
     if len(thetas) == 0:
         return u[None]
     angles = np.concatenate([thetas[:1], thetas[:1] + 0.5 * math.pi, thetas[1:]])
-    e = _tangent(u)
+    e = _tangent_basis(u)
     return np.vstack([u[None], np.cos(angles)[:, None] * e[0] + np.sin(angles)[:, None] * e[1]])
 
 
@@ -250,7 +241,7 @@ def _peaks(seg: _Segments, gain: np.ndarray, u: np.ndarray, free: np.ndarray, to
     Manhattan pair that gathers the most gain (two segments or more), then other
     directions greedily (``_MIN_MEMBERS`` each: two segments always meet near the horizon)."""
     grid = np.arange(180) * (math.pi / 180)
-    e = _tangent(u)
+    e = _tangent_basis(u)
     a = np.abs(seg.angles(np.cos(grid)[:, None] * e[0] + np.sin(grid)[:, None] * e[1]))  # (180, N)
     fit = np.maximum(0.0, 1.0 - (a / tol) ** 2) * free
     pair = fit[:90] + fit[90:]
@@ -293,7 +284,7 @@ def _fit(
     (Cauchy weights), the tolerance narrowing to ``frame_inlier_deg``; the directions found
     again at each of the first steps."""
     n = len(seg.length)
-    prior_basis = _tangent(u0)
+    prior_basis = _tangent_basis(u0)
     tolerances = np.linspace(config.frame_start_deg, config.frame_inlier_deg, 3).tolist()
     tolerances += [config.frame_inlier_deg] * (_STEPS - 3)
     thetas = np.empty(0)
@@ -308,7 +299,7 @@ def _fit(
         if inliers.sum() < 2:
             break
         idx, fam = np.flatnonzero(inliers), family[inliers]
-        e = _tangent(u)
+        e = _tangent_basis(u)
 
         def residuals(p: np.ndarray, idx=idx, fam=fam, e=e, u=u, thetas=thetas) -> np.ndarray:
             uu = u + p[0] * e[0] + p[1] * e[1]
