@@ -96,8 +96,8 @@ class VerticalLinesConfig:
         the planes' up as its prior (:mod:`stereo_terrain.line_frame`): a level camera near
         a staircase sees few vertical lines but many step edges. On 60 realistic rendered
         scenes, gravity within 2 deg of the truth in 93% of them instead of 75% (median
-        0.88 -> 0.50 deg); the default profile's planes fix up to about 0.45 deg and are
-        left alone (docs/benchmarks.md).
+        0.88 -> 0.50 deg; 78-80% instead of 62-68% on two fresh sets of 40); the default
+        profile's planes fix up to about 0.45 deg and are left alone (docs/benchmarks.md).
     frame_start_deg, frame_inlier_deg : float
         A segment belongs to the frame's direction whose vanishing point it points at
         within this angle: ``frame_start_deg`` at the start, narrowing to
