@@ -138,6 +138,8 @@ def test_too_few_segments_say_so():
     segments = _segments(R, np.random.default_rng(3), (6, 10, 10))
     far = up_from_line_frame(segments, _rectification(), _true_up(R), 1.0)
     assert not far.ok and "camera's up" in far.reason
+    with pytest.raises(ValueError):
+        up_from_line_frame(segments, _rectification(), CAMERA_UP, math.inf)
 
 
 @pytest.mark.parametrize(

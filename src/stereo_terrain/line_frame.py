@@ -136,6 +136,8 @@ def up_from_line_frame(
     segments fit it or up is not fixed to ``max_sigma_deg``.
     """
     config = config or VerticalLinesConfig()
+    if not 0 < prior_sigma_deg < math.inf:
+        raise ValueError(f"prior_sigma_deg must be positive and finite, got {prior_sigma_deg}")
     frame = "camera_rect"
     u0 = np.asarray(prior_up, dtype=np.float64)
     u0 = u0 / np.linalg.norm(u0)
@@ -320,7 +322,11 @@ def _fit(
         # A direction left without members: its angle stays (and says nothing of up).
         normal[2:, 2:] += 1e-9 * np.eye(len(thetas))
         chi2 = float(np.sum(weights[: len(idx)] * r[: len(idx)] ** 2))
-        step = -np.linalg.solve(normal, J.T @ (weights * r))
+        try:
+            step = -np.linalg.solve(normal, J.T @ (weights * r))
+        except np.linalg.LinAlgError:  # pragma: no cover - the prior keeps up's block regular
+            normal = None
+            break
         u = u + step[0] * e[0] + step[1] * e[1]
         u = u / np.linalg.norm(u)
         thetas = thetas + step[2:]
