@@ -56,6 +56,7 @@ from .gravity import (
     refine_up_from_planes,
     yaw_frame_from_up,
 )
+from .line_frame import up_from_lines_and_planes
 from .planes.auto import combine_plane_sets
 from .planes.contour import ContourConfig, extract_planes_contour
 from .planes.orientation import (
@@ -492,6 +493,11 @@ class Pipeline:
                 dataclasses.replace(lines, up=T.apply_vectors(lines.up), frame=fine.frame),
                 overrule=cfg.vanishing.overrule_planes,
             )
+        if rig_T is None and lines_job is not None and cfg.vanishing.frame:
+            segments = lines_job.result().segments
+            framed = _level_with_line_frame(fine, before_planes, source, T, segments, pair, cfg)
+            if framed is not None:
+                fine, source = framed, "scene"
         if source == "scene" and fine.ok:
             # The last, small correction from the final planes (more of them, tighter).
             correction = levelling(fine.up)
@@ -837,6 +843,49 @@ def _level_with_lines(
     )
     both = combine_with_lines(start, lines, overrule=overrule)
     return levelling(T.apply_vectors(both.up)) @ T, "scene", both
+
+
+def _level_with_line_frame(
+    fine: GravityEstimate,
+    before: GravityEstimate | None,
+    source: str,
+    T: Transform,
+    segments: np.ndarray,
+    pair: RectifiedPair,
+    config: PipelineConfig,
+) -> GravityEstimate | None:
+    """Without a rig, where the scene's up so far (the final planes', else the one that
+    levelled the frame) is less certain than ``vanishing.frame_above_deg``: up from the
+    Manhattan frame of all the image's line segments (:func:`up_from_lines_and_planes`),
+    with that up as its prior (the camera's up where there is none), in ``fine``'s frame. None
+    where the planes are sure enough or the lines do not fix up."""
+    v = config.vanishing
+    prior, width = None, math.inf
+    if fine.ok:
+        prior, width = T.inverse().apply_vectors(fine.up), fine.sigma_deg
+    elif source == "scene" and before is not None and before.ok and math.isfinite(before.sigma_deg):
+        prior, width = T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0])), before.sigma_deg
+    if width <= v.frame_above_deg:
+        return None
+    found = up_from_lines_and_planes(
+        segments,
+        pair.rectification,
+        prior,
+        width,
+        v,
+        prior_cone_deg=config.gravity.prior_cone_deg,
+        unsure_max_sigma_deg=config.gravity.max_sigma_deg,
+    )
+    if not found.ok:
+        return None
+    why = f"{fine.reason}, then {found.reason}" if fine.ok else found.reason
+    return dataclasses.replace(
+        found,
+        up=T.apply_vectors(found.up),
+        frame=fine.frame,
+        horizontal_fraction=fine.horizontal_fraction,
+        reason=why,
+    )
 
 
 def _gravity_report(

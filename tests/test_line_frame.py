@@ -1,0 +1,198 @@
+"""Up from the Manhattan frame of all the image's lines (stereo_terrain.line_frame)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.calibration import StereoCalibration
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.frames import rotation_from_rpy
+from stereo_terrain.gravity import angle_deg
+from stereo_terrain.line_frame import up_from_line_frame, up_from_lines_and_planes
+from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.rectify import compute_rectification
+from stereo_terrain.synthetic import random_scene_spec, render_scene
+from stereo_terrain.vanishing import VerticalLinesConfig
+
+W, H, F = 640, 480, 500.0
+CAMERA_UP = np.array([0.0, -1.0, 0.0])
+
+#: Up from step edges alone (two horizontal families, no vertical line) with 0.5 px of
+#: noise on the segments' ends: measured within 0.25 deg over 40 attitudes, sigma 0.3-0.6.
+DRAWN_TOL_DEG = 1.0
+#: Bound on gravity from the rendered realistic scenes below (the truth's criterion).
+RENDERED_TOL_DEG = 2.0
+
+
+def _rectification():
+    K = np.array([[F, 0.0, W / 2], [0.0, F, H / 2], [0.0, 0.0, 1.0]])
+    calib = StereoCalibration(K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.08, 0.0, 0.0]), (W, H))
+    return compute_rectification(calib)
+
+
+def _camera_R(roll_deg: float, pitch_deg: float, yaw_deg: float) -> np.ndarray:
+    """Camera (optical) <- world (x forward, y left, z up)."""
+    R_opt = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+    rpy = (math.radians(roll_deg), math.radians(pitch_deg), math.radians(yaw_deg))
+    return R_opt @ rotation_from_rpy(*rpy).T
+
+
+def _segments(
+    R: np.ndarray, rng, counts: tuple[int, int, int], noise_px: float = 0.5, sloped: int = 10
+) -> np.ndarray:
+    """Image segments (x1, y1, x2, y2) of 3D segments along world z (vertical), x and y
+    (horizontal), ``counts`` of each, 0.3-1.2 m long, from points 1-4 m along rays
+    through the image; their ends moved by ``noise_px``; plus ``sloped`` ones (handrails,
+    the staircase's slope) that fit no direction."""
+    out = []
+    slope = np.array([1.0, 0.0, 0.7])
+    axes = (np.eye(3)[2], np.eye(3)[0], np.eye(3)[1])
+    wanted = [d for d, n in zip(axes, counts, strict=True) for _ in range(n)] + [
+        slope / np.linalg.norm(slope)
+    ] * 10
+    for d in wanted:
+        for _ in range(1000):
+            ray = np.array([(rng.uniform(0, W) - W / 2) / F, (rng.uniform(0, H) - H / 2) / F, 1.0])
+            a = R.T @ (ray * rng.uniform(1.0, 4.0))
+            pa, pb = R @ a, R @ (a + d * rng.uniform(0.3, 1.2))
+            if pb[2] < 0.5:
+                continue
+            ends = np.array([F * pa[:2] / pa[2], F * pb[:2] / pb[2]]) + (W / 2, H / 2)
+            if (ends >= 0).all() and (ends < (W, H)).all() and np.linalg.norm(ends[1] - ends[0]) > 30:
+                out.append((ends + rng.normal(0.0, noise_px, (2, 2))).ravel())
+                break
+    return np.array(out)
+
+
+def _true_up(R: np.ndarray) -> np.ndarray:
+    return R @ np.array([0.0, 0.0, 1.0])
+
+
+@settings(max_examples=20, deadline=None, derandomize=True)  # same examples in every run
+@given(
+    roll=st.floats(-8.0, 8.0),
+    pitch=st.floats(-5.0, 15.0),
+    yaw=st.floats(-45.0, 45.0),
+    seed=st.integers(0, 2**16),
+)
+def test_step_edges_alone_give_up(roll, pitch, yaw, seed):
+    """A level camera near a staircase: step edges across it and along it, no vertical
+    line (the vertical vanishing point then has nothing to work on); the prior is only
+    the upright camera (8 deg)."""
+    R = _camera_R(roll, pitch, yaw)
+    segments = _segments(R, np.random.default_rng(seed), (0, 15, 10))
+    est = up_from_line_frame(segments, _rectification(), CAMERA_UP, 8.0)
+    assert est.ok, est.reason
+    assert est.frame == "camera_rect" and est.up[1] < 0
+    assert angle_deg(est.up, _true_up(R)) < DRAWN_TOL_DEG
+    assert est.sigma_deg >= VerticalLinesConfig().structure_sigma_deg
+
+
+def test_one_horizontal_family_leaves_the_other_tilt_to_the_prior():
+    """Step edges of a frontal staircase only fix the roll: up is not fixed to 2 deg with
+    the upright prior (8 deg), and is the truth's within the prior's width where it is
+    the planes' (1 deg)."""
+    R = _camera_R(3.0, 6.0, 0.0)
+    segments = _segments(R, np.random.default_rng(1), (0, 0, 20))
+    est = up_from_line_frame(segments, _rectification(), CAMERA_UP, 8.0)
+    assert not est.ok and "only to" in est.reason
+    tilt = _camera_R(3.5, 6.5, 0.0)  # a planes' estimate about 0.7 deg off
+    near = up_from_line_frame(segments, _rectification(), _true_up(tilt), 1.0)
+    assert near.ok and angle_deg(near.up, _true_up(R)) < 1.5
+    assert near.sigma_deg > 0.5  # the pitch is only as sure as the prior
+
+
+def test_the_frame_overrules_planes_that_a_junk_plane_tilted():
+    """The planes' up 15 deg off with a 2 deg sigma (over-confident): no frame fits near
+    it, the upright prior's frame is sure and far from it, and overrules it; where the
+    planes say they do not fix up, the upright prior's frame is used as it is."""
+    R = _camera_R(-4.0, 7.0, 25.0)
+    segments = _segments(R, np.random.default_rng(0), (2, 6, 6), sloped=0)
+    junk = _true_up(_camera_R(-4.0, 22.0, 25.0))
+    cfg = VerticalLinesConfig()
+    assert not up_from_line_frame(segments, _rectification(), junk, 2.0, cfg).ok
+    est = up_from_lines_and_planes(segments, _rectification(), junk, 2.0, cfg)
+    assert est.ok and "overrules" in est.reason
+    assert angle_deg(est.up, _true_up(R)) < DRAWN_TOL_DEG
+    alone = up_from_lines_and_planes(segments, _rectification(), None, math.inf, cfg)
+    assert alone.ok and "overrules" not in alone.reason
+    assert angle_deg(alone.up, _true_up(R)) < DRAWN_TOL_DEG
+    # Planes near the truth: the frame near them, no overruling.
+    near = up_from_lines_and_planes(
+        segments, _rectification(), _true_up(_camera_R(-4.0, 8.0, 25.0)), 1.0, cfg
+    )
+    assert near.ok and "overrules" not in near.reason
+    assert angle_deg(near.up, _true_up(R)) < DRAWN_TOL_DEG
+
+
+def test_too_few_segments_say_so():
+    est = up_from_line_frame(np.empty((0, 4)), _rectification(), CAMERA_UP, 8.0)
+    assert not est.ok and not math.isfinite(est.sigma_deg) and "segment" in est.reason
+    R = _camera_R(0.0, 70.0, 0.0)  # looking 70 deg down: outside the 45 deg cone
+    segments = _segments(R, np.random.default_rng(3), (6, 10, 10))
+    far = up_from_line_frame(segments, _rectification(), _true_up(R), 1.0)
+    assert not far.ok and "camera's up" in far.reason
+    with pytest.raises(ValueError):
+        up_from_line_frame(segments, _rectification(), CAMERA_UP, math.inf)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"frame_inlier_deg": 0.0},
+        {"frame_inlier_deg": 4.0, "frame_start_deg": 3.0},
+        {"frame_start_deg": 50.0},
+        {"endpoint_sigma_px": 0.0},
+        {"frame_above_deg": -1.0},
+        {"upright_sigma_deg": 0.0},
+    ],
+)
+def test_bad_config_raises(kw):
+    with pytest.raises(ConfigError):
+        VerticalLinesConfig(**kw)
+
+
+def _realistic(index: int):
+    """Scene ``index`` of `stereo-terrain render --profile realistic --seed 11`."""
+    rng = np.random.default_rng(11)
+    for _ in range(index):
+        random_scene_spec(rng, profile="realistic")
+    return render_scene(random_scene_spec(rng, profile="realistic"))
+
+
+def _gravity_error(scene, pipeline: Pipeline, up_camera: np.ndarray) -> float:
+    T_true = scene.rig.T_yaw_camera @ pipeline.rectification.T_camera_rect
+    return angle_deg(up_camera, T_true.inverse().apply_vectors(np.array([0.0, 0.0, 1.0])))
+
+
+@pytest.mark.parametrize(
+    ("index", "note"),
+    [
+        # A level camera 1.1 m from painted stairs with a 3% strip of floor and one
+        # vertical segment: the floor alone put up 4.8 deg off (measured).
+        (58, "Manhattan frame"),
+        # The planes' up 17 deg off with a 2.8 deg sigma (a junk plane): overruled.
+        (59, "overrules"),
+    ],
+)
+def test_realistic_renders_where_the_vertical_lines_are_too_few(index, note):
+    scene = _realistic(index)
+    if index == 58:
+        assert float(np.mean(scene.labels_left == 0)) < 0.05  # (almost) no floor in view
+    pipeline = Pipeline(scene.calibration)
+    result = pipeline.run(scene.left, scene.right)
+    assert result.gravity_source == "scene"
+    assert note in result.gravity.note
+    assert _gravity_error(scene, pipeline, result.gravity.up_camera) < RENDERED_TOL_DEG
+    # Without the frame, the old estimate (the error the test guards against).
+    off = dataclasses.replace(
+        pipeline.config, vanishing=dataclasses.replace(pipeline.config.vanishing, frame=False)
+    )
+    old = Pipeline(scene.calibration, config=off)
+    assert _gravity_error(scene, old, old.run(scene.left, scene.right).gravity.up_camera) > RENDERED_TOL_DEG
