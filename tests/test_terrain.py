@@ -405,3 +405,16 @@ def test_a_lone_tread_with_no_riser_behind_it_is_not_a_step():
     full = _stairs(n_steps=1, rise=0.17, box_depth=0.5)
     planes = tuple(s for s in full.segments if s.kind == HORIZONTAL)
     assert build_terrain(PlaneSet(planes, full.samples, full.up, "test", CAM)).obstacle == NONE
+
+
+def test_a_step_too_tall_for_a_stair_needs_its_top_seen():
+    """The safety net for steps taller than ``max_rise_m``: a 42 cm box whose top is seen
+    is a box; the same front face with no plane on top (a wall's or a piece of furniture's
+    front: the real Middlebury Motorcycle and Adirondack scenes) is nothing."""
+    boxed = _stairs(n_steps=1, rise=0.42, box_depth=0.5)
+    model = build_terrain(boxed)
+    assert model.obstacle == BOX and abs(model.steps[0].rise_m - 0.42) < 0.01
+    no_top = [s for s in boxed.segments if not (s.kind == HORIZONTAL and abs(s.plane.offset + 0.42) < 1e-6)]
+    assert len(no_top) == len(boxed.segments) - 1
+    model = build_terrain(PlaneSet(tuple(no_top), boxed.samples, boxed.up, "test", CAM))
+    assert model.obstacle == NONE, model.note

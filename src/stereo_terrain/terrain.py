@@ -352,6 +352,10 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     )
     if tall.obstacle == NONE or max(s.rise_m for s in tall.steps) <= config.max_rise_m:
         return model
+    if any(s.rise_m > config.max_rise_m and s.tread is None for s in tall.steps):
+        # A vertical face taller than a stair rise whose top is not seen is a wall or a
+        # piece of furniture's front as much as a step: the net needs the top.
+        return model
     note = f"a step taller than a stair rise ({config.max_rise_m:.2f} m): {tall.note}"
     return dataclasses.replace(tall, note=note)
 
