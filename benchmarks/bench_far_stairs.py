@@ -1,0 +1,72 @@
+"""Stairs 2-4 m ahead, as an OAK-D Lite sees a staircase from its foot (issue 11).
+
+The renderer's profiles put the first riser 0.6-2 m from the cameras; the issue's unseen
+OAK-D check looks up a staircase 2-4 m ahead. This renders staircases whose first riser is
+``--near`` to ``--far`` metres away with an OAK-D-like baseline (7.5 cm) and scores the
+pipeline on them, with the rig and without one, as ``evaluation`` scores it.
+
+    .venv/bin/python benchmarks/bench_far_stairs.py [--scenes 15] [--profile default]
+        [--near 2.0] [--far 3.5] [--baseline 0.075] [--seed 77] [--per-scene]
+
+At these distances a riser 12-22 cm tall is 15-50 px high at 640x480 and its disparity 9-18
+px, so its samples' normals (from 9x9 box means 4 px apart) are noisy: see
+docs/benchmarks.md, "Where the realistic gap is".
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from stereo_terrain.evaluation import score_result, summarize
+from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", type=int, default=15)
+    ap.add_argument("--profile", default="default", choices=("default", "realistic"))
+    ap.add_argument("--near", type=float, default=2.0, help="closest first riser, metres")
+    ap.add_argument("--far", type=float, default=3.5, help="farthest first riser, metres")
+    ap.add_argument("--baseline", type=float, default=0.075, help="metres")
+    ap.add_argument("--seed", type=int, default=77)
+    ap.add_argument("--per-scene", action="store_true", help="one line per scene")
+    args = ap.parse_args()
+    rng = np.random.default_rng(args.seed)
+    scores: dict[str, list] = {"rig": [], "no rig": []}
+    for i in range(args.scenes):
+        distance = float(rng.uniform(args.near, args.far))
+        spec = random_scene_spec(
+            rng, profile=args.profile, kind="stairs", distance_m=distance, baseline_m=args.baseline
+        )
+        scene = render_scene(spec)
+        for name, rig in (("rig", scene.rig), ("no rig", None)):
+            pipe = Pipeline(scene.calibration, rig, warm_up=False)
+            result = pipe.run(scene.left, scene.right).to_json_dict()
+            scores[name].append(score_result(result, scene.truth))
+            if args.per_scene:
+                true = [round(100 * s["rise"], 1) for s in scene.truth["steps"]]
+                got = [round(100 * s["rise"], 1) for s in result["steps"]]
+                print(f"{i:3d} {name:6s} d={distance:.2f} m {spec.tread.texture:8s} rises {true} -> {got}")
+    print(
+        f"{args.profile}, {args.scenes} staircases {args.near}-{args.far} m ahead, "
+        f"baseline {args.baseline} m, seed {args.seed}"
+    )
+    print("| gravity from | detected | step count | rise cm med / p90 | run cm med / p90 | 1st distance cm |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name, rows in scores.items():
+        s = summarize(rows)
+        print(
+            f"| {name} | {s['detection_rate']:.0%} | {s['count_rate']:.0%} | "
+            f"{100 * s['rise_median_m']:.1f} / {100 * s['rise_p90_m']:.1f} | "
+            f"{100 * s['run_median_m']:.1f} / {100 * s['run_p90_m']:.1f} | "
+            f"{100 * s['first_distance_median_m']:.1f} / {100 * s['first_distance_p90_m']:.1f} |"
+        )
+    print(json.dumps({k: summarize(v) for k, v in scores.items()}))
+
+
+if __name__ == "__main__":
+    main()
