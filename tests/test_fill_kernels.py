@@ -8,8 +8,9 @@ import pytest
 from stereo_terrain.stereo._manhattan_kernels import (
     fill_targets,
     finite_samples,
+    hypothesis_costs,
     mostly_filled,
-    outline_samples,
+    outline_edges,
 )
 from stereo_terrain.stereo._regions import edge_support, fill_region_plane
 from stereo_terrain.stereo.manhattan import _median, _percentiles_2_98
@@ -80,11 +81,16 @@ def test_manhattan_box_helpers_as_numpy(seed):
         assert np.array_equal(vs, ref_v[::step]) and np.array_equal(us, ref_u[::step])
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
     ring, core = cv2.dilate(region.view(np.uint8), kernel), cv2.erode(region.view(np.uint8), kernel)
+    strong, cos_vertical = np.float32(12.0), np.float32(0.866)
     for stride in (1, 2, 3):
-        got = outline_samples(ring, core, gx, gy, stride)
+        got = outline_edges(ring, core, gx, gy, stride, strong, cos_vertical)
         ref_v, ref_u = np.nonzero(ring.astype(bool) & ~core.astype(bool))
         ref_v, ref_u = ref_v[::stride], ref_u[::stride]
-        for a, b in zip(got, (ref_v, ref_u, gx[ref_v, ref_u], gy[ref_v, ref_u]), strict=True):
+        gxs, gys = gx[ref_v, ref_u], gy[ref_v, ref_u]
+        m = np.hypot(gxs, gys)
+        keep = (m > strong) & (np.abs(gxs) < m * cos_vertical)
+        ref = (ref_v[keep], ref_u[keep], gxs[keep], gys[keep], m[keep])
+        for a, b in zip(got, ref, strict=True):
             assert a.dtype == b.dtype and np.array_equal(a, b)
     large = np.array([False, True, True])
     for refit in (False, True):
@@ -105,3 +111,16 @@ def test_order_statistics_as_numpy(seed):
     assert _median(values) == float(np.median(values))
     lo, hi = np.percentile(values, [2, 98])
     assert _percentiles_2_98(values) == (float(lo), float(hi))
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_hypothesis_costs_as_numpy(seed):
+    """MSAC's truncated costs summed as NumPy sums the residual matrix over its rows."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 400))
+    target, g = rng.normal(30, 5, n), rng.normal(1, 0.2, n)
+    idx = np.flatnonzero(rng.random(n) < 0.7)
+    hyp = rng.normal(30, 5, 32)
+    residual = target[idx, None] - hyp[None, :] * g[idx, None]
+    ref = np.minimum(residual**2, 0.75**2).sum(axis=0)
+    assert hypothesis_costs(target, g, idx, hyp, 0.75**2).tobytes() == ref.tobytes()

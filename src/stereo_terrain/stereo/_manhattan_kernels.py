@@ -107,32 +107,42 @@ def finite_samples(
 
 
 @njit(cache=True, nogil=True)
-def outline_samples(
-    ring: np.ndarray, core: np.ndarray, gx: np.ndarray, gy: np.ndarray, stride: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
-    """Every ``stride``-th pixel of the outline ``ring & ~core`` in row-major order
-    (``np.nonzero(ring & ~core)`` sliced ``[::stride]``, without the full-box temporaries;
-    issue 13): its rows and columns (int64) and ``gx``, ``gy`` there."""
+def outline_edges(
+    ring: np.ndarray,
+    core: np.ndarray,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    stride: int,
+    strong: np.float32,
+    cos_vertical: np.float32,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Every ``stride``-th pixel of the outline ``ring & ~core`` (0/1 bytes) in row-major
+    order, as ``np.nonzero(ring & ~core)`` sliced ``[::stride]`` gives them, kept when its
+    gradient (``gx``, ``gy``, float32) is strong (``|g| > strong``) and not vertical
+    (``|gx| < |g| cos_vertical``), in float32 as NumPy computes it; without the full-box
+    temporaries (issue 13). Returns rows, columns (int64), ``gx``, ``gy`` and ``|g|`` there."""
     h, w = ring.shape
     cap = (h * w + stride - 1) // stride
     vs = np.empty(cap, np.int64)
     us = np.empty(cap, np.int64)
+    gxs = np.empty(cap, np.float32)
+    gys = np.empty(cap, np.float32)
+    ms = np.empty(cap, np.float32)
     n = 0
     skip = 0  # outline pixels to pass before the next sample
     for y in range(h):
         for x in range(w):
-            if ring[y, x] and not core[y, x]:
-                if skip == 0:
-                    vs[n], us[n] = y, x
+            if not ring[y, x] or core[y, x]:
+                continue
+            if skip == 0:
+                skip = stride
+                gxv, gyv = gx[y, x], gy[y, x]
+                m = np.hypot(gxv, gyv)
+                if m > strong and abs(gxv) < m * cos_vertical:
+                    vs[n], us[n], gxs[n], gys[n], ms[n] = y, x, gxv, gyv, m
                     n += 1
-                    skip = stride
-                skip -= 1
-    gxs = np.empty(n, gx.dtype)
-    gys = np.empty(n, gy.dtype)
-    for j in range(n):
-        gxs[j] = gx[vs[j], us[j]]
-        gys[j] = gy[vs[j], us[j]]
-    return vs[:n].copy(), us[:n].copy(), gxs, gys
+            skip -= 1
+    return vs[:n].copy(), us[:n].copy(), gxs[:n].copy(), gys[:n].copy(), ms[:n].copy()
 
 
 @njit(cache=True, nogil=True)
@@ -151,3 +161,20 @@ def fill_targets(
             if ring[y, x] and (own or not large[k]) and (not filled[y, x] or (refit and own)):
                 ext[y, x] = True
     return ext
+
+
+@njit(cache=True, nogil=True)
+def hypothesis_costs(
+    target: np.ndarray, g: np.ndarray, idx: np.ndarray, hyp: np.ndarray, thr2: float
+) -> np.ndarray:  # pragma: no cover - compiled
+    """MSAC's cost of each plane ``s = hyp[j]``: the sum over the points ``idx`` of
+    ``min((target - s g)^2, thr2)``, summed point by point in order, as NumPy's
+    ``np.minimum(residual**2, thr2).sum(axis=0)`` of the (points, hypotheses) residuals
+    does, without them (issue 13)."""
+    costs = np.zeros(hyp.shape[0])
+    for i in idx:
+        t, gi = target[i], g[i]
+        for j in range(hyp.shape[0]):
+            r = t - hyp[j] * gi
+            costs[j] += min(r * r, thr2)
+    return costs

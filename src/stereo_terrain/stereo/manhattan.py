@@ -47,7 +47,14 @@ import numpy as np
 
 from ..rectify import Rectification
 from . import _regions
-from ._manhattan_kernels import fill_face, fill_targets, finite_samples, mostly_filled, outline_samples
+from ._manhattan_kernels import (
+    fill_face,
+    fill_targets,
+    finite_samples,
+    hypothesis_costs,
+    mostly_filled,
+    outline_edges,
+)
 from ._regions import edge_support
 from .fill import FlatRegions, PlanarFillConfig
 
@@ -363,16 +370,20 @@ def _outline_alignment(
     edges of a face's outline (the band ``ring & ~core`` around its boundary, 0/1 bytes: the
     face dilated and eroded, in a box at ``x0, y0``) that follow the image lines of that
     direction."""
-    vs, us, gxs, gys = outline_samples(ring, core, gx, gy, _OUTLINE_STRIDE)
-    m = np.hypot(gxs, gys)
-    # Along the edge: (-gy, gx) / |g|; not within _VERTICAL_EDGE_DEG of the image's vertical.
-    keep = (m > np.float32(8.0 * config.edge_gradient)) & (
-        np.abs(gxs) < m * np.float32(math.cos(math.radians(_VERTICAL_EDGE_DEG)))
+    # The strong edges not within _VERTICAL_EDGE_DEG of the image's vertical.
+    vs, us, gxs, gys, m = outline_edges(
+        ring,
+        core,
+        gx,
+        gy,
+        _OUTLINE_STRIDE,
+        np.float32(8.0 * config.edge_gradient),
+        np.float32(math.cos(math.radians(_VERTICAL_EDGE_DEG))),
     )
-    if not keep.any():
+    if not len(m):
         return [0.0] * len(line_dirs)
-    m, ex, ey = m[keep], -gys[keep] / m[keep], gxs[keep] / m[keep]
-    u, v = us[keep] + float(x0), vs[keep] + float(y0)
+    ex, ey = -gys / m, gxs / m  # along the edge: (-gy, gx) / |g|
+    u, v = us + float(x0), vs + float(y0)
     total = float(np.sum(m))
     cos_tol = math.cos(math.radians(config.manhattan_edge_deg))
     shares = []
@@ -408,8 +419,7 @@ def _support_planes(
             break
         draws = idx[rng.integers(0, len(idx), min(_HYPOTHESES, len(idx)))]
         hyp = target[draws] / g[draws]
-        residual = target[idx, None] - hyp[None, :] * g[idx, None]
-        s = float(hyp[np.argmin(np.minimum(residual**2, thr**2).sum(axis=0))])
+        s = float(hyp[np.argmin(hypothesis_costs(target, g, idx, hyp, thr**2))])
         inl = free & (np.abs(target - s * g) < thr)
         if inl.sum() < config.manhattan_min_support:
             break
@@ -462,10 +472,13 @@ def warm_up() -> None:
     (the pipeline's warm-up pair need not have a face for it), and the planar fill's (the
     same holds for it), for the array layouts the fills pass (boxes are slices)."""
     _regions.warm_up()
+    hypothesis_costs(np.ones(2), np.ones(2), np.arange(2), np.ones(2), 1.0)
     on = np.ones((2, 2), bool)
     for box in _regions._box_layouts(np.float32):
         finite_samples(on, box, 300)
-        outline_samples(on.view(np.uint8), np.zeros((2, 2), np.uint8), box, box, 2)
+        outline_edges(
+            on.view(np.uint8), np.zeros((2, 2), np.uint8), box, box, 2, np.float32(1), np.float32(1)
+        )
     for filled, labels in zip(_regions._box_layouts(np.bool_), _regions._box_layouts(np.int32), strict=True):
         mostly_filled(filled, on)
         fill_targets(on.view(np.uint8), labels, 1, on[0], filled, True)
