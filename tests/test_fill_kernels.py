@@ -49,19 +49,22 @@ def test_edge_support_is_nonzero(seed):
 
 
 @pytest.mark.parametrize("seed", SEEDS)
-def test_fill_region_plane_as_numpy(seed):
-    """The plane rounded to float32, written where it is in (0, max)."""
+@pytest.mark.parametrize("top", [6.5, None])
+def test_fill_region_plane_as_numpy(seed, top):
+    """The plane rounded to float32, written where it is above 0 (and below ``top``)."""
     rng, labels, _, _, _, _ = _boxes(seed)
     coef = rng.normal(0, [0.3, 0.3, 5.0])
-    x0, y0, top = 3, 2, 6.5
+    x0, y0 = 3, 2
     h, w = labels.shape
     out = np.full((h + y0, w + x0), np.nan, np.float32)
     filled = np.zeros(out.shape, bool)
     ref_out, ref_filled = out.copy(), filled.copy()
-    fill_region_plane(labels, 1, x0, y0, coef, np.float32(top), out, filled)
+    fill_region_plane(labels, 1, x0, y0, coef, np.float32(top or 0), top is not None, out, filled)
     rv, ru = np.nonzero(labels == 1)
     plane = (coef[0] * (ru + x0) + coef[1] * (rv + y0) + coef[2]).astype(np.float32)
-    keep = (plane > 0) & (plane < top)
+    keep = plane > 0
+    if top is not None:
+        keep &= plane < top
     ref_out[rv[keep] + y0, ru[keep] + x0] = plane[keep]
     ref_filled[rv[keep] + y0, ru[keep] + x0] = True
     assert out.tobytes() == ref_out.tobytes() and np.array_equal(filled, ref_filled)
@@ -111,6 +114,12 @@ def test_order_statistics_as_numpy(seed):
     assert _median(values) == float(np.median(values))
     lo, hi = np.percentile(values, [2, 98])
     assert _percentiles_2_98(values) == (float(lo), float(hi))
+
+
+def test_order_statistics_with_nan_as_numpy():
+    """A NaN among the values gives NumPy's answer (NaN), not a middle value."""
+    values = np.array([3.0, np.nan, 1.0, 2.0, 5.0])
+    assert np.isnan(_median(values)) and np.isnan(_percentiles_2_98(values)).all()
 
 
 @pytest.mark.parametrize("seed", SEEDS)

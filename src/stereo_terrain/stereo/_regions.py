@@ -91,19 +91,21 @@ def fill_region_plane(
     y0: int,
     coef: np.ndarray,
     max_disparity: np.float32,
+    bounded: bool,
     out: np.ndarray,
     filled: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
     """Write the plane ``d = coef[0] u + coef[1] v + coef[2]`` (rounded to float32) into
     ``out`` and ``filled`` at the pixels of ``labels == label`` (a box at ``x0, y0``) where
-    it is in ``(0, max_disparity)``: the planar fill's last step in one pass (issue 13)."""
+    it is above 0 and, when ``bounded``, below ``max_disparity``: the planar fill's last
+    step in one pass (issue 13)."""
     h, w = labels.shape
     for y in range(h):
         for x in range(w):
             if labels[y, x] != label:
                 continue
             value = np.float32(coef[0] * (x + x0) + coef[1] * (y + y0) + coef[2])
-            if value > 0 and value < max_disparity:
+            if value > 0 and (not bounded or value < max_disparity):
                 out[y + y0, x + x0] = value
                 filled[y + y0, x + x0] = True
 
@@ -122,6 +124,7 @@ def warm_up() -> None:
             0,
             np.ones(3),
             np.float32(10.0),
+            True,
             np.zeros((2, 2), np.float32),
             np.zeros((2, 2), bool),
         )

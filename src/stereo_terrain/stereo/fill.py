@@ -419,7 +419,7 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
     edge_gx = np.float32(8.0 * config.edge_gradient)  # as in _vertical_edges
     edges_only = ill_posed is None or not config.invalidate
     # NumPy compares a float32 plane with a Python number in float32: so does the kernel.
-    max_d = np.float32(np.inf if max_disparity_px is None else max_disparity_px)
+    max_d = np.float32(0 if max_disparity_px is None else max_disparity_px)
     for k in np.flatnonzero(large[1:]) + 1:
         x, y, bw, bh, area = stats[k]
         # Work in the region's bounding box grown by the ring.
@@ -449,7 +449,9 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
             continue
         # The face has no texture of its own: its matches carry no information, so the
         # whole face takes the plane supported by its outline.
-        fill_region_plane(box_labels, int(k), int(x0), int(y0), coef, max_d, out, filled)
+        fill_region_plane(
+            box_labels, int(k), int(x0), int(y0), coef, max_d, max_disparity_px is not None, out, filled
+        )
     return out, filled, occluded
 
 

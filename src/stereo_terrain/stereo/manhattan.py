@@ -438,10 +438,12 @@ def _support_planes(
 
 
 def _median(values: np.ndarray) -> float:
-    """``float(np.median(values))`` of finite ``values`` without its general machinery
-    (issue 13): the middle value, or the mean ``(a + b) / 2`` of the two middle ones."""
+    """``float(np.median(values))`` without its general machinery (issue 13): the middle
+    value, or the mean ``(a + b) / 2`` of the two middle ones."""
     ordered = np.sort(values)
     n = len(ordered)
+    if np.isnan(ordered[-1]):  # NaN sorts last; NumPy's answer is then NaN
+        return float(np.median(values))
     if n % 2:
         return float(ordered[n // 2])
     return float((ordered[n // 2 - 1] + ordered[n // 2]) / 2)
@@ -449,11 +451,14 @@ def _median(values: np.ndarray) -> float:
 
 def _percentiles_2_98(values: np.ndarray) -> tuple[float, float]:
     """``np.percentile(values, [2, 98])`` (its default linear method, the same arithmetic step
-    by step) of finite ``values``, without its general machinery's ~80 us a call (issue
-    13): the value at the virtual index ``(n - 1) q`` of the sorted values, interpolated
-    from below when its fraction is under one half and from above otherwise."""
+    by step), without its general machinery's ~80 us a call (issue 13): the value at the
+    virtual index ``(n - 1) q`` of the sorted values, interpolated from below when its
+    fraction is under one half and from above otherwise."""
     ordered = np.sort(values)
     n = len(ordered)
+    if np.isnan(ordered[-1]):  # NaN sorts last; leave NumPy its NaN handling
+        lo, hi = np.percentile(values, [2, 98])
+        return float(lo), float(hi)
     out = []
     for q in (0.02, 0.98):  # np.true_divide([2, 98], 100), correctly rounded alike
         at = (n - 1) * q
