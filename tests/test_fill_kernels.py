@@ -13,7 +13,7 @@ from stereo_terrain.stereo._manhattan_kernels import (
     outline_edges,
 )
 from stereo_terrain.stereo._regions import edge_support, fill_region_plane
-from stereo_terrain.stereo.manhattan import _median, _percentiles_2_98
+from stereo_terrain.stereo.manhattan import _cross, _median, _percentiles_2_98
 
 SEEDS = range(12)
 
@@ -133,3 +133,13 @@ def test_hypothesis_costs_as_numpy(seed):
     residual = target[idx, None] - hyp[None, :] * g[idx, None]
     ref = np.minimum(residual**2, 0.75**2).sum(axis=0)
     assert hypothesis_costs(target, g, idx, hyp, 0.75**2).tobytes() == ref.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_cross_as_numpy(seed):
+    """The cross product of 3-vectors as NumPy's, bit for bit (signed zeros too)."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(2, 3)) * 10.0 ** rng.integers(-3, 3, (2, 3))
+    if seed == 0:
+        a, b = np.array([0.0, -0.0, 1.0]), np.array([-0.0, 1.0, 0.0])
+    assert _cross(a, b).tobytes() == np.cross(a, b).tobytes()
