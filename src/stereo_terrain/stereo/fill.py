@@ -41,7 +41,7 @@ import numpy as np
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..msac import plane_msac
-from ._regions import connected_regions
+from ._regions import connected_regions, edge_support, fill_region_plane
 
 TEXTURE_MODES = ("total", "horizontal")
 #: :func:`_fit_support`'s answer for a plane refused as an occluder's.
@@ -416,22 +416,24 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
     # The regions large enough to fit, picked in one pass (issue 13: textured images have
     # thousands of tiny flat specks); the same regions in the same order.
     large = (stats[:, 4] >= min_area) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
+    edge_gx = np.float32(8.0 * config.edge_gradient)  # as in _vertical_edges
+    edges_only = ill_posed is None or not config.invalidate
+    # NumPy compares a float32 plane with a Python number in float32: so does the kernel.
+    max_d = np.float32(0 if max_disparity_px is None else max_disparity_px)
     for k in np.flatnonzero(large[1:]) + 1:
         x, y, bw, bh, area = stats[k]
         # Work in the region's bounding box grown by the ring.
         x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
         x1, y1 = min(w, x + bw + config.ring_px), min(h, y + bh + config.ring_px)
-        region = labels[y0:y1, x0:x1] == k
+        box_labels = labels[y0:y1, x0:x1]
         # Only disparities on vertical edges are trusted: inside the face SGM has nothing to
         # match (its values there may be a ramp), and along horizontal edges the match is
-        # ambiguous (the aperture problem).
+        # ambiguous (the aperture problem). Without them when the invalidation already kept
+        # only the disparities with horizontal texture around them (vertical edges, ends of
+        # planks, texture next to the face).
         box = disparity[y0:y1, x0:x1]
-        support = cv2.dilate(region.astype(np.uint8), kernel).astype(bool) & np.isfinite(box)
-        if ill_posed is None or not config.invalidate:
-            support &= _vertical_edges(gx[y0:y1, x0:x1], config)
-        # else: the invalidation already kept only the disparities with horizontal texture
-        # around them (vertical edges, ends of planks, texture next to the face).
-        vs, us = np.nonzero(support)
+        near = cv2.dilate((box_labels == k).view(np.uint8), kernel)
+        vs, us = edge_support(near, box, gx[y0:y1, x0:x1], edge_gx, edges_only)
         if len(us) < 20:
             continue
         ds = box[vs, us]
@@ -445,15 +447,11 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
             continue
         if coef is None:
             continue
-        rv, ru = np.nonzero(region)
-        plane_d = (coef[0] * (ru + x0) + coef[1] * (rv + y0) + coef[2]).astype(np.float32)
         # The face has no texture of its own: its matches carry no information, so the
         # whole face takes the plane supported by its outline.
-        replace = plane_d > 0
-        if max_disparity_px is not None:
-            replace &= plane_d < max_disparity_px
-        out[rv[replace] + y0, ru[replace] + x0] = plane_d[replace]
-        filled[rv[replace] + y0, ru[replace] + x0] = True
+        fill_region_plane(
+            box_labels, int(k), int(x0), int(y0), coef, max_d, max_disparity_px is not None, out, filled
+        )
     return out, filled, occluded
 
 

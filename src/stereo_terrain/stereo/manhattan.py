@@ -46,8 +46,17 @@ import cv2
 import numpy as np
 
 from ..rectify import Rectification
-from ._manhattan_kernels import fill_face
-from .fill import FlatRegions, PlanarFillConfig, _vertical_edges
+from . import _regions
+from ._manhattan_kernels import (
+    fill_face,
+    fill_targets,
+    finite_samples,
+    hypothesis_costs,
+    mostly_filled,
+    outline_edges,
+)
+from ._regions import edge_support
+from .fill import FlatRegions, PlanarFillConfig
 
 #: Outline edges within this angle of the image's vertical are the faces' ends, not
 #: their horizontal lines.
@@ -124,8 +133,9 @@ def fill_manhattan_faces(
     if not np.linalg.norm(h) > 1e-6:
         return out, mask
     h /= np.linalg.norm(h)
-    line_dirs = (h, np.cross(up, h))  # the horizontal lines of the two vertical families
-    normals = np.array([up, h, np.cross(up, h)])  # the scene's three plane normals
+    line_dirs = (h, _cross(up, h))  # the horizontal lines of the two vertical families
+    risers = tuple(_cross(line_dir, up) for line_dir in line_dirs)  # their faces' normals
+    normals = np.array([up, h, line_dirs[1]])  # the scene's three plane normals
     H, W = disparity.shape
     stats, labels = regions.stats, regions.labels
     large = (stats[:, 4] >= config.min_region_fraction * H * W) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
@@ -133,6 +143,7 @@ def fill_manhattan_faces(
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
     row_kernel = np.ones((1, 2 * config.ring_px + 1), np.uint8)
     wide_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (6 * config.ring_px + 1,) * 2)
+    edge_gx = np.float32(8.0 * config.edge_gradient)  # as in fill._vertical_edges
     rng = np.random.default_rng(config.seed)
     # The faces filled here, largest region first: their planes (normal, s) and shading,
     # and which pixels hold which.
@@ -146,8 +157,9 @@ def fill_manhattan_faces(
         x1, y1 = min(W, x + bw + config.ring_px), min(H, y + bh + config.ring_px)
         box_labels = labels[y0:y1, x0:x1]
         region = box_labels == k
+        region_u8 = region.view(np.uint8)  # OpenCV's morphology takes bytes
         refit = False
-        if mask[y0:y1, x0:x1][region].mean() > 0.5:
+        if mostly_filled(mask[y0:y1, x0:x1], region):
             # The planar fill's free plane: kept when it is one of the scene's directions,
             # fitted again here when it is not (a painted riser whose outline support holds
             # a railing in front of it slopes the wrong way).
@@ -158,10 +170,9 @@ def fill_manhattan_faces(
             refit = True
         # The support: vertical edges beside the face in its own rows (its ends), not those
         # of the faces above and below it.
-        beside = cv2.dilate(region.astype(np.uint8), row_kernel).astype(bool)
+        beside = cv2.dilate(region_u8, row_kernel)
         box = disparity[y0:y1, x0:x1]
-        support = beside & np.isfinite(box) & _vertical_edges(regions.gx[y0:y1, x0:x1], config)
-        vs, us = np.nonzero(support)
+        vs, us = edge_support(beside, box, regions.gx[y0:y1, x0:x1], edge_gx, True)
         if len(us) < 2 * config.manhattan_min_support:
             continue
         u, v = us + float(x0), vs + float(y0)
@@ -169,10 +180,10 @@ def fill_manhattan_faces(
         if len(u) > _MAX_SUPPORT:
             pick = rng.choice(len(u), _MAX_SUPPORT, replace=False)
             u, v, d = u[pick], v[pick], d[pick]
-        ring = cv2.dilate(region.astype(np.uint8), kernel).astype(bool)
-        outline = ring & ~cv2.erode(region.astype(np.uint8), kernel).astype(bool)
+        ring_u8 = cv2.dilate(region_u8, kernel)
         scores = _outline_alignment(
-            outline,
+            ring_u8,
+            cv2.erode(region_u8, kernel),
             regions.gx[y0:y1, x0:x1],
             regions.gy[y0:y1, x0:x1],
             x0,
@@ -183,11 +194,9 @@ def fill_manhattan_faces(
         )
         if max(scores) < _MIN_ALIGNMENT:
             continue  # its outline follows neither family's lines: its family is unknown
-        other = (box_labels != k) & large[box_labels]
         # The pixels to fill: the region and its ring, not another region's or a filled
         # pixel (a refitted region's own pixels are refilled).
-        held = mask[y0:y1, x0:x1] & ~region if refit else mask[y0:y1, x0:x1]
-        ext = ring & ~other & ~held
+        ext = fill_targets(ring_u8, box_labels, k, large, mask[y0:y1, x0:x1], refit)
         x_ref = x + bw / 2.0
         # Candidates: the vertical family the outline follows, a tread with the same
         # horizontal lines, the other vertical family. Support on concave corners lies on
@@ -196,21 +205,21 @@ def fill_manhattan_faces(
         # wins (a uniform wall is one plane, not a stack of risers).
         first = int(np.argmax(scores))
         candidates = [
-            (line_dirs[first], np.cross(line_dirs[first], up)),
+            (line_dirs[first], risers[first]),
             (line_dirs[first], up),
-            (line_dirs[1 - first], np.cross(line_dirs[1 - first], up)),
+            (line_dirs[1 - first], risers[1 - first]),
         ]
         found = []
         for line_dir, normal in candidates:
             lam, slope = _line_coordinate(u, v, line_dir, rectification, x_ref)
-            if float(np.median(slope)) > _MAX_LINE_SLOPE:
+            if _median(slope) > _MAX_LINE_SLOPE:
                 continue
             g = _normal_gain(normal, u, v, rectification)
             if np.any(np.abs(g) < 1e-3):
                 continue  # the plane passes (nearly) through the camera
             planes, explained = _support_planes(u, v, d, g, lam, rectification.doffs_px, rng, config)
             # Planes whose disparities differ by less than the merge tolerance are one.
-            s_tol = _MERGE_PX / float(np.median(np.abs(g)))
+            s_tol = _MERGE_PX / _median(np.abs(g))
             planes = _stacked(planes, s_tol)
             if planes and explained >= config.min_inlier_ratio * len(u):
                 found.append((explained, len(planes), line_dir, normal, planes, s_tol))
@@ -222,7 +231,7 @@ def fill_manhattan_faces(
         shade = float(image[y0:y1, x0:x1][region].mean())
         nearby: set[int] = set()
         if faces:
-            around = cv2.dilate(region.astype(np.uint8), wide_kernel).astype(bool) & ~region
+            around = cv2.dilate(region_u8, wide_kernel).astype(bool) & ~region
             nearby = {int(i) for i in np.unique(face_of[y0:y1, x0:x1][around]) if i >= 0}
         found = [f for f in found if not _repeats_a_neighbour(f[3], f[4], shade, nearby, faces, f[5])]
         if not found:
@@ -306,11 +315,9 @@ def _is_manhattan(
     """Whether the plane of the filled ``values`` on ``region`` (a box at ``x0, y0``) is
     within ``tol_deg`` of one of the scene's plane ``normals``. A plane ``d = a u + b v + c``
     has the normal ``(a f, b f, c + doffs + a cx + b cy)`` in the camera."""
-    vs, us = np.nonzero(region & np.isfinite(values))
+    vs, us = finite_samples(region, values, 300)  # every step-th of them: at most ~300
     if len(us) < 3:
         return True
-    step = max(1, len(us) // 300)
-    vs, us = vs[::step], us[::step]
     A = np.column_stack([us + float(x0), vs + float(y0), np.ones(len(us))])
     (a, b, c), *_ = np.linalg.lstsq(A, values[vs, us].astype(np.float64), rcond=None)
     f = rect.focal_px
@@ -349,7 +356,8 @@ def _line_coordinate(
 
 
 def _outline_alignment(
-    outline: np.ndarray,
+    ring: np.ndarray,
+    core: np.ndarray,
     gx: np.ndarray,
     gy: np.ndarray,
     x0: int,
@@ -359,20 +367,23 @@ def _outline_alignment(
     config: PlanarFillConfig,
 ) -> list[float]:
     """For each of ``line_dirs``: the gradient-weighted share of the strong, non-vertical
-    edges of a face's ``outline`` (a band around its boundary, in a box at ``x0, y0``) that
-    follow the image lines of that direction."""
-    vs, us = np.nonzero(outline)
-    vs, us = vs[::_OUTLINE_STRIDE], us[::_OUTLINE_STRIDE]
-    gxs, gys = gx[vs, us], gy[vs, us]
-    m = np.hypot(gxs, gys)
-    # Along the edge: (-gy, gx) / |g|; not within _VERTICAL_EDGE_DEG of the image's vertical.
-    keep = (m > np.float32(8.0 * config.edge_gradient)) & (
-        np.abs(gxs) < m * np.float32(math.cos(math.radians(_VERTICAL_EDGE_DEG)))
+    edges of a face's outline (the band ``ring & ~core`` around its boundary, 0/1 bytes: the
+    face dilated and eroded, in a box at ``x0, y0``) that follow the image lines of that
+    direction."""
+    # The strong edges not within _VERTICAL_EDGE_DEG of the image's vertical.
+    vs, us, gxs, gys, m = outline_edges(
+        ring,
+        core,
+        gx,
+        gy,
+        _OUTLINE_STRIDE,
+        np.float32(8.0 * config.edge_gradient),
+        np.float32(math.cos(math.radians(_VERTICAL_EDGE_DEG))),
     )
-    if not keep.any():
+    if not len(m):
         return [0.0] * len(line_dirs)
-    m, ex, ey = m[keep], -gys[keep] / m[keep], gxs[keep] / m[keep]
-    u, v = us[keep] + float(x0), vs[keep] + float(y0)
+    ex, ey = -gys / m, gxs / m  # along the edge: (-gy, gx) / |g|
+    u, v = us + float(x0), vs + float(y0)
     total = float(np.sum(m))
     cos_tol = math.cos(math.radians(config.manhattan_edge_deg))
     shares = []
@@ -408,27 +419,80 @@ def _support_planes(
             break
         draws = idx[rng.integers(0, len(idx), min(_HYPOTHESES, len(idx)))]
         hyp = target[draws] / g[draws]
-        residual = target[idx, None] - hyp[None, :] * g[idx, None]
-        s = float(hyp[np.argmin(np.minimum(residual**2, thr**2).sum(axis=0))])
+        s = float(hyp[np.argmin(hypothesis_costs(target, g, idx, hyp, thr**2))])
         inl = free & (np.abs(target - s * g) < thr)
         if inl.sum() < config.manhattan_min_support:
             break
         s = float(np.sum(g[inl] * target[inl]) / np.sum(g[inl] ** 2))
         inl = free & (np.abs(target - s * g) < thr)
         free &= ~inl
-        if inl.sum() < config.manhattan_min_support:
+        count = int(inl.sum())
+        if count < config.manhattan_min_support:
             continue
-        lo, hi = np.percentile(lam[inl], [2, 98])
+        lo, hi = _percentiles_2_98(lam[inl])
         if hi - lo < _MIN_SPAN_PX:
             continue  # a speck, not a face's end
-        planes.append((s, float(lo), float(hi)))
-        explained += int(inl.sum())
+        planes.append((s, lo, hi))
+        explained += count
     return planes, explained
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of two 3-vectors (float64), the same products and differences,
+    without its general machinery's ~30 us a call (issue 13)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _median(values: np.ndarray) -> float:
+    """``float(np.median(values))`` without its general machinery (issue 13): the middle
+    value, or the mean ``(a + b) / 2`` of the two middle ones."""
+    ordered = np.sort(values)
+    n = len(ordered)
+    if np.isnan(ordered[-1]):  # NaN sorts last; NumPy's answer is then NaN
+        return float(np.median(values))
+    if n % 2:
+        return float(ordered[n // 2])
+    return float((ordered[n // 2 - 1] + ordered[n // 2]) / 2)
+
+
+def _percentiles_2_98(values: np.ndarray) -> tuple[float, float]:
+    """``np.percentile(values, [2, 98])`` (its default linear method, the same arithmetic step
+    by step), without its general machinery's ~80 us a call (issue 13): the value at the
+    virtual index ``(n - 1) q`` of the sorted values, interpolated from below when its
+    fraction is under one half and from above otherwise."""
+    ordered = np.sort(values)
+    n = len(ordered)
+    if np.isnan(ordered[-1]):  # NaN sorts last; leave NumPy its NaN handling
+        lo, hi = np.percentile(values, [2, 98])
+        return float(lo), float(hi)
+    out = []
+    for q in (0.02, 0.98):  # np.true_divide([2, 98], 100), correctly rounded alike
+        at = (n - 1) * q
+        if at >= n - 1:
+            out.append(float(ordered[-1]))
+            continue
+        i = math.floor(at)
+        a, b, t = float(ordered[i]), float(ordered[i + 1]), at - i
+        diff = b - a
+        out.append(b - diff * (1 - t) if t >= 0.5 else a + diff * t)
+    return out[0], out[1]
 
 
 def warm_up() -> None:
     """Load (or compile) the fill's compiled kernel now, not in the first frame that needs it
-    (the pipeline's warm-up pair need not have a face for it)."""
+    (the pipeline's warm-up pair need not have a face for it), and the planar fill's (the
+    same holds for it), for the array layouts the fills pass (boxes are slices)."""
+    _regions.warm_up()
+    hypothesis_costs(np.ones(2), np.ones(2), np.arange(2), np.ones(2), 1.0)
+    on = np.ones((2, 2), bool)
+    for box in _regions._box_layouts(np.float32):
+        finite_samples(on, box, 300)
+        outline_edges(
+            on.view(np.uint8), np.zeros((2, 2), np.uint8), box, box, 2, np.float32(1), np.float32(1)
+        )
+    for filled, labels in zip(_regions._box_layouts(np.bool_), _regions._box_layouts(np.int32), strict=True):
+        mostly_filled(filled, on)
+        fill_targets(on.view(np.uint8), labels, 1, on[0], filled, True)
     one = np.ones(1)
     fill_face(
         np.ones((2, 2), bool),
