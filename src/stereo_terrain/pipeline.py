@@ -69,6 +69,7 @@ from .planes.orientation import (
 )
 from .rectify import RECTIFY_FOVS, Rectification, RectifiedPair, compute_rectification, rectify
 from .stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
+from .stereo._regions import warm_up as warm_up_fill_kernels
 from .stereo.fill import FlatRegions, PlanarFillConfig, fill_planar_regions, find_flat_regions
 from .stereo.manhattan import fill_manhattan_faces
 from .stereo.manhattan import warm_up as warm_up_manhattan
@@ -775,8 +776,10 @@ def warm_up_kernels(
         pipeline = Pipeline(calib, rig if with_rig else None, warm_config, backend=backend, warm_up=False)
         pipeline.run(left, right)
         load_gravity_kernels()  # the rig check's, which a rig that agrees with the pair skips
-        if config.fill.enabled and config.fill.manhattan:
-            warm_up_manhattan()
+        if config.fill.enabled:
+            warm_up_fill_kernels()  # the planar fill's, for frames that have a region
+            if config.fill.manhattan:
+                warm_up_manhattan()
     except Exception:  # an optimisation only: a config the tiny pair does not suit runs cold
         logging.getLogger(__name__).debug("kernel warm-up skipped", exc_info=True)
     _WARMED.add(key)
