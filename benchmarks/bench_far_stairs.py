@@ -17,12 +17,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
+from pathlib import Path
 
 import numpy as np
 
 from stereo_terrain.evaluation import score_result, summarize
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_oracle_disparity import print_scores  # noqa: E402
 
 
 def main() -> None:
@@ -51,20 +56,11 @@ def main() -> None:
                 true = [round(100 * s["rise"], 1) for s in scene.truth["steps"]]
                 got = [round(100 * s["rise"], 1) for s in result["steps"]]
                 print(f"{i:3d} {name:6s} d={distance:.2f} m {spec.tread.texture:8s} rises {true} -> {got}")
-    print(
+    title = (
         f"{args.profile}, {args.scenes} staircases {args.near}-{args.far} m ahead, "
         f"baseline {args.baseline} m, seed {args.seed}"
     )
-    print("| gravity from | detected | step count | rise cm med / p90 | run cm med / p90 | 1st distance cm |")
-    print("| --- | --- | --- | --- | --- | --- |")
-    for name, rows in scores.items():
-        s = summarize(rows)
-        print(
-            f"| {name} | {s['detection_rate']:.0%} | {s['count_rate']:.0%} | "
-            f"{100 * s['rise_median_m']:.1f} / {100 * s['rise_p90_m']:.1f} | "
-            f"{100 * s['run_median_m']:.1f} / {100 * s['run_p90_m']:.1f} | "
-            f"{100 * s['first_distance_median_m']:.1f} / {100 * s['first_distance_p90_m']:.1f} |"
-        )
+    print_scores(title, "gravity from", scores, first_distance=True)
     print(json.dumps({k: summarize(v) for k, v in scores.items()}))
 
 

@@ -66,18 +66,23 @@ def oracle_backend(mode: str, truth: np.ndarray, matcher, rng: np.random.Generat
     return Oracle()
 
 
-def print_scores(title: str, first: str, scores: dict[str, list]) -> None:
-    """A Markdown table of ``evaluation`` summaries, one row per key of ``scores``."""
+def print_scores(title: str, first: str, scores: dict[str, list], *, first_distance: bool = False) -> None:
+    """A Markdown table of ``evaluation`` summaries, one row per key of ``scores`` (with the
+    first riser's distance error when ``first_distance``)."""
     print(title)
-    print(f"| {first} | detected | step count | rise median / p90 cm | run median / p90 cm |")
-    print("| --- | --- | --- | --- | --- |")
+    extra = " 1st distance cm |" if first_distance else ""
+    print(f"| {first} | detected | step count | rise median / p90 cm | run median / p90 cm |{extra}")
+    print("|" + " --- |" * (6 if first_distance else 5))
     for m, rows in scores.items():
         s = summarize(rows)
-        print(
+        cells = (
             f"| {m} | {s['detection_rate']:.0%} | {s['count_rate']:.0%} | "
             f"{100 * s['rise_median_m']:.1f} / {100 * s['rise_p90_m']:.1f} | "
             f"{100 * s['run_median_m']:.1f} / {100 * s['run_p90_m']:.1f} |"
         )
+        if first_distance:
+            cells += f" {100 * s['first_distance_median_m']:.1f} / {100 * s['first_distance_p90_m']:.1f} |"
+        print(cells)
 
 
 def main() -> None:

@@ -96,3 +96,11 @@ def median(values: Sequence[float] | np.ndarray, axis: int | None = None) -> Any
     if a.ndim == 1:
         return np.float64((0.0 + part[h]) / 1.0 if n % 2 else (0.0 + part[h - 1] + part[h]) / 2.0)
     return (0.0 + part[h]) / 1.0 if n % 2 else (0.0 + part[h - 1] + part[h]) / 2.0
+
+
+def cross3(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray) -> np.ndarray:
+    """``np.cross`` of two 3-vectors: its products and differences in float64, in its
+    order (the same bits), without its general machinery's ~30 us a call (issue 13)."""
+    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
+    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._gravity_kernels import truncated_family_error_sums
-from ._numeric import median
+from ._numeric import cross3, median
 from .checks import check_fields, check_min
 from .cloud import GridSample
 from .errors import ConfigError
@@ -467,21 +467,13 @@ def _jackknife_sigma_deg(
     return math.degrees(math.sqrt(var))
 
 
-def _cross3(a, b) -> np.ndarray:
-    """``np.cross`` of two 3-vectors: its products and differences in float64, in its
-    order (the same bits), without its overhead (issue 13: it ran 8 times a frame here)."""
-    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
-    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
 def _tangent_basis(u: np.ndarray) -> np.ndarray:
     """(2, 3): two unit vectors orthogonal to ``u`` and to each other."""
-    a = _cross3(u, (1.0, 0.0, 0.0))
+    a = cross3(u, (1.0, 0.0, 0.0))
     if np.linalg.norm(a) < 0.5:
-        a = _cross3(u, (0.0, 1.0, 0.0))
+        a = cross3(u, (0.0, 1.0, 0.0))
     a /= np.linalg.norm(a)
-    return np.vstack([a, _cross3(u, a)])
+    return np.vstack([a, cross3(u, a)])
 
 
 def _sym2_eigen(a: float, b: float, d: float) -> tuple[float, float]:

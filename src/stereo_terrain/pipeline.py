@@ -468,7 +468,7 @@ class Pipeline:
         )
         lap("cloud")
         rig_T = self.T_yaw_camera_rect
-        prior = None if rig_T is None else self._rig_up_camera(rig_T)
+        prior = rig_up  # the rig's up in the camera, as the lines' job had it
         lines: GravityEstimate | None = None  # up from the image's vertical lines (no rig)
         before_planes: GravityEstimate | None
         if rig_T is not None:

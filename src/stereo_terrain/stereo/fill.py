@@ -274,8 +274,33 @@ def flat_regions(
 
 def _vertical_edges(gx: np.ndarray, config: PlanarFillConfig) -> np.ndarray:
     """Pixels whose horizontal gradient (Sobel ``gx`` of the smoothed image) is strong:
-    ``|gx| / 8 > edge_gradient`` (8 = Sobel's 3x3 kernel gain; scaling by 8 is exact)."""
-    return np.abs(gx) > np.float32(8.0 * config.edge_gradient)
+    ``|gx| > edge_gx(config)``."""
+    return np.abs(gx) > edge_gx(config)
+
+
+def edge_gx(config: PlanarFillConfig) -> np.float32:
+    """The Sobel ``|gx|`` above which a pixel is on a vertical edge: ``|gx| / 8 >
+    edge_gradient`` (8 = Sobel's 3x3 kernel gain; scaling by 8 is exact)."""
+    return np.float32(8.0 * config.edge_gradient)
+
+
+def large_regions(stats: np.ndarray, shape: tuple[int, ...], config: PlanarFillConfig) -> np.ndarray:
+    """Which regions (rows of OpenCV's ``stats``) the fills fit: at least
+    ``min_region_fraction`` of an image of ``shape``, 8 px wide and 4 px tall; never the
+    background (label 0). One vectorised test (issue 13: textured images have thousands of
+    tiny flat specks)."""
+    h, w = shape[:2]
+    large = (stats[:, 4] >= config.min_region_fraction * h * w) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
+    large[0] = False
+    return large
+
+
+def region_box(stat: np.ndarray, shape: tuple[int, ...], ring_px: int) -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)``: a region's bounding box (its row of ``stats``) grown by the ring
+    of ``ring_px`` pixels, within an image of ``shape``."""
+    x, y, bw, bh = (int(a) for a in stat[:4])
+    h, w = shape[:2]
+    return max(0, x - ring_px), max(0, y - ring_px), min(w, x + bw + ring_px), min(h, y + bh + ring_px)
 
 
 def _flat_regions(
@@ -398,7 +423,6 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
     out = disparity.copy()
     occluded: list[int] = []
     filled = np.zeros(disparity.shape, dtype=bool)
-    h, w = disparity.shape
     labels, stats, gx, ill_posed = (
         regions.labels,
         regions.stats,
@@ -410,21 +434,17 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
         # before it can support a plane, and let only a supported plane put a value back.
         out[ill_posed] = np.nan
         disparity = out.copy()
-    min_area = config.min_region_fraction * h * w
     rng = np.random.default_rng(config.seed)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
-    # The regions large enough to fit, picked in one pass (issue 13: textured images have
-    # thousands of tiny flat specks); the same regions in the same order.
-    large = (stats[:, 4] >= min_area) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
-    edge_gx = np.float32(8.0 * config.edge_gradient)  # as in _vertical_edges
+    large = large_regions(stats, disparity.shape, config)
+    edge_threshold = edge_gx(config)
     edges_only = ill_posed is None or not config.invalidate
     # NumPy compares a float32 plane with a Python number in float32: so does the kernel.
     max_d = np.float32(0 if max_disparity_px is None else max_disparity_px)
-    for k in np.flatnonzero(large[1:]) + 1:
-        x, y, bw, bh, area = stats[k]
+    for k in np.flatnonzero(large):
+        bw, bh = stats[k, 2], stats[k, 3]
         # Work in the region's bounding box grown by the ring.
-        x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
-        x1, y1 = min(w, x + bw + config.ring_px), min(h, y + bh + config.ring_px)
+        x0, y0, x1, y1 = region_box(stats[k], disparity.shape, config.ring_px)
         box_labels = labels[y0:y1, x0:x1]
         # Only disparities on vertical edges are trusted: inside the face SGM has nothing to
         # match (its values there may be a ramp), and along horizontal edges the match is
@@ -433,7 +453,7 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
         # planks, texture next to the face).
         box = disparity[y0:y1, x0:x1]
         near = cv2.dilate((box_labels == k).view(np.uint8), kernel)
-        vs, us = edge_support(near, box, gx[y0:y1, x0:x1], edge_gx, edges_only)
+        vs, us = edge_support(near, box, gx[y0:y1, x0:x1], edge_threshold, edges_only)
         if len(us) < 20:
             continue
         ds = box[vs, us]
@@ -449,9 +469,7 @@ def _fill(disparity, config, max_disparity_px, regions: FlatRegions):
             continue
         # The face has no texture of its own: its matches carry no information, so the
         # whole face takes the plane supported by its outline.
-        fill_region_plane(
-            box_labels, int(k), int(x0), int(y0), coef, max_d, max_disparity_px is not None, out, filled
-        )
+        fill_region_plane(box_labels, int(k), x0, y0, coef, max_d, max_disparity_px is not None, out, filled)
     return out, filled, occluded
 
 

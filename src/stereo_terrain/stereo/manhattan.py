@@ -45,6 +45,7 @@ import math
 import cv2
 import numpy as np
 
+from .._numeric import cross3, median, percentile
 from ..rectify import Rectification
 from . import _regions
 from ._manhattan_kernels import (
@@ -56,7 +57,7 @@ from ._manhattan_kernels import (
     outline_edges,
 )
 from ._regions import edge_support
-from .fill import FlatRegions, PlanarFillConfig
+from .fill import FlatRegions, PlanarFillConfig, edge_gx, large_regions, region_box
 
 #: Outline edges within this angle of the image's vertical are the faces' ends, not
 #: their horizontal lines.
@@ -133,28 +134,25 @@ def fill_manhattan_faces(
     if not np.linalg.norm(h) > 1e-6:
         return out, mask
     h /= np.linalg.norm(h)
-    line_dirs = (h, _cross(up, h))  # the horizontal lines of the two vertical families
-    risers = tuple(_cross(line_dir, up) for line_dir in line_dirs)  # their faces' normals
+    line_dirs = (h, cross3(up, h))  # the horizontal lines of the two vertical families
+    risers = tuple(cross3(line_dir, up) for line_dir in line_dirs)  # their faces' normals
     normals = np.array([up, h, line_dirs[1]])  # the scene's three plane normals
-    H, W = disparity.shape
     stats, labels = regions.stats, regions.labels
-    large = (stats[:, 4] >= config.min_region_fraction * H * W) & (stats[:, 2] >= 8) & (stats[:, 3] >= 4)
-    large[0] = False
+    large = large_regions(stats, disparity.shape, config)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * config.ring_px + 1,) * 2)
     row_kernel = np.ones((1, 2 * config.ring_px + 1), np.uint8)
     wide_kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (6 * config.ring_px + 1,) * 2)
-    edge_gx = np.float32(8.0 * config.edge_gradient)  # as in fill._vertical_edges
+    edge_threshold = edge_gx(config)
     rng = np.random.default_rng(config.seed)
     # The faces filled here, largest region first: their planes (normal, s) and shading,
     # and which pixels hold which.
-    face_of = np.full((H, W), -1, np.int32)
+    face_of = np.full(disparity.shape, -1, np.int32)
     camera = np.array([rectification.focal_px, rectification.cx, rectification.cy, rectification.doffs_px])
     faces: list[tuple[np.ndarray, float, float]] = []
     order = np.flatnonzero(large)
     for k in order[np.argsort(-stats[order, 4], kind="stable")]:
-        x, y, bw, bh, _ = (int(a) for a in stats[k])
-        x0, y0 = max(0, x - config.ring_px), max(0, y - config.ring_px)
-        x1, y1 = min(W, x + bw + config.ring_px), min(H, y + bh + config.ring_px)
+        x, bw = int(stats[k, 0]), int(stats[k, 2])
+        x0, y0, x1, y1 = region_box(stats[k], disparity.shape, config.ring_px)
         box_labels = labels[y0:y1, x0:x1]
         region = box_labels == k
         region_u8 = region.view(np.uint8)  # OpenCV's morphology takes bytes
@@ -172,7 +170,7 @@ def fill_manhattan_faces(
         # of the faces above and below it.
         beside = cv2.dilate(region_u8, row_kernel)
         box = disparity[y0:y1, x0:x1]
-        vs, us = edge_support(beside, box, regions.gx[y0:y1, x0:x1], edge_gx, True)
+        vs, us = edge_support(beside, box, regions.gx[y0:y1, x0:x1], edge_threshold, True)
         if len(us) < 2 * config.manhattan_min_support:
             continue
         u, v = us + float(x0), vs + float(y0)
@@ -212,14 +210,14 @@ def fill_manhattan_faces(
         found = []
         for line_dir, normal in candidates:
             lam, slope = _line_coordinate(u, v, line_dir, rectification, x_ref)
-            if _median(slope) > _MAX_LINE_SLOPE:
+            if float(median(slope)) > _MAX_LINE_SLOPE:
                 continue
             g = _normal_gain(normal, u, v, rectification)
             if np.any(np.abs(g) < 1e-3):
                 continue  # the plane passes (nearly) through the camera
             planes, explained = _support_planes(u, v, d, g, lam, rectification.doffs_px, rng, config)
             # Planes whose disparities differ by less than the merge tolerance are one.
-            s_tol = _MERGE_PX / _median(np.abs(g))
+            s_tol = _MERGE_PX / float(median(np.abs(g)))
             planes = _stacked(planes, s_tol)
             if planes and explained >= config.min_inlier_ratio * len(u):
                 found.append((explained, len(planes), line_dir, normal, planes, s_tol))
@@ -429,53 +427,12 @@ def _support_planes(
         count = int(inl.sum())
         if count < config.manhattan_min_support:
             continue
-        lo, hi = _percentiles_2_98(lam[inl])
+        lo, hi = (float(q) for q in percentile(lam[inl], [2, 98]))
         if hi - lo < _MIN_SPAN_PX:
             continue  # a speck, not a face's end
         planes.append((s, lo, hi))
         explained += count
     return planes, explained
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of two 3-vectors (float64), the same products and differences,
-    without its general machinery's ~30 us a call (issue 13)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-def _median(values: np.ndarray) -> float:
-    """``float(np.median(values))`` without its general machinery (issue 13): the middle
-    value, or the mean ``(a + b) / 2`` of the two middle ones."""
-    ordered = np.sort(values)
-    n = len(ordered)
-    if np.isnan(ordered[-1]):  # NaN sorts last; NumPy's answer is then NaN
-        return float(np.median(values))
-    if n % 2:
-        return float(ordered[n // 2])
-    return float((ordered[n // 2 - 1] + ordered[n // 2]) / 2)
-
-
-def _percentiles_2_98(values: np.ndarray) -> tuple[float, float]:
-    """``np.percentile(values, [2, 98])`` (its default linear method, the same arithmetic step
-    by step), without its general machinery's ~80 us a call (issue 13): the value at the
-    virtual index ``(n - 1) q`` of the sorted values, interpolated from below when its
-    fraction is under one half and from above otherwise."""
-    ordered = np.sort(values)
-    n = len(ordered)
-    if np.isnan(ordered[-1]):  # NaN sorts last; leave NumPy its NaN handling
-        lo, hi = np.percentile(values, [2, 98])
-        return float(lo), float(hi)
-    out = []
-    for q in (0.02, 0.98):  # np.true_divide([2, 98], 100), correctly rounded alike
-        at = (n - 1) * q
-        if at >= n - 1:
-            out.append(float(ordered[-1]))
-            continue
-        i = math.floor(at)
-        a, b, t = float(ordered[i]), float(ordered[i + 1]), at - i
-        diff = b - a
-        out.append(b - diff * (1 - t) if t >= 0.5 else a + diff * t)
-    return out[0], out[1]
 
 
 def warm_up() -> None:
