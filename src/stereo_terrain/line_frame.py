@@ -44,7 +44,7 @@ import numpy as np
 
 from .gravity import GravityEstimate, _tangent_basis, angle_deg
 from .rectify import Rectification
-from .vanishing import VerticalLinesConfig, normalised_ends
+from .vanishing import VerticalLinesConfig, normalised_ends, unit_rows
 
 #: Up in the optical frame of an upright camera (x right, y down, z forward).
 _CAMERA_UP = np.array([0.0, -1.0, 0.0])
@@ -70,12 +70,6 @@ _MAX_HORIZONTALS = 4
 _MIN_MEMBERS = 3
 
 
-def _unit_rows(a: np.ndarray) -> np.ndarray:
-    """Rows of ``a`` normalised (NaN where a row is zero)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return a / np.linalg.norm(a, axis=1, keepdims=True)
-
-
 class _Segments:
     """The segments in normalised image coordinates: midpoints, unit directions, lengths."""
 
@@ -84,7 +78,7 @@ class _Segments:
         self.lines = np.cross(p1, p2)  # homogeneous image lines
         self.mid = ((p1 + p2) / 2.0)[:, :2]
         d = (p2 - p1)[:, :2]
-        self.direction = d / np.linalg.norm(d, axis=1, keepdims=True)
+        self.direction = unit_rows(d)
         self.length = np.hypot(segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1])
         self.noise = 2.0 * endpoint_sigma_px / self.length  # radians, before the structure's floor
 
@@ -196,9 +190,9 @@ def _starts(
     h1 = np.cos(yaw)[:, None] * basis[0] + np.sin(yaw)[:, None] * basis[1]
     rng = np.random.default_rng(config.seed)
     i, j, k = rng.integers(0, len(seg.length), size=(3, config.hypotheses))
-    v = _unit_rows(np.cross(seg.lines[i], seg.lines[j]))
-    across = _unit_rows(np.cross(v, seg.lines[k]))  # v horizontal: the other horizontal
-    along = _unit_rows(np.cross(seg.lines[k], v))  # v up: the third's horizontal direction
+    v = unit_rows(np.cross(seg.lines[i], seg.lines[j]))
+    across = unit_rows(np.cross(v, seg.lines[k]))  # v horizontal: the other horizontal
+    along = unit_rows(np.cross(seg.lines[k], v))  # v up: the third's horizontal direction
     ups = np.vstack([np.repeat(u0[None], _YAW_STEPS, axis=0), np.cross(v, across), v])
     h1 = np.vstack([h1, v, along])
     ups *= np.where(ups @ u0 < 0, -1.0, 1.0)[:, None]

@@ -209,8 +209,10 @@ def normalised_ends(segments: np.ndarray, rectification: Rectification) -> tuple
     return p1, p2
 
 
-def _unit_rows(a: np.ndarray) -> np.ndarray:
-    return a / np.linalg.norm(a, axis=1, keepdims=True)
+def unit_rows(a: np.ndarray) -> np.ndarray:
+    """Rows of ``a`` normalised (NaN where a row is zero)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return a / np.linalg.norm(a, axis=1, keepdims=True)
 
 
 def line_segments(
@@ -268,7 +270,7 @@ def up_from_vertical_lines(
     lines = np.cross(p1, p2)
     lines /= np.linalg.norm(lines[:, :2], axis=1, keepdims=True)
     mid = (p1 + p2) / 2.0
-    direction = _unit_rows((p2 - p1)[:, :2])
+    direction = unit_rows((p2 - p1)[:, :2])
     length = np.hypot(d[:, 0], d[:, 1])
     thr = math.radians(config.inlier_deg)
 
