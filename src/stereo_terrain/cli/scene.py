@@ -34,7 +34,9 @@ def add_parsers(sub: Any) -> None:
         "--calib", type=Path, required=True, help="OpenCV YAML, Middlebury calib.txt or stereodemo JSON"
     )
     r.add_argument(
-        "--rig", type=Path, help="rig YAML (T_body_camera, body_rpy); without it the floor is taken as level"
+        "--rig",
+        type=Path,
+        help="rig YAML (T_body_camera, body_rpy); without it up comes from the scene's planes and lines",
     )
     r.add_argument("--config", type=Path, help="pipeline config YAML")
     r.add_argument("--max-disparity", type=positive_int, help="disparity range (multiple of 16)")
