@@ -324,6 +324,10 @@ def _no_obstacle(planes: PlaneSet, note: str, ground_z: float = 0.0) -> StairMod
 #: this low percentile of their heights (robust to a few stray points) is the test.
 _LOW_INLIER_PCT = 5.0
 
+#: A plane with this share (``_LOW_INLIER_PCT``) of its inliers in the image's first grid
+#: rows goes on above the image: its top edge is not seen (issue 11).
+_TOP_CUT_ROWS = 2
+
 
 def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> StairModel:
     """Assemble a staircase, a box, or nothing from unordered planes.
@@ -378,6 +382,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
     row_hi = samples.rows.max()
     border = 2 * samples.stride_px
+    grid_row = samples.grid_index // samples.grid_shape[1]
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
     cands: list[_Riser] = []
     for seg in verticals:
@@ -402,6 +407,10 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
             continue
         z_lo, z_hi = edges
         if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
+            continue
+        if float(percentile(grid_row[seg.indices], _LOW_INLIER_PCT)) <= _TOP_CUT_ROWS:
+            # The face goes on above the image (a wall, a cupboard's front): the height
+            # seen is the image's, not a riser's, and no tread above it can be seen.
             continue
         cols = samples.cols[seg.indices]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
@@ -445,7 +454,13 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
         yaw = float(
             np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
         )
+        # The risers of one staircase are parallel: within ``axis_spread_deg`` of each
+        # other, so within half of it of their mean (the family gathered around ``ref``
+        # may span twice that: a cloth's folds, not a staircase; issue 11).
+        keep &= np.abs((yaws - yaw + np.pi) % (2 * np.pi) - np.pi) <= spread / 2
         family = [c for c, k in zip(cands, keep, strict=True) if k]
+        if not family:
+            continue
         model = _assemble_along(planes, config, family, yaw, horizontals, h_z, tread_first=tread_first)
         if best is None or len(model.steps) > len(best.steps):
             best = model
@@ -507,12 +522,20 @@ def _assemble_along(
         else:
             merged.append(r)
 
-    # Ground: the lowest of the large horizontal planes (small spurious planes ignored).
+    # Ground: the lowest of the large horizontal planes (small spurious planes ignored)
+    # below the cameras: a surface above them is seen from below, so it is no floor (a
+    # ceiling, a shelf's underside, or the frame's up is wrong; issue 11).
     s_h = [P[h.indices] @ u for h in horizontals]
     v_h = [P[h.indices] @ v for h in horizontals]
-    if horizontals:
-        counts = np.array([h.count for h in horizontals])
-        ground_z = min(z for z, c in zip(h_z, counts, strict=True) if c >= 0.25 * counts.max())
+    floors = [(z, h.count) for z, h in zip(h_z, horizontals, strict=True) if z < cam[2] - config.min_rise_m]
+    if floors:
+        big = max(c for _, c in floors)
+        ground_z = min(z for z, c in floors if c >= 0.25 * big)
+    elif horizontals and cam[2] < config.min_rise_m:
+        # Every horizontal surface is above the cameras and the frame has no floor of its
+        # own either (no rig, none found: its origin is at the cameras): nothing to measure
+        # a first rise from.
+        return _no_obstacle(planes, "no horizontal surface below the cameras (no floor in view)", min(h_z))
     else:
         ground_z = merged[0].z_lo
 
@@ -535,9 +558,13 @@ def _assemble_along(
     # the riser is then put at the tread's front edge).
     cands_all: list[tuple[float, float, _Riser | None, Plane, Plane | None]] = []
     claimed: set[int] = set()
+    walls: set[int] = set()  # risers whose plane goes on above their top edge
     for i, r in enumerate(merged):
         later = [q.s for q in merged[i + 1 :] if q.z_hi > r.z_hi + config.min_rise_m / 2]
         k = tread_above(r, later[0] if later else np.inf, ground_z)
+        if k is None and _goes_on_above(P[r.idx], r.z_hi, v, r.v_hi - r.v_lo, config):
+            walls.add(i)  # its top edge is not its top: a wall or a plane through several things
+            continue
         if k is not None:
             claimed.add(k)
         tread_plane, top = (horizontals[k].plane, h_z[k]) if k is not None else (None, r.z_hi)
@@ -601,8 +628,9 @@ def _assemble_along(
         first_s = chain[0][4]
         cut_off = [
             r
-            for r in merged
-            if r.foot_hidden
+            for i, r in enumerate(merged)
+            if i not in walls
+            and r.foot_hidden
             and r.s < first_s - config.merge_distance_m
             and abs(r.z_hi - ground_z) <= config.tread_height_tolerance_m
         ]
@@ -651,6 +679,19 @@ def _assemble_along(
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)
     return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
+
+
+def _goes_on_above(pts: np.ndarray, z_hi: float, v: np.ndarray, width: float, config: TerrainConfig) -> bool:
+    """Whether a riser plane's inliers ``pts`` go on above its top edge ``z_hi`` across half
+    its ``width`` or more (and a riser's width): then that edge is not the top of a step
+    but a gap in a wall or a plane through several objects (issue 11). A newel post, a
+    baluster or a door frame standing on a riser's line is narrower and does not count.
+    """
+    above = pts[pts[:, 2] > z_hi + config.edge_margin_m]
+    if len(above) < max(3.0, _LOW_INLIER_PCT / 100 * len(pts)):
+        return False
+    lo, hi = percentile(above @ v, [2, 98])
+    return bool(hi - lo >= max(config.min_riser_width_m, 0.5 * width))
 
 
 def _tread_between(horizontals, h_z, s_h, z: float, s_lo: float, s_hi: float) -> Plane | None:
