@@ -449,18 +449,20 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
     while free.any():
         support = (diff <= spread) @ (weights * free)
         ref = int(np.argmax(np.where(free, support, -1.0)))
-        keep = free & (diff[ref] <= spread)
-        free &= ~keep
+        near = free & (diff[ref] <= spread)
+        free &= ~near
+        # The risers of one staircase are parallel: within ``axis_spread_deg`` of each
+        # other, not only of ``ref`` (two risers on either side of it may be twice that
+        # apart: a cloth's folds, not a staircase; issue 11). Largest first, a riser
+        # joins when it is within the spread of every riser already in.
+        keep = np.zeros(len(cands), dtype=bool)
+        for i in sorted(np.flatnonzero(near), key=lambda i: -weights[i]):
+            if np.all(diff[i, keep] <= spread):
+                keep[i] = True
         yaw = float(
             np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
         )
-        # The risers of one staircase are parallel: within ``axis_spread_deg`` of each
-        # other, so within half of it of their mean (the family gathered around ``ref``
-        # may span twice that: a cloth's folds, not a staircase; issue 11).
-        keep &= np.abs((yaws - yaw + np.pi) % (2 * np.pi) - np.pi) <= spread / 2
         family = [c for c, k in zip(cands, keep, strict=True) if k]
-        if not family:
-            continue
         model = _assemble_along(planes, config, family, yaw, horizontals, h_z, tread_first=tread_first)
         if best is None or len(model.steps) > len(best.steps):
             best = model
@@ -558,13 +560,9 @@ def _assemble_along(
     # the riser is then put at the tread's front edge).
     cands_all: list[tuple[float, float, _Riser | None, Plane, Plane | None]] = []
     claimed: set[int] = set()
-    walls: set[int] = set()  # risers whose plane goes on above their top edge
     for i, r in enumerate(merged):
         later = [q.s for q in merged[i + 1 :] if q.z_hi > r.z_hi + config.min_rise_m / 2]
         k = tread_above(r, later[0] if later else np.inf, ground_z)
-        if k is None and _goes_on_above(P[r.idx], r.z_hi, v, r.v_hi - r.v_lo, config):
-            walls.add(i)  # its top edge is not its top: a wall or a plane through several things
-            continue
         if k is not None:
             claimed.add(k)
         tread_plane, top = (horizontals[k].plane, h_z[k]) if k is not None else (None, r.z_hi)
@@ -628,9 +626,8 @@ def _assemble_along(
         first_s = chain[0][4]
         cut_off = [
             r
-            for i, r in enumerate(merged)
-            if i not in walls
-            and r.foot_hidden
+            for r in merged
+            if r.foot_hidden
             and r.s < first_s - config.merge_distance_m
             and abs(r.z_hi - ground_z) <= config.tread_height_tolerance_m
         ]
@@ -679,19 +676,6 @@ def _assemble_along(
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)
     return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
-
-
-def _goes_on_above(pts: np.ndarray, z_hi: float, v: np.ndarray, width: float, config: TerrainConfig) -> bool:
-    """Whether a riser plane's inliers ``pts`` go on above its top edge ``z_hi`` across half
-    its ``width`` or more (and a riser's width): then that edge is not the top of a step
-    but a gap in a wall or a plane through several objects (issue 11). A newel post, a
-    baluster or a door frame standing on a riser's line is narrower and does not count.
-    """
-    above = pts[pts[:, 2] > z_hi + config.edge_margin_m]
-    if len(above) < max(3.0, _LOW_INLIER_PCT / 100 * len(pts)):
-        return False
-    lo, hi = percentile(above @ v, [2, 98])
-    return bool(hi - lo >= max(config.min_riser_width_m, 0.5 * width))
 
 
 def _tread_between(horizontals, h_z, s_h, z: float, s_lo: float, s_hi: float) -> Plane | None:
