@@ -36,7 +36,10 @@ class TerrainConfig:
     ----------
     min_rise_m, max_rise_m : float
         A riser shorter than ``min_rise_m`` is noise; a vertical plane taller than
-        ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step.
+        ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step. The ground must be
+        ``min_rise_m`` or more below the cameras (a surface above them is seen from below);
+        a camera less than that above the frame's origin means a frame without a floor
+        (no rig, none found).
     max_obstacle_rise_m : float
         Safety net. When no obstacle is found with ``max_rise_m``, the vertical planes up
         to this height are tried again, so that a step too high to climb (above the
@@ -51,7 +54,7 @@ class TerrainConfig:
     max_facing_angle_deg : float
         A riser must face the robot: its normal within this of the direction to the camera.
     axis_spread_deg : float
-        Risers of one staircase face the same way within this angle.
+        Risers of one staircase face the same way within this angle (every pair of them).
     tread_height_tolerance_m : float
         A horizontal plane is the tread above a riser if its height is within this of the
         riser's top edge.
