@@ -16,6 +16,18 @@ from .close_stairs import close_level_stairs_spec
 CAM = np.array([0.0, 0.0, 0.6])
 EXACT_M = 1e-6
 SPACING_M = 0.02
+#: The samples have no image geometry; all of them sit on this row of the sample grid,
+#: mid-image (away from its top edge, where a face goes on out of view).
+MID_ROW = 50
+
+
+def _mid_grid(n: int) -> dict:
+    """Image rows and sample-grid places of ``n`` samples, all on the grid's row ``MID_ROW``."""
+    return {
+        "rows": np.full(n, MID_ROW * 5, np.int32),
+        "grid_index": MID_ROW * n + np.arange(n, dtype=np.int32),
+        "grid_shape": (2 * MID_ROW, n),
+    }
 
 
 def _grid(u_range, v_range):
@@ -55,10 +67,8 @@ def _stairs(n_steps=3, rise=0.17, run=0.29, yaw=0.0, distance=1.3, width=1.0, la
         points=pts,
         normals=nrm,
         sigma_m=np.full(n, 0.005, np.float32),
-        rows=np.zeros(n, np.int32),
         cols=np.full(n, 300, np.int32),
-        grid_index=np.arange(n, dtype=np.int32),
-        grid_shape=(1, n),
+        **_mid_grid(n),
         stride_px=5,
         frame="yaw",
         camera_position=CAM,
@@ -143,10 +153,8 @@ def test_a_face_whose_plane_goes_on_below_the_ground_is_not_a_riser():
             [full.samples.normals, np.tile(full.samples.normals[riser.indices[0]], (len(below), 1))]
         ),
         sigma_m=np.full(n, 0.005, np.float32),
-        rows=np.zeros(n, np.int32),
         cols=np.concatenate([full.samples.cols, np.full(len(below), 300, np.int32)]),
-        grid_index=np.arange(n, dtype=np.int32),
-        grid_shape=(1, n),
+        **_mid_grid(n),
     )
     idx = np.concatenate([riser.indices, np.arange(len(P), n)])
     segs = tuple(dataclasses.replace(s, indices=idx) if s is riser else s for s in full.segments)
@@ -304,10 +312,8 @@ def test_a_railing_with_more_points_than_the_risers_does_not_set_the_stair_axis(
             "points": np.vstack([s0.points, rail]),
             "normals": np.vstack([s0.normals, np.tile(np.float32([0, 1, 0]), (len(rail), 1))]),
             "sigma_m": np.concatenate([s0.sigma_m, np.full(len(rail), 0.005, np.float32)]),
-            "rows": np.concatenate([s0.rows, np.zeros(len(rail), np.int32)]),
             "cols": np.concatenate([s0.cols, np.full(len(rail), 300, np.int32)]),
-            "grid_index": np.arange(n0 + len(rail), dtype=np.int32),
-            "grid_shape": (1, n0 + len(rail)),
+            **_mid_grid(n0 + len(rail)),
         }
     )
     railing = PlaneSegment(Plane([0.0, 1.0, 0.0], 1.0), VERTICAL, np.arange(n0, n0 + len(rail)), 0.0)

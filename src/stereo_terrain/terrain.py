@@ -36,7 +36,10 @@ class TerrainConfig:
     ----------
     min_rise_m, max_rise_m : float
         A riser shorter than ``min_rise_m`` is noise; a vertical plane taller than
-        ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step.
+        ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step. The ground must be
+        ``min_rise_m`` or more below the cameras (a surface above them is seen from below);
+        a camera less than that above the frame's origin means a frame without a floor
+        (no rig, none found).
     max_obstacle_rise_m : float
         Safety net. When no obstacle is found with ``max_rise_m``, the vertical planes up
         to this height are tried again, so that a step too high to climb (above the
@@ -51,7 +54,7 @@ class TerrainConfig:
     max_facing_angle_deg : float
         A riser must face the robot: its normal within this of the direction to the camera.
     axis_spread_deg : float
-        Risers of one staircase face the same way within this angle.
+        Risers of one staircase face the same way within this angle (every pair of them).
     tread_height_tolerance_m : float
         A horizontal plane is the tread above a riser if its height is within this of the
         riser's top edge.
@@ -324,6 +327,10 @@ def _no_obstacle(planes: PlaneSet, note: str, ground_z: float = 0.0) -> StairMod
 #: this low percentile of their heights (robust to a few stray points) is the test.
 _LOW_INLIER_PCT = 5.0
 
+#: A plane with this share (``_LOW_INLIER_PCT``) of its inliers in the image's first grid
+#: rows goes on above the image: its top edge is not seen (issue 11).
+_TOP_CUT_ROWS = 2
+
 
 def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> StairModel:
     """Assemble a staircase, a box, or nothing from unordered planes.
@@ -378,6 +385,7 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
     row_hi = samples.rows.max()
     border = 2 * samples.stride_px
+    grid_row = samples.grid_index // samples.grid_shape[1]
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
     cands: list[_Riser] = []
     for seg in verticals:
@@ -402,6 +410,10 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
             continue
         z_lo, z_hi = edges
         if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
+            continue
+        if float(percentile(grid_row[seg.indices], _LOW_INLIER_PCT)) <= _TOP_CUT_ROWS:
+            # The face goes on above the image (a wall, a cupboard's front): the height
+            # seen is the image's, not a riser's, and no tread above it can be seen.
             continue
         cols = samples.cols[seg.indices]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
@@ -440,8 +452,16 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
     while free.any():
         support = (diff <= spread) @ (weights * free)
         ref = int(np.argmax(np.where(free, support, -1.0)))
-        keep = free & (diff[ref] <= spread)
-        free &= ~keep
+        near = free & (diff[ref] <= spread)
+        free &= ~near
+        # The risers of one staircase are parallel: within ``axis_spread_deg`` of each
+        # other, not only of ``ref`` (two risers on either side of it may be twice that
+        # apart: a cloth's folds, not a staircase; issue 11). Largest first, a riser
+        # joins when it is within the spread of every riser already in.
+        keep = np.zeros(len(cands), dtype=bool)
+        for i in sorted(np.flatnonzero(near), key=lambda i: -weights[i]):
+            if np.all(diff[i, keep] <= spread):
+                keep[i] = True
         yaw = float(
             np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
         )
@@ -507,12 +527,20 @@ def _assemble_along(
         else:
             merged.append(r)
 
-    # Ground: the lowest of the large horizontal planes (small spurious planes ignored).
+    # Ground: the lowest of the large horizontal planes (small spurious planes ignored)
+    # below the cameras: a surface above them is seen from below, so it is no floor (a
+    # ceiling, a shelf's underside, or the frame's up is wrong; issue 11).
     s_h = [P[h.indices] @ u for h in horizontals]
     v_h = [P[h.indices] @ v for h in horizontals]
-    if horizontals:
-        counts = np.array([h.count for h in horizontals])
-        ground_z = min(z for z, c in zip(h_z, counts, strict=True) if c >= 0.25 * counts.max())
+    floors = [(z, h.count) for z, h in zip(h_z, horizontals, strict=True) if z < cam[2] - config.min_rise_m]
+    if floors:
+        big = max(c for _, c in floors)
+        ground_z = min(z for z, c in floors if c >= 0.25 * big)
+    elif horizontals and cam[2] < config.min_rise_m:
+        # Every horizontal surface is above the cameras and the frame has no floor of its
+        # own either (no rig, none found: its origin is at the cameras): nothing to measure
+        # a first rise from.
+        return _no_obstacle(planes, "no horizontal surface below the cameras (no floor in view)", min(h_z))
     else:
         ground_z = merged[0].z_lo
 
