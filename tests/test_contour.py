@@ -56,7 +56,7 @@ def _step_scene_with_image():
 
 
 def _subset(s: GridSample, keep: np.ndarray) -> GridSample:
-    fields = ("points", "normals", "sigma_m", "rows", "cols", "grid_index")
+    fields = ("points", "normals", "sigma_m", "rows", "cols", "grid_index", "normal_sigma_rad")
     return dataclasses.replace(s, **{k: getattr(s, k)[keep] for k in fields})
 
 

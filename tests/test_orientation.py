@@ -14,6 +14,7 @@ from stereo_terrain.planes.orientation import (
 from .analytic import step_scene
 
 NORMAL_TOL_DEG = 1.0
+SAMPLE_FIELDS = ("points", "normals", "sigma_m", "rows", "cols", "grid_index", "normal_sigma_rad")
 OFFSET_TOL_M = 0.005
 
 
@@ -67,7 +68,7 @@ def test_tiny_and_single_plane_clouds():
     tiny = GridSample(
         **{
             **s.__dict__,
-            **{k: getattr(s, k)[:10] for k in ("points", "normals", "sigma_m", "rows", "cols", "grid_index")},
+            **{k: getattr(s, k)[:10] for k in SAMPLE_FIELDS},
         }
     )
     ps = extract_planes_orientation(tiny)
@@ -76,10 +77,7 @@ def test_tiny_and_single_plane_clouds():
     only = GridSample(
         **{
             **s.__dict__,
-            **{
-                k: getattr(s, k)[ground]
-                for k in ("points", "normals", "sigma_m", "rows", "cols", "grid_index")
-            },
+            **{k: getattr(s, k)[ground] for k in SAMPLE_FIELDS},
         }
     )
     ps = extract_planes_orientation(only)
@@ -149,7 +147,9 @@ def test_one_batch_round_is_the_general_round_bit_for_bit(seed):
         float(np.sin(np.radians(6.0))),
         (1.0 / thr).astype(np.float32),
     )
-    agree = float(np.cos(np.radians(config.normal_agreement_deg)))
+    agree = np.full(len(P), float(np.cos(np.radians(config.normal_agreement_deg))))
+    if seed >= 2:  # per-sample agreement widened by the normals' noise (far samples)
+        agree = np.cos(np.radians(np.random.default_rng(seed).uniform(20.0, 45.0, len(P))))
     remaining = np.random.default_rng(seed).random(len(P)) < 0.8  # a cloud with planes taken out
     rest = np.flatnonzero(remaining)
     first = rest[::2]
@@ -177,7 +177,20 @@ def test_one_batch_round_is_the_general_round_bit_for_bit(seed):
             agree,
         )
         b = o._one_batch_round(
-            P, N, thr, weights, lut, gr, gc, first, remaining, rest, np.random.default_rng(r), config, orient
+            P,
+            N,
+            thr,
+            weights,
+            lut,
+            gr,
+            gc,
+            first,
+            remaining,
+            rest,
+            np.random.default_rng(r),
+            config,
+            orient,
+            agree,
         )
         assert a is not None and b is not None
         assert a[0].normal.tobytes() == b[0].normal.tobytes() and a[0].offset == b[0].offset
@@ -209,5 +222,6 @@ def test_one_batch_round_without_a_valid_hypothesis_is_none():
         np.random.default_rng(0),
         OrientationConfig(),
         orient,
+        np.full(len(samples), float(np.cos(np.radians(20.0)))),
     )
     assert got is None

@@ -153,6 +153,9 @@ class GridSample:
     confidence : (N,) float32 or None
     camera_position : (3,) float64
         Centre of the rectified left camera in ``frame``.
+    normal_sigma_rad : (N,) float32 or None
+        Expected error of each normal from the disparity's noise (radians), where the
+        sample was taken from a disparity map (:func:`sample_disparity`); None otherwise.
     """
 
     points: np.ndarray = field(repr=False)
@@ -166,6 +169,7 @@ class GridSample:
     frame: str
     confidence: np.ndarray | None = field(default=None, repr=False)
     camera_position: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
+    normal_sigma_rad: np.ndarray | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return len(self.points)
@@ -294,6 +298,7 @@ def sample_disparity(
     target_points: int = 12000,
     smooth_px: int | None = None,
     disparity_sigma_px: float = 0.25,
+    box_disparity_sigma_px: float = 0.1,
 ) -> GridSample:
     """Grid subsample with normals straight from a disparity map, in ``T.to_frame``.
 
@@ -314,6 +319,11 @@ def sample_disparity(
     smooth_px : int, optional
         Half-size of the neighbourhood used for normals (default 4 px at 640 raw pixels
         wide).
+    disparity_sigma_px : float
+        1-sigma of one pixel's disparity (the samples' ``sigma_m``).
+    box_disparity_sigma_px : float
+        1-sigma of a box mean's disparity (the matcher's errors are correlated over a box,
+        so far above a pixel's over the box's count): gives ``normal_sigma_rad``.
 
     Returns
     -------
@@ -347,6 +357,11 @@ def sample_disparity(
     )
     rr, cc, idx = rr[cells], cc[cells], cells
     sigma = (pts[:, 2] ** 2) * (disparity_sigma_px / fb)
+    # A normal is the cross product of two tangents 2k px long, Z 2k / f metres, each the
+    # difference of two box means whose depths err by Z^2 sigma_box / (f B): it tilts by
+    # about atan(sqrt(2) Z sigma_box / (2k B)), growing with depth. Far, where a riser is
+    # a few boxes tall, that is tens of degrees (docs/benchmarks.md, "Stairs 2-4 m ahead").
+    tilt = np.arctan(np.sqrt(2.0) * box_disparity_sigma_px * pts[:, 2] / (2 * k * rect.baseline_m))
     conf = None if disparity.confidence is None else disparity.confidence[rr, cc].astype(np.float32)
     return GridSample(
         points=T.apply(pts).astype(np.float32),
@@ -360,6 +375,7 @@ def sample_disparity(
         frame=T.to_frame,
         confidence=conf,
         camera_position=T.translation.copy(),
+        normal_sigma_rad=tilt.astype(np.float32),
     )
 
 

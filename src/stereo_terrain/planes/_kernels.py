@@ -117,12 +117,13 @@ def best_oriented_hypothesis(
     up: np.ndarray,
     cos_tol: float,
     sin_tol: float,
-    agreement_cos: float,
+    agreement_cos: np.ndarray,
 ) -> tuple[np.ndarray, float, float]:  # pragma: no cover - compiled
     """The orientation method's MSAC scoring in one pass: the plane through each triplet
     (``(K, 3)`` indices), kept only when its normal is within the tolerance of horizontal
     (``|n . up| >= cos_tol``) or vertical (``<= sin_tol``), scored on the points ``score``
-    by the truncated quadratic with the normal-agreement test.
+    by the truncated quadratic with the normal-agreement test (``agreement_cos`` per point:
+    the cosine each point's normal must reach).
 
     Returns ``(normal (3,), offset, cost)`` of the cheapest; cost is inf when no triplet
     gives a valid hypothesis.
@@ -139,7 +140,9 @@ def best_oriented_hypothesis(
             continue
         cost = 0.0
         for m in range(score.shape[0]):
-            cost += point_cost(nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos, True)
+            cost += point_cost(
+                nx, ny, nz, d, points, normals, inv_threshold, score[m], agreement_cos[score[m]], True
+            )
             if cost >= best_cost:
                 break  # costs only grow: this one cannot win (the winner is summed whole)
         if cost < best_cost:
@@ -156,14 +159,15 @@ def oriented_inliers(
     threshold: np.ndarray,
     n: np.ndarray,
     d: float,
-    agreement_cos: float,
+    agreement_cos: np.ndarray,
 ) -> np.ndarray:  # pragma: no cover - compiled
-    """Inlier mask: residual under the point's threshold and local normal agreeing."""
+    """Inlier mask: residual under the point's threshold and local normal agreeing (its
+    ``|cos|`` with ``n`` at least the point's ``agreement_cos``)."""
     out = np.empty(points.shape[0], dtype=np.bool_)
     for i in range(points.shape[0]):
         r = abs(n[0] * points[i, 0] + n[1] * points[i, 1] + n[2] * points[i, 2] + d)
         c = abs(n[0] * normals[i, 0] + n[1] * normals[i, 1] + n[2] * normals[i, 2])
-        out[i] = r < threshold[i] and c >= agreement_cos
+        out[i] = r < threshold[i] and c >= agreement_cos[i]
     return out
 
 
@@ -178,7 +182,7 @@ def refine_oriented_plane(
     up: np.ndarray,
     cos_tol: float,
     sin_tol: float,
-    agreement_cos: float,
+    agreement_cos: np.ndarray,
     iterations: int,
 ) -> tuple[np.ndarray, float, np.ndarray]:  # pragma: no cover - compiled
     """IRLS (Tukey weights times ``weights``) on the inliers of ``n . x + d = 0``, keeping
@@ -286,7 +290,7 @@ def oriented_round(
     up: np.ndarray,
     cos_tol: float,
     sin_tol: float,
-    agreement_cos: float,
+    agreement_cos: np.ndarray,
     iterations: int,
 ) -> tuple[bool, np.ndarray, float, np.ndarray, float, int]:  # pragma: no cover - compiled
     """One MSAC round of the orientation method without adaptive batches, in one call
@@ -296,7 +300,7 @@ def oriented_round(
     points ``rest`` (:func:`refine_oriented_plane` on ``points[rest]``, the same sums in
     the same order) and the inlier ratio on the scored points.
 
-    ``weights`` are per point (all of them, not only ``rest``).
+    ``weights`` and ``agreement_cos`` are per point (all of them, not only ``rest``).
 
     Returns ``(found, normal, offset, inliers (M,) int64 ascending, ratio, hypotheses)``;
     ``found`` is False when no triplet gave a valid oriented hypothesis.
@@ -315,13 +319,15 @@ def oriented_round(
     nr = np.empty((rest.shape[0], 3), dtype=normals.dtype)
     tr = np.empty(rest.shape[0], dtype=threshold.dtype)
     wr = np.empty(rest.shape[0], dtype=weights.dtype)
+    ar = np.empty(rest.shape[0], dtype=agreement_cos.dtype)
     for k in range(rest.shape[0]):
         i = rest[k]
         pr[k, 0], pr[k, 1], pr[k, 2] = points[i, 0], points[i, 1], points[i, 2]
         nr[k, 0], nr[k, 1], nr[k, 2] = normals[i, 0], normals[i, 1], normals[i, 2]
         tr[k] = threshold[i]
         wr[k] = weights[i]
-    n, d, inl_r = refine_oriented_plane(pr, nr, tr, wr, n, d, up, cos_tol, sin_tol, agreement_cos, iterations)
+        ar[k] = agreement_cos[i]
+    n, d, inl_r = refine_oriented_plane(pr, nr, tr, wr, n, d, up, cos_tol, sin_tol, ar, iterations)
     hits = 0
     for m in range(score.shape[0]):
         if inl_r[score[m]]:

@@ -36,7 +36,21 @@ class OrientationConfig:
         A hypothesis normal must be within this angle of vertical (horizontal plane) or of
         horizontal (vertical plane).
     normal_agreement_deg : float
-        A point is an inlier only if its local normal is within this angle of the plane's.
+        A point is an inlier only if its local normal is within this angle of the plane's ...
+    normal_noise_sigmas : float
+        ... or, where the cloud stage gives each normal's expected error from the disparity's
+        noise (``GridSample.normal_sigma_rad``, growing with depth over baseline), within
+        this many of those errors (as tangents), if that is wider; such far samples also
+        seed hypotheses within it. 0 (default): off, the fixed angles everywhere. 1.1 finds
+        more stairs 2-4 m ahead (at 640x480 and a 7.5 cm baseline the test widens from
+        about 1.4 m and reaches its cap from 2.7 m; at 3 m a riser 25 px tall leaves its
+        samples' normals a median 40 deg off) and more on the seed-11 sets, but it is not
+        the default: it also finds more fragments of walls near ``cloud.max_depth_m``, which
+        the stair model can take for steps, and the real scenes' results flip between
+        neighbouring values (docs/benchmarks.md, "Stairs 2-4 m ahead").
+    max_noise_tolerance_deg : float
+        Cap of that widening, well short of half-way between a riser's normal and a
+        tread's, so that a riser's plane still refuses the treads' samples.
     threshold_sigmas : float
         Inlier threshold in units of each point's depth sigma, clipped to
         ``[min_threshold_m, max_threshold_m]``.
@@ -81,6 +95,8 @@ class OrientationConfig:
 
     angle_tol_deg: float = 6.0
     normal_agreement_deg: float = 20.0
+    normal_noise_sigmas: float = 0.0
+    max_noise_tolerance_deg: float = 35.0
     threshold_sigmas: float = 3.0
     min_threshold_m: float = 0.012
     max_threshold_m: float = 0.05
@@ -253,6 +269,30 @@ def local_triplets(
     return triplets_from_draws(grid_lut, gr, gc, i0, off, remaining, count)
 
 
+def noise_widened(samples: GridSample, config: OrientationConfig, base_deg: float) -> np.ndarray | None:
+    """Per sample, an angle tolerance (radians) of at least ``base_deg``, widened to
+    ``normal_noise_sigmas`` of the sample's normal noise (``samples.normal_sigma_rad``, from
+    the cloud stage: far, where a riser's normal is the small difference of two box means a
+    few centimetres apart, tens of degrees), up to ``max_noise_tolerance_deg``. None where
+    nothing widens (the option is off, or the samples carry no noise)."""
+    if config.normal_noise_sigmas <= 0 or samples.normal_sigma_rad is None:
+        return None
+    base = float(np.radians(base_deg))
+    wide = np.arctan(config.normal_noise_sigmas * np.tan(samples.normal_sigma_rad.astype(np.float64)))
+    return np.clip(wide, base, max(base, float(np.radians(config.max_noise_tolerance_deg))))
+
+
+def normal_agreement_cos(samples: GridSample, config: OrientationConfig) -> np.ndarray:
+    """Per sample, the cosine a plane's normal and the sample's own must reach to agree:
+    ``normal_agreement_deg``, widened where the sample's normal is uncertain
+    (:func:`noise_widened`)."""
+    out = np.full(len(samples), float(np.cos(np.radians(config.normal_agreement_deg))))
+    wide = noise_widened(samples, config, config.normal_agreement_deg)
+    if wide is not None:
+        out = np.where(wide > np.radians(config.normal_agreement_deg), np.cos(wide), out)
+    return out
+
+
 def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config, orient, agree_cos):
     """One MSAC round: local hypotheses, scored on a subset of the rest, refined by IRLS.
 
@@ -265,6 +305,7 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config
     from ._kernels import best_oriented_hypothesis, oriented_inliers, refine_oriented_plane
 
     rest, Pr, Nr, thr_r, conf_r = rest_view
+    agree_r = agree_cos[rest]
     up, cos_tol, sin_tol, inv_thr = orient
     radius = config.sample_radius_cells
 
@@ -282,7 +323,7 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config
         n, d, cost = best_oriented_hypothesis(P, N, inv_thr, trip, scored, up, cos_tol, sin_tol, agree_cos)
         if cost < best_cost:
             best, best_cost = (n, d), cost
-            inl_r = oriented_inliers(Pr, Nr, thr_r, n, d, agree_cos)
+            inl_r = oriented_inliers(Pr, Nr, thr_r, n, d, agree_r)
         if requested >= config.max_hypotheses_per_plane or len(trip) == 0:
             break
         if best is not None:
@@ -307,7 +348,7 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config
     use_conf = conf_r is not None and config.confidence_weights
     weights = conf_r if use_conf else np.ones(len(rest))
     n, d, inl_r = refine_oriented_plane(
-        Pr, Nr, thr_r, weights, best[0], best[1], up, cos_tol, sin_tol, agree_cos, config.refine_iterations
+        Pr, Nr, thr_r, weights, best[0], best[1], up, cos_tol, sin_tol, agree_r, config.refine_iterations
     )
     plane = Plane(n, d)
     ratio = float(np.mean(inl_r[score])) if len(score) else 0.0
@@ -316,7 +357,7 @@ def _best_plane(P, N, thr, lut, gr, gc, first, remaining, rest_view, rng, config
     return plane, inl, ratio, hypotheses
 
 
-def _one_batch_round(P, N, thr, weights, lut, gr, gc, first, remaining, rest, rng, config, orient):
+def _one_batch_round(P, N, thr, weights, lut, gr, gc, first, remaining, rest, rng, config, orient, agree_cos):
     """:func:`_best_plane` for one batch of hypotheses per round (``max_hypotheses_per_plane
     == hypotheses_per_plane``, the default): the same draws from ``rng`` in the same order,
     then the round in one compiled call (:func:`._kernels.oriented_round`), the same plane
@@ -333,7 +374,6 @@ def _one_batch_round(P, N, thr, weights, lut, gr, gc, first, remaining, rest, rn
     i0 = first[rng.integers(0, len(first), size=batch * 2)]
     off = rng.integers(-radius, radius + 1, size=(batch * 2, 2, 2))
     score = rng.choice(len(rest), size=min(config.score_points, len(rest)), replace=False)
-    agree_cos = float(np.cos(np.radians(config.normal_agreement_deg)))
     ok, n, d, idx, ratio, drawn = oriented_round(
         P,
         N,
@@ -404,7 +444,7 @@ def extract_planes_orientation(
     ).astype(np.float32)
     lut, gr, gc = grid_lookup(samples)
     cos_tol, sin_tol = np.cos(np.radians(config.angle_tol_deg)), np.sin(np.radians(config.angle_tol_deg))
-    agree_cos = float(np.cos(np.radians(config.normal_agreement_deg)))
+    agree_cos = normal_agreement_cos(samples, config)
     upf = up.astype(np.float32)
     nz = np.abs(N @ upf)
     # First sample points: local normal near horizontal or vertical (with some slack).
@@ -415,6 +455,12 @@ def extract_planes_orientation(
     seedable = (nz >= np.cos(np.radians(config.angle_tol_deg) + slack)) | (
         nz <= np.sin(np.radians(config.angle_tol_deg) + slack)
     )
+    # Far samples, whose normals are too noisy for that test, seed within their noise where
+    # the agreement test is widened for them (the same angle).
+    wide = noise_widened(samples, config, config.normal_agreement_deg)
+    if wide is not None:
+        far = wide > np.radians(config.normal_agreement_deg)
+        seedable |= far & ((nz >= np.cos(wide)) | (nz <= np.sin(wide)))
     n_low = 0
     if conf is not None:
         # Low-confidence disparities (ambiguous matches) do not seed hypotheses; they are
@@ -451,7 +497,7 @@ def extract_planes_orientation(
             rounds_used += 1
             if one_batch:
                 found = _one_batch_round(
-                    P, N, thr, weights, lut, gr, gc, first, remaining, rest, rng, config, orient
+                    P, N, thr, weights, lut, gr, gc, first, remaining, rest, rng, config, orient, agree_cos
                 )
             else:
                 if rest_view is None:
