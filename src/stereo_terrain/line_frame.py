@@ -364,8 +364,12 @@ def up_from_lines_and_planes(
     realistic renders had them 5-17 deg off at a sigma of 1-1.3 deg, and the frame near
     them followed, its step edges fixing only the roll.
 
-    - Both frames fit and are within ``frame_conflict_deg`` of each other: the near one.
-    - They are further apart: the one whose up gathers clearly more vertical lines
+    - Both frames fit and are within ``conflict_sigmas`` combined sigmas of each other:
+      their inverse-variance mean (the upright frame's prior leaves it free to follow the
+      lines' own tilt where the planes' prior held the near one; on realistic renders
+      the mean was within 2 deg where the two were 1-4 deg apart in 11 scenes of 12, the
+      near frame in 7).
+    - They contradict each other: the one whose up gathers clearly more vertical lines
       (``_VERTICAL_MARGIN`` times their gain, the near one on a tie). The vertical lines
       are the direct witness of up; the upright frame's own failure (a handrail's edges
       or the staircase's slope taken for a horizontal direction, up turned 10-30 deg
@@ -373,8 +377,7 @@ def up_from_lines_and_planes(
       overruled good planes by 14 and 22 deg on 60 realistic scenes.)
     - No frame near the planes' up (a junk plane tilted them further than their sigma
       says): the upright frame overrules the planes where it is further than
-      ``conflict_sigmas`` combined sigmas from them, else the two are averaged (inverse
-      variance).
+      ``conflict_sigmas`` combined sigmas from them, else the two are averaged.
 
     Without the planes' up, the frame with the upright prior, which only has to do better
     than a level camera assumed: it counts up to ``unsure_max_sigma_deg``. ``ok=False``
@@ -402,9 +405,10 @@ def up_from_lines_and_planes(
     if not alone.ok:
         return near
     if near.ok:
-        if angle_deg(alone.up, near.up) <= config.frame_conflict_deg:
-            return near
-        # Two frames further apart than wanted: the vertical lines, the direct witness of
+        apart = angle_deg(alone.up, near.up)
+        if apart <= conflict_sigmas * math.hypot(near.sigma_deg, alone.sigma_deg):
+            return _both(near.up, near.sigma_deg, alone, f"{near.reason}, with the upright frame's up")
+        # Two frames that contradict each other: the vertical lines, the direct witness of
         # up, choose (a sloped family, handrails or the staircase's slope, taken for a
         # horizontal direction turns up about the steps' edges and loses the verticals).
         seg = _Segments(np.asarray(segments, dtype=np.float64), rectification, config.endpoint_sigma_px)
@@ -413,7 +417,6 @@ def up_from_lines_and_planes(
         v_near, v_alone = (_support(seg, sigma, u, tol) for u in (near.up, alone.up))
         if v_alone <= _VERTICAL_MARGIN * v_near:
             return near
-        apart = angle_deg(alone.up, near.up)
         why = f"{alone.reason} ({apart:.1f} deg from the planes' frame; more vertical lines point at its up)"
         return dataclasses.replace(alone, reason=why)
     apart = angle_deg(alone.up, planes_up)
@@ -421,11 +424,18 @@ def up_from_lines_and_planes(
         why = f"{alone.reason} ({apart:.1f} deg from the planes' up, which it overrules)"
         return dataclasses.replace(alone, reason=why)
     # No frame near the planes' up, and the upright one does not contradict it: both.
-    wp, wl = planes_sigma_deg**-2, alone.sigma_deg**-2
-    up = wp * planes_up + wl * alone.up
-    up /= np.linalg.norm(up)
-    why = f"{alone.reason}, with the planes' up"
-    return dataclasses.replace(alone, up=up, sigma_deg=(wp + wl) ** -0.5, reason=why)
+    return _both(planes_up, planes_sigma_deg, alone, f"{alone.reason}, with the planes' up")
+
+
+def _both(up: np.ndarray, sigma_deg: float, other: GravityEstimate, reason: str) -> GravityEstimate:
+    """The inverse-variance mean of ``up`` (1-sigma ``sigma_deg``) and ``other``'s up, as
+    ``other`` otherwise. Its sigma is the sharper one's (two frames share their segments),
+    widened by half the angle between the two (what their gap says of the error)."""
+    wa, wb = sigma_deg**-2, other.sigma_deg**-2
+    mean = wa * up + wb * other.up
+    mean /= np.linalg.norm(mean)
+    sigma = math.hypot(min(sigma_deg, other.sigma_deg), 0.5 * angle_deg(up, other.up))
+    return dataclasses.replace(other, up=mean, sigma_deg=sigma, reason=reason)
 
 
 def _support(seg: _Segments, sigma: np.ndarray, up: np.ndarray, tol: float) -> float:

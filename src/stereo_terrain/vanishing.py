@@ -114,10 +114,6 @@ class VerticalLinesConfig:
         over-confident where a junk plane tilted them).
     upright_sigma_deg : float
         Where the planes do not fix up, the prior is the camera's up with this 1-sigma.
-    frame_conflict_deg : float
-        Where the frame near the planes' up and the upright camera's frame are further
-        apart than this, the vertical lines choose between them
-        (:func:`stereo_terrain.line_frame.up_from_lines_and_planes`).
     """
 
     enabled: bool = True
@@ -141,7 +137,6 @@ class VerticalLinesConfig:
     frame_above_deg: float = 0.7
     frame_prior_floor_deg: float = 1.0
     upright_sigma_deg: float = 8.0
-    frame_conflict_deg: float = 2.0
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -168,7 +163,6 @@ class VerticalLinesConfig:
             "frame_above_deg",
             "frame_prior_floor_deg",
             "upright_sigma_deg",
-            "frame_conflict_deg",
         ):
             if not getattr(self, name) > 0:
                 raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
