@@ -368,7 +368,7 @@ def up_from_lines_and_planes(
       their inverse-variance mean (the upright frame's prior leaves it free to follow the
       lines' own tilt where the planes' prior held the near one; on realistic renders
       the mean was within 2 deg where the two were 1-4 deg apart in 11 scenes of 12, the
-      near frame in 7).
+      near frame in 6).
     - They contradict each other: the one whose up gathers clearly more vertical lines
       (``_VERTICAL_MARGIN`` times their gain, the near one on a tie). The vertical lines
       are the direct witness of up; the upright frame's own failure (a handrail's edges
