@@ -156,6 +156,8 @@ def test_config_is_checked():
         GravityConfig(prior_cone_deg=0)
     with pytest.raises(ConfigError, match="min_support"):
         GravityConfig(min_support=0.5)
+    with pytest.raises(ConfigError, match="plane_pieces"):
+        GravityConfig(plane_pieces=0.5)
 
 
 def test_pipeline_without_rig_reports_scene_gravity_and_with_rig_checks_it():

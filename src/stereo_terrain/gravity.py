@@ -90,6 +90,15 @@ class GravityConfig:
         stride ``s`` fix its normal only as well as ``N (s / correlation_px)^2``
         independent points would (at least 3); a plane's scatter is at least the depth
         noise of its points.
+    plane_pieces : float
+        Most independent points a plane's inliers count as, however many: the errors of a
+        face's disparities are correlated over the whole face where the matcher had
+        little texture (a planar or Manhattan fill, a smooth painted tread) or the lens
+        model is off, so its normal is known to its scatter over its extent, divided by
+        ``sqrt(plane_pieces)`` at best, not by the root of its count. On realistic
+        renders, planes 5-17 deg off then no longer claim a sigma of about 1 deg
+        (docs/benchmarks.md); the default profile's planes, thin in scatter, are as sure
+        as before.
     rig_tolerance_deg : float
         With a rig, a scene estimate further than this from the rig's up is reported.
     min_floor_drop_m : float
@@ -119,6 +128,7 @@ class GravityConfig:
     max_sigma_deg: float = 4.0
     structure_sigma_deg: float = 0.3
     correlation_px: float = 16.0
+    plane_pieces: float = 64.0
     rig_tolerance_deg: float = 3.0
     min_floor_drop_m: float = 0.1
     levelling_tol_deg: float = 12.0
@@ -132,7 +142,7 @@ class GravityConfig:
         check_min(self, 2, "blocks")
         check_min(self, 0, "min_floor_drop_m")
         check_min(self, 1, "min_support")
-        check_min(self, 1, "correlation_px")
+        check_min(self, 1, "correlation_px", "plane_pieces")
         for name in (
             "prior_cone_deg",
             "prior_sigma_deg",
@@ -617,6 +627,7 @@ def refine_up_from_planes(planes: PlaneSet, config: GravityConfig | None = None)
         noise = float(np.nanmedian(sig) if np.isnan(sig).any() else median(sig))
         sigma2 = max(seg.rms_m, noise, 1e-3) ** 2
         inflate = min(per_independent, seg.count / 3.0) if seg.count > 3 else 1.0
+        inflate = max(inflate, seg.count / config.plane_pieces)
         cov_n = inflate * sigma2 * sum(np.outer(E[:, k], E[:, k]) / max(lam[k], 1e-9) for k in (1, 2))
         n = seg.plane.normal if seg.kind == VERTICAL or seg.plane.normal @ u >= 0 else -seg.plane.normal
         cons.append((seg.kind, n, cov_n))

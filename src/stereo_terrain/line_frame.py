@@ -49,6 +49,12 @@ from .vanishing import VerticalLinesConfig, normalised_ends, unit_rows
 #: Up in the optical frame of an upright camera (x right, y down, z forward).
 _CAMERA_UP = np.array([0.0, -1.0, 0.0])
 
+#: Where the frame near the planes' up and the upright one disagree, the upright one
+#: is taken when its up's vanishing point gathers at least this many times the vertical
+#: lines' gain of the other's (a frame a few degrees off still catches a few short
+#: near-vertical segments by chance; the frames a junk plane tilted catch next to none).
+_VERTICAL_MARGIN = 2.0
+
 #: Scale of the Cauchy weights on a segment's normalised residual (in sigmas).
 _CAUCHY_SCALE = 2.5
 
@@ -350,16 +356,32 @@ def up_from_lines_and_planes(
     """Up from the Manhattan frame of the line segments, given the planes' up (rectified
     camera; None, or an infinite sigma, where the planes do not fix it).
 
-    With the planes' up: the frame with it as the prior (at least
-    ``frame_prior_floor_deg`` wide). Where no frame fits near it (a junk plane tilted the
-    planes further than their sigma says), the frame with the upright camera as the prior
-    (``upright_sigma_deg``) overrules the planes where it is sure and further than
-    ``conflict_sigmas`` combined sigmas from them. (Not wherever it fits more segments, nor
-    wherever the lines near the planes fix only one tilt: on 60 realistic scenes the
-    upright frame then overruled good planes by 14 and 22 deg, taking a handrail's two
-    edges, a sloped line, for a horizontal direction.) Without the planes' up, the frame
-    with the upright prior, which only has to do better than a level camera assumed:
-    it counts up to ``unsure_max_sigma_deg``. ``ok=False`` where the lines add nothing.
+    With the planes' up, two frames: one with it as the prior (at least
+    ``frame_prior_floor_deg`` wide), and one with the upright camera as the prior
+    (``upright_sigma_deg``), which counts where it is sharper than the planes (up to
+    ``unsure_max_sigma_deg``). The planes' sigma comes from their own scatter and cannot
+    see a plane family tilted as a whole (a fill's planes across a tread and a riser):
+    realistic renders had them 5-17 deg off at a sigma of 1-1.3 deg, and the frame near
+    them followed, its step edges fixing only the roll.
+
+    - Both frames fit and are within ``conflict_sigmas`` combined sigmas of each other:
+      their inverse-variance mean (the upright frame's prior leaves it free to follow the
+      lines' own tilt where the planes' prior held the near one; on realistic renders
+      the mean was within 2 deg where the two were 1-4 deg apart in 11 scenes of 12, the
+      near frame in 6).
+    - They contradict each other: the one whose up gathers clearly more vertical lines
+      (``_VERTICAL_MARGIN`` times their gain, the near one on a tie). The vertical lines
+      are the direct witness of up; the upright frame's own failure (a handrail's edges
+      or the staircase's slope taken for a horizontal direction, up turned 10-30 deg
+      about the step edges) loses them. (Not the frame that fits more segments: that
+      overruled good planes by 14 and 22 deg on 60 realistic scenes.)
+    - No frame near the planes' up (a junk plane tilted them further than their sigma
+      says): the upright frame overrules the planes where it is further than
+      ``conflict_sigmas`` combined sigmas from them, else the two are averaged.
+
+    Without the planes' up, the frame with the upright prior, which only has to do better
+    than a level camera assumed: it counts up to ``unsure_max_sigma_deg``. ``ok=False``
+    where the lines add nothing.
     """
     if planes_up is None or not math.isfinite(planes_sigma_deg):
         return up_from_line_frame(
@@ -374,12 +396,50 @@ def up_from_lines_and_planes(
     width = max(planes_sigma_deg, config.frame_prior_floor_deg)
     cone = prior_cone_deg
     near = up_from_line_frame(segments, rectification, planes_up, width, config, prior_cone_deg=cone)
-    if near.ok:
-        return near
+    # The upright frame counts where it is sharper than the planes it would overrule.
+    sharp = min(max(config.max_sigma_deg, planes_sigma_deg), unsure_max_sigma_deg)
     upright = config.upright_sigma_deg
-    alone = up_from_line_frame(segments, rectification, _CAMERA_UP, upright, config, prior_cone_deg=cone)
-    apart = angle_deg(alone.up, planes_up) if alone.ok else 0.0
-    if alone.ok and apart > conflict_sigmas * math.hypot(planes_sigma_deg, alone.sigma_deg):
+    alone = up_from_line_frame(
+        segments, rectification, _CAMERA_UP, upright, config, prior_cone_deg=cone, max_sigma_deg=sharp
+    )
+    if not alone.ok:
+        return near
+    if near.ok:
+        apart = angle_deg(alone.up, near.up)
+        if apart <= conflict_sigmas * math.hypot(near.sigma_deg, alone.sigma_deg):
+            return _both(near.up, near.sigma_deg, alone, f"{near.reason}, with the upright frame's up")
+        # Two frames that contradict each other: the vertical lines, the direct witness of
+        # up, choose (a sloped family, handrails or the staircase's slope, taken for a
+        # horizontal direction turns up about the steps' edges and loses the verticals).
+        seg = _Segments(np.asarray(segments, dtype=np.float64), rectification, config.endpoint_sigma_px)
+        sigma = np.sqrt(seg.noise**2 + math.radians(config.structure_sigma_deg) ** 2)
+        tol = math.radians(config.frame_inlier_deg)
+        v_near, v_alone = (_support(seg, sigma, u, tol) for u in (near.up, alone.up))
+        if v_alone <= _VERTICAL_MARGIN * v_near:
+            return near
+        why = f"{alone.reason} ({apart:.1f} deg from the planes' frame; more vertical lines point at its up)"
+        return dataclasses.replace(alone, reason=why)
+    apart = angle_deg(alone.up, planes_up)
+    if apart > conflict_sigmas * math.hypot(planes_sigma_deg, alone.sigma_deg):
         why = f"{alone.reason} ({apart:.1f} deg from the planes' up, which it overrules)"
         return dataclasses.replace(alone, reason=why)
-    return near
+    # No frame near the planes' up, and the upright one does not contradict it: both.
+    return _both(planes_up, planes_sigma_deg, alone, f"{alone.reason}, with the planes' up")
+
+
+def _both(up: np.ndarray, sigma_deg: float, other: GravityEstimate, reason: str) -> GravityEstimate:
+    """The inverse-variance mean of ``up`` (1-sigma ``sigma_deg``) and ``other``'s up, as
+    ``other`` otherwise. Its sigma is the sharper one's (two frames share their segments),
+    widened by half the angle between the two (what their gap says of the error)."""
+    wa, wb = sigma_deg**-2, other.sigma_deg**-2
+    mean = wa * up + wb * other.up
+    mean /= np.linalg.norm(mean)
+    sigma = math.hypot(min(sigma_deg, other.sigma_deg), 0.5 * angle_deg(up, other.up))
+    return dataclasses.replace(other, up=mean, sigma_deg=sigma, reason=reason)
+
+
+def _support(seg: _Segments, sigma: np.ndarray, up: np.ndarray, tol: float) -> float:
+    """What the segments pointing at ``up``'s vanishing point (within ``tol``) gain
+    (chi^2, as in the frame's score)."""
+    a = np.abs(seg.angles(up[None]))[0]
+    return float(np.maximum(0.0, 1.0 - (a / tol) ** 2) @ (tol / sigma) ** 2)
