@@ -358,9 +358,10 @@ def up_from_lines_and_planes(
 
     With the planes' up, two frames: one with it as the prior (at least
     ``frame_prior_floor_deg`` wide), and one with the upright camera as the prior
-    (``upright_sigma_deg``), which counts where it is sharper than the planes (up to
-    ``unsure_max_sigma_deg``). The planes' sigma comes from their own scatter and cannot
-    see a plane family tilted as a whole (a fill's planes across a tread and a riser):
+    (``upright_sigma_deg``), which counts where its sigma is at most the larger of
+    ``max_sigma_deg`` and the planes' sigma (and never above ``unsure_max_sigma_deg``).
+    The planes' sigma comes from their own scatter and cannot see a plane family tilted
+    as a whole (a fill's planes across a tread and a riser):
     realistic renders had them 5-17 deg off at a sigma of 1-1.3 deg, and the frame near
     them followed, its step edges fixing only the roll.
 
@@ -396,7 +397,7 @@ def up_from_lines_and_planes(
     width = max(planes_sigma_deg, config.frame_prior_floor_deg)
     cone = prior_cone_deg
     near = up_from_line_frame(segments, rectification, planes_up, width, config, prior_cone_deg=cone)
-    # The upright frame counts where it is sharper than the planes it would overrule.
+    # The upright frame counts up to the larger of max_sigma_deg and the planes' sigma.
     sharp = min(max(config.max_sigma_deg, planes_sigma_deg), unsure_max_sigma_deg)
     upright = config.upright_sigma_deg
     alone = up_from_line_frame(

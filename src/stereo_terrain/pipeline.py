@@ -346,7 +346,7 @@ class Pipeline:
     calibration : StereoCalibration
     rig : Rig, optional
         Mounting and body attitude; without it up comes from the scene (its level and
-        upright planes and lines) and the result says `gravity_source: "scene"`.
+        upright planes and lines) and the result says ``gravity_source: "scene"``.
     config : PipelineConfig, optional
 
     backend : DisparityBackend, optional

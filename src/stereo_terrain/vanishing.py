@@ -113,7 +113,9 @@ class VerticalLinesConfig:
         The planes' up enters the frame as a prior at least this wide (their sigma is
         over-confident where a junk plane tilted them).
     upright_sigma_deg : float
-        Where the planes do not fix up, the prior is the camera's up with this 1-sigma.
+        The upright camera's prior, with this 1-sigma: the frame's only prior where the
+        planes do not fix up, and a second frame's beside the one near the planes' up
+        where they leave it unsure.
     """
 
     enabled: bool = True

@@ -127,6 +127,12 @@ class OrientationConfig:
             raise ConfigError(f"angle_tol_deg must be in (0, 45), got {self.angle_tol_deg}")
         if not 0 < self.normal_agreement_deg < 90:
             raise ConfigError(f"normal_agreement_deg must be in (0, 90), got {self.normal_agreement_deg}")
+        check_min(self, 0, "normal_noise_sigmas")
+        if not self.normal_agreement_deg <= self.max_noise_tolerance_deg < 45:
+            raise ConfigError(
+                "max_noise_tolerance_deg must be at least normal_agreement_deg and below 45 "
+                f"(a wider test lets every normal seed both families), got {self.max_noise_tolerance_deg}"
+            )
         if not 0 < self.min_threshold_m <= self.max_threshold_m:
             raise ConfigError("need 0 < min_threshold_m <= max_threshold_m")
         for name in (
