@@ -244,3 +244,15 @@ def test_a_plane_counts_as_at_most_plane_pieces_independent_points():
     planes = Pipeline(default.calibration).run(default.left, default.right).planes
     plain = refine_up_from_planes(planes, GravityConfig())
     assert plain.sigma_deg == pytest.approx(refine_up_from_planes(planes, uncapped).sigma_deg, rel=0.05)
+
+
+def test_no_overrule_keeps_the_planes_up():
+    """``vanishing.overrule_planes: false``: the frame of the lines never overrules the
+    planes (the junk-tilted planes of the test above are kept: nothing is returned)."""
+    R = _camera_R(-4.0, 7.0, 25.0)
+    segments = _segments(R, np.random.default_rng(0), (2, 6, 6), sloped=0)
+    junk = _true_up(_camera_R(-4.0, 22.0, 25.0))
+    cfg = VerticalLinesConfig()
+    assert up_from_lines_and_planes(segments, _rectification(), junk, 2.0, cfg).ok
+    kept = up_from_lines_and_planes(segments, _rectification(), junk, 2.0, cfg, overrule=False)
+    assert not kept.ok

@@ -352,6 +352,7 @@ def up_from_lines_and_planes(
     prior_cone_deg: float = 45.0,
     unsure_max_sigma_deg: float = 4.0,
     conflict_sigmas: float = 3.0,
+    overrule: bool = True,
 ) -> GravityEstimate:
     """Up from the Manhattan frame of the line segments, given the planes' up (rectified
     camera; None, or an infinite sigma, where the planes do not fix it).
@@ -379,6 +380,9 @@ def up_from_lines_and_planes(
     - No frame near the planes' up (a junk plane tilted them further than their sigma
       says): the upright frame overrules the planes where it is further than
       ``conflict_sigmas`` combined sigmas from them, else the two are averaged.
+
+    With ``overrule=False`` (``vanishing.overrule_planes``) the upright frame never
+    overrules: where it contradicts, the frame near the planes' up (or nothing) is returned.
 
     Without the planes' up, the frame with the upright prior, which only has to do better
     than a level camera assumed: it counts up to ``unsure_max_sigma_deg``. ``ok=False``
@@ -416,12 +420,14 @@ def up_from_lines_and_planes(
         sigma = np.sqrt(seg.noise**2 + math.radians(config.structure_sigma_deg) ** 2)
         tol = math.radians(config.frame_inlier_deg)
         v_near, v_alone = (_support(seg, sigma, u, tol) for u in (near.up, alone.up))
-        if v_alone <= _VERTICAL_MARGIN * v_near:
+        if not overrule or v_alone <= _VERTICAL_MARGIN * v_near:
             return near
         why = f"{alone.reason} ({apart:.1f} deg from the planes' frame; more vertical lines point at its up)"
         return dataclasses.replace(alone, reason=why)
     apart = angle_deg(alone.up, planes_up)
     if apart > conflict_sigmas * math.hypot(planes_sigma_deg, alone.sigma_deg):
+        if not overrule:
+            return near
         why = f"{alone.reason} ({apart:.1f} deg from the planes' up, which it overrules)"
         return dataclasses.replace(alone, reason=why)
     # No frame near the planes' up, and the upright one does not contradict it: both.

@@ -879,6 +879,7 @@ def _level_with_line_frame(
         v,
         prior_cone_deg=config.gravity.prior_cone_deg,
         unsure_max_sigma_deg=config.gravity.max_sigma_deg,
+        overrule=v.overrule_planes,
     )
     if not found.ok:
         return None
