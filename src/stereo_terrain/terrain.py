@@ -39,7 +39,9 @@ class TerrainConfig:
         ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step. The ground must be
         ``min_rise_m`` or more below the cameras (a surface above them is seen from below);
         a camera less than that above the frame's origin means a frame without a floor
-        (no rig, none found).
+        (no rig, none found). A riser in front of the stairs whose top is the lowest plane
+        stands on a floor that formed no plane when its bottom edge is this much lower and
+        its own samples span this much (issue 11).
     max_obstacle_rise_m : float
         Safety net. When no obstacle is found with ``max_rise_m``, the vertical planes up
         to this height are tried again, so that a step too high to climb (above the
@@ -58,6 +60,10 @@ class TerrainConfig:
     tread_height_tolerance_m : float
         A horizontal plane is the tread above a riser if its height is within this of the
         riser's top edge.
+    min_tread_points : int
+        Samples of a horizontal plane a tread needs (between its riser and the next); as
+        many samples of the ground seen in front of a riser make it the floor, not a
+        tread on it (issue 11).
     edge_band_m : float
         Samples this close to a riser plane count when finding its top and bottom edges.
     chain_tolerance_m : float
