@@ -39,7 +39,9 @@ class TerrainConfig:
         ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step. The ground must be
         ``min_rise_m`` or more below the cameras (a surface above them is seen from below);
         a camera less than that above the frame's origin means a frame without a floor
-        (no rig, none found).
+        (no rig, none found). A riser in front of the stairs whose top is the lowest plane
+        stands on a floor that formed no plane when its bottom edge is this much lower and
+        its own samples span this much (issue 11).
     max_obstacle_rise_m : float
         Safety net. When no obstacle is found with ``max_rise_m``, the vertical planes up
         to this height are tried again, so that a step too high to climb (above the
@@ -58,6 +60,10 @@ class TerrainConfig:
     tread_height_tolerance_m : float
         A horizontal plane is the tread above a riser if its height is within this of the
         riser's top edge.
+    min_tread_points : int
+        Samples of a horizontal plane a tread needs (between its riser and the next); as
+        many samples of the ground seen in front of a riser make it the floor, not a
+        tread on it (issue 11).
     edge_band_m : float
         Samples this close to a riser plane count when finding its top and bottom edges.
     chain_tolerance_m : float
@@ -627,18 +633,24 @@ def _assemble_along(
     inferred_first = False
     if chain and chain[0][0] is not None:
         first_s = chain[0][4]
+        # The same when the first riser's foot is in view but the floor in front of it formed
+        # no plane (a texture-poor floor, issue 11): then its bottom edge is the floor.
         cut_off = [
             r
             for r in merged
-            if r.foot_hidden
+            if (r.foot_hidden or _stands_below(P, r, ground_z, config))
             and r.s < first_s - config.merge_distance_m
             and abs(r.z_hi - ground_z) <= config.tread_height_tolerance_m
+            and not _ground_before(s_h, v_h, h_z, horizontals, ground_z, r, config)
         ]
         if cut_off:
             r0 = max(cut_off, key=lambda r: r.s)  # the one just before the chain
             ground_tread = _tread_between(horizontals, h_z, s_h, ground_z, r0.s, first_s)
             chain.insert(0, (r0, ground_z, r0.plane, ground_tread, r0.s))
-            inferred_first = True
+            if r0.foot_hidden:
+                inferred_first = True
+            else:
+                ground_z = r0.z_lo
     rises_seen = [chain[i][1] - chain[i - 1][1] for i in range(1, len(chain))]
     if inferred_first:
         ground_z = ground_z - float(median(rises_seen)) if rises_seen else ground_z - config.min_rise_m
@@ -679,6 +691,26 @@ def _assemble_along(
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)
     return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
+
+
+def _stands_below(P: np.ndarray, r: _Riser, ground_z: float, config: TerrainConfig) -> bool:
+    """Whether riser ``r`` (its foot in view) stands a step below ``ground_z``: its bottom
+    edge is ``min_rise_m`` or more below it and its own points (not only its edge band,
+    which takes in the surface at its foot) span ``min_rise_m`` of height."""
+    z = P[r.idx, 2]
+    lo, hi = percentile(z, [_LOW_INLIER_PCT, 100.0 - _LOW_INLIER_PCT])
+    return r.z_lo < ground_z - config.min_rise_m and float(hi - lo) >= config.min_rise_m
+
+
+def _ground_before(s_h, v_h, h_z, horizontals, ground_z: float, r: _Riser, config: TerrainConfig) -> bool:
+    """Whether the surface at ``ground_z`` is seen in front of riser ``r`` (before it along
+    the stair axis, within its lateral extent): then it is the floor the riser stands on or
+    beside, not a tread on top of it (issue 11)."""
+    count = 0
+    for hz, sh, vh in zip(h_z, s_h, v_h, strict=True):
+        if abs(hz - ground_z) <= config.tread_height_tolerance_m / 2:
+            count += int(np.sum((sh < r.s - config.merge_distance_m) & (vh > r.v_lo) & (vh < r.v_hi)))
+    return count >= config.min_tread_points
 
 
 def _tread_between(horizontals, h_z, s_h, z: float, s_lo: float, s_hi: float) -> Plane | None:
