@@ -127,6 +127,13 @@ def test_a_horizontal_surface_above_the_cameras_is_no_floor():
     assert model.obstacle == NONE and "below the cameras" in model.note
     # The same scene with the cameras 0.6 m above it is a staircase.
     assert build_terrain(_shifted(full, 0.0, CAM)).obstacle == STAIRS
+    # With a rig the origin is on the floor however low the cameras sit (a robot's trunk
+    # above them): the same surfaces, the floor unmatched, are still a staircase.
+    for cam_z in (0.0, -0.3):
+        low = _shifted(full, 0.02 + cam_z, np.array([0.0, 0.0, cam_z]))
+        assert build_terrain(low).obstacle == NONE  # floor_known unset: the cameras' height decides
+        rig = build_terrain(low, floor_known=True)
+        assert rig.obstacle == STAIRS and len(rig.steps) == 2, rig.note
 
 
 @pytest.mark.parametrize("scene_name", ["Pipes", "Teddy"])

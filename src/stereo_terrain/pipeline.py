@@ -505,12 +505,13 @@ class Pipeline:
             correction = levelling(fine.up)
             T = correction @ T
             planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
-        if source != "rig":
-            planes, T = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
+        floor_known = source == "rig"
+        if not floor_known:
+            planes, T, floor_known = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
         if before_planes is None:
             before_planes = _rig_check(cam_sample, fine, prior, cfg.gravity, cfg.orientation.angle_tol_deg)
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
-        planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap)
+        planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known)
         rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
         terrain = estimate_step_sigmas(
             terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
@@ -656,9 +657,10 @@ class Pipeline:
         return extract_planes_orientation(samples, self.config.orientation)
 
     def _planes_and_terrain(
-        self, planes: PlaneSet, image: np.ndarray, lap: Callable[[str], None]
+        self, planes: PlaneSet, image: np.ndarray, lap: Callable[[str], None], floor_known: bool
     ) -> tuple[PlaneSet, StairModel, str]:
-        """The terrain built on ``planes`` (from :meth:`_extract_planes`).
+        """The terrain built on ``planes`` (from :meth:`_extract_planes`); ``floor_known``:
+        the frame's origin is on the floor (:func:`build_terrain`).
 
         ``auto`` also runs the contour method; the union (orientation planes plus the
         contour planes that are new) replaces the orientation planes only when its
@@ -667,18 +669,19 @@ class Pipeline:
         cfg = self.config
         if cfg.method == "contour":
             lap("planes")
-            return planes, build_terrain(planes, cfg.terrain), "contour requested"
+            return planes, build_terrain(planes, cfg.terrain, floor_known=floor_known), "contour requested"
         if cfg.method == "orientation":
             lap("planes")
-            return planes, build_terrain(planes, cfg.terrain), "orientation requested (the default)"
+            terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known)
+            return planes, terrain, "orientation requested (the default)"
         contour = extract_planes_contour(planes.samples, image, cfg.contour)
         combined, added = combine_plane_sets(planes, contour)
         lap("planes")
-        terrain = build_terrain(planes, cfg.terrain)
+        terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known)
         if added == 0:
             why = "orientation: the contour method found no plane the orientation method missed"
             return planes, terrain, why
-        terrain_c = build_terrain(combined, cfg.terrain)
+        terrain_c = build_terrain(combined, cfg.terrain, floor_known=floor_known)
         if len(terrain_c.steps) > len(terrain.steps):
             why = (
                 f"combined: {added} contour plane(s) added {len(terrain_c.steps) - len(terrain.steps)} "
@@ -814,23 +817,24 @@ def _rig_check(
     return estimate_up(cam_sample, cheap, prior_up=rig_up)
 
 
-def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform]:
+def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform, bool]:
     """Put the yaw frame's origin on the floor below the camera (CONVENTIONS: a rig off a
     robot has its body origin on the ground below the left camera). The floor is the lowest
     large horizontal plane (a quarter of the largest one's inliers or more) at least
-    ``min_drop_m`` below the camera; with none, the origin stays at the camera."""
+    ``min_drop_m`` below the camera; with none, the origin stays at the camera. The flag
+    says whether a floor was found."""
     P = planes.samples.points
     flat = [s for s in planes.segments if s.kind == HORIZONTAL]
     cam_z = float(planes.camera_position[2])
     if not flat:
-        return planes, T
+        return planes, T, False
     biggest = max(s.count for s in flat)
     heights = [float(np.median(P[s.indices, 2])) for s in flat if s.count >= 0.25 * biggest]
     below = [z for z in heights if z <= cam_z - min_drop_m]
     if not below:
-        return planes, T
+        return planes, T, False
     shift = Transform.from_rt(np.eye(3), [0.0, 0.0, -min(below)], "yaw", "yaw")
-    return transform_planes(planes, shift), shift @ T
+    return transform_planes(planes, shift), shift @ T, True
 
 
 def _level_with_lines(

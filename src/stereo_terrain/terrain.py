@@ -338,7 +338,9 @@ _LOW_INLIER_PCT = 5.0
 _TOP_CUT_ROWS = 2
 
 
-def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> StairModel:
+def build_terrain(
+    planes: PlaneSet, config: TerrainConfig | None = None, *, floor_known: bool | None = None
+) -> StairModel:
     """Assemble a staircase, a box, or nothing from unordered planes.
 
     Parameters
@@ -346,6 +348,12 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     planes : PlaneSet
         In a gravity-aligned frame with ``planes.up == +z``.
     config : TerrainConfig
+    floor_known : bool, optional
+        Whether the frame's origin is on the floor (a rig, or a floor plane found below
+        the cameras). Where it is not and every horizontal plane is above the cameras,
+        there is no ground to measure a first rise from and nothing is reported. None:
+        taken as unknown when the cameras are less than ``min_rise_m`` above the origin
+        (the origin left at the cameras).
 
     Returns
     -------
@@ -354,14 +362,19 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     config = config or TerrainConfig()
     if not np.allclose(planes.up, [0.0, 0.0, 1.0], atol=1e-6):
         raise ConfigError("build_terrain needs planes in a gravity-aligned frame (up = +z)")
-    model = _assemble(planes, config)
+    if floor_known is None:
+        floor_known = bool(planes.camera_position[2] >= config.min_rise_m)
+    model = _assemble(planes, config, floor_known=floor_known)
     if model.obstacle != NONE or config.max_obstacle_rise_m <= config.max_rise_m:
         return model
     # Safety net: is there a step too tall for a stair, that the robot cannot climb?
     # (A first riser inferred from a tread alone is not enough for a step too tall to be a
     # stair: that is a table top.)
     tall = _assemble(
-        planes, dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m), tread_first=False
+        planes,
+        dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m),
+        tread_first=False,
+        floor_known=floor_known,
     )
     if tall.obstacle == NONE or max(s.rise_m for s in tall.steps) <= config.max_rise_m:
         return model
@@ -373,7 +386,9 @@ def build_terrain(planes: PlaneSet, config: TerrainConfig | None = None) -> Stai
     return dataclasses.replace(tall, note=note)
 
 
-def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = True) -> StairModel:
+def _assemble(
+    planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = True, floor_known: bool = True
+) -> StairModel:
     """:func:`build_terrain` for one set of limits (``tread_first``: see :func:`_assemble_along`)."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
@@ -472,7 +487,9 @@ def _assemble(planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = Tr
             np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
         )
         family = [c for c, k in zip(cands, keep, strict=True) if k]
-        model = _assemble_along(planes, config, family, yaw, horizontals, h_z, tread_first=tread_first)
+        model = _assemble_along(
+            planes, config, family, yaw, horizontals, h_z, tread_first=tread_first, floor_known=floor_known
+        )
         if best is None or len(model.steps) > len(best.steps):
             best = model
     assert best is not None
@@ -488,10 +505,12 @@ def _assemble_along(
     h_z: list[float],
     *,
     tread_first: bool = True,
+    floor_known: bool = True,
 ) -> StairModel:
     """The staircase (or box, or nothing) whose risers are ``family`` along the stair axis
     at ``yaw`` (the rest of :func:`_assemble`). ``tread_first``: the first step may stand at
-    a tread's front edge when its riser is no plane and a riser plane chains behind it."""
+    a tread's front edge when its riser is no plane and a riser plane chains behind it.
+    ``floor_known``: as in :func:`build_terrain`."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
@@ -542,10 +561,11 @@ def _assemble_along(
     if floors:
         big = max(c for _, c in floors)
         ground_z = min(z for z, c in floors if c >= 0.25 * big)
-    elif horizontals and cam[2] < config.min_rise_m:
+    elif horizontals and not floor_known:
         # Every horizontal surface is above the cameras and the frame has no floor of its
         # own either (no rig, none found: its origin is at the cameras): nothing to measure
-        # a first rise from.
+        # a first rise from. (With a rig the origin is on the floor however low the
+        # cameras are mounted, and the first riser's foot is the ground, as below.)
         return _no_obstacle(planes, "no horizontal surface below the cameras (no floor in view)", min(h_z))
     else:
         ground_z = merged[0].z_lo
