@@ -3,6 +3,7 @@ for the steps to be stairs and not the clutter of a room (the Middlebury 2014 ob
 scenes). Each rule on hand-made planes, then the real scenes they fixed."""
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -147,3 +148,23 @@ def test_real_middlebury_rooms_without_stairs_report_none(shared_data, scene_nam
         read_image(d / "im0.png"), read_image(d / "im1.png")
     )
     assert result.terrain.obstacle == NONE, result.terrain.note
+
+
+def test_a_riser_left_out_of_a_clutter_family_gets_its_own_family():
+    """Two clutter faces (0 and -15 deg, more samples than any riser, floating 0.6 m up)
+    take the first family; the staircase's risers (+15 deg) are within the spread of the
+    first face but 30 deg from the second, so the pairwise rule leaves them out. Left out,
+    they are tried as a family of their own (they used to be dropped with the clutter's
+    family, and the result was none)."""
+    full = _stairs(n_steps=3, rise=0.17, run=0.29, yaw=math.radians(15.0), distance=1.3)
+    segs, samples = list(full.segments), full.samples
+    for yaw_deg, n_pts, s in ((0.0, 900, 3.2), (-15.0, 700, 3.4)):
+        u = np.array([math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg)), 0.0])
+        v = np.array([-u[1], u[0], 0.0])
+        lateral, heights = np.linspace(-0.6, 0.6, n_pts // 10), np.linspace(0.62, 0.74, 10)
+        face = np.array([s * u + a * v + (0.0, 0.0, b) for a in lateral for b in heights])
+        samples, idx = _add_samples(dataclasses.replace(full, samples=samples), face, -u)
+        segs.append(PlaneSegment(Plane(-u, s), VERTICAL, idx, 0.0))
+    model = build_terrain(dataclasses.replace(full, segments=tuple(segs), samples=samples))
+    assert model.obstacle == STAIRS and len(model.steps) == 3, model.note
+    assert math.degrees(model.yaw_rad) == pytest.approx(15.0, abs=1.0)

@@ -474,18 +474,20 @@ def _assemble(
         support = (diff <= spread) @ (weights * free)
         ref = int(np.argmax(np.where(free, support, -1.0)))
         near = free & (diff[ref] <= spread)
-        free &= ~near
         # The risers of one staircase are parallel: within ``axis_spread_deg`` of each
         # other, not only of ``ref`` (two risers on either side of it may be twice that
-        # apart: a cloth's folds, not a staircase; issue 11). Largest first, a riser
-        # joins when it is within the spread of every riser already in.
+        # apart: a cloth's folds, not a staircase; issue 11). From ``ref``, largest first,
+        # a riser joins when it is within the spread of every riser already in; one left
+        # out stays free for a later family (a staircase beside two clutter faces).
         keep = np.zeros(len(cands), dtype=bool)
-        for i in sorted(np.flatnonzero(near), key=lambda i: -weights[i]):
+        keep[ref] = True
+        for i in sorted(np.flatnonzero(near & ~keep), key=lambda i: -weights[i]):
             if np.all(diff[i, keep] <= spread):
                 keep[i] = True
         yaw = float(
             np.arctan2(np.sum(weights[keep] * np.sin(yaws[keep])), np.sum(weights[keep] * np.cos(yaws[keep])))
         )
+        free &= ~keep
         family = [c for c, k in zip(cands, keep, strict=True) if k]
         model = _assemble_along(
             planes, config, family, yaw, horizontals, h_z, tread_first=tread_first, floor_known=floor_known
