@@ -157,7 +157,7 @@ from stereo_terrain.msac import _kernels as mk
 from stereo_terrain.planes import _kernels as pk
 from stereo_terrain import _cloud_kernels as ck
 from stereo_terrain.stereo import _regions as rk
-from stereo_terrain import _terrain_kernels as tk
+from stereo_terrain.terrain import _kernels as tk
 from stereo_terrain.stereo import _disparity_kernels as dk
 calib, rig, left, right = _warm_up_scene()
 Pipeline(calib, rig, PipelineConfig(method="auto"))

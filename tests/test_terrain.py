@@ -327,7 +327,7 @@ def test_a_railing_with_more_points_than_the_risers_does_not_set_the_stair_axis(
 def _riser_edges_numpy(P, plane, v, v_lo, v_hi, *, thr, seed_z):
     """``terrain._riser_edges`` as it was in NumPy (before issue 13's kernel)."""
     from stereo_terrain._numeric import percentile
-    from stereo_terrain.terrain import _EDGE_BINS, _EDGE_BOTTOM_QUANTILE, _EDGE_GAP_M, _EDGE_QUANTILE
+    from stereo_terrain.terrain.risers import _EDGE_BINS, _EDGE_BOTTOM_QUANTILE, _EDGE_GAP_M, _EDGE_QUANTILE
 
     near = plane.residuals(P) < thr
     lat = P[near] @ v
@@ -358,7 +358,7 @@ def test_riser_edges_kernel_is_the_numpy_version_bit_for_bit():
     """Issue 13: the compiled slices give NumPy's edges (ties in height, gaps, empty and
     narrow extents, slices with fewer than three samples)."""
     from stereo_terrain.msac import Plane
-    from stereo_terrain.terrain import _riser_edges
+    from stereo_terrain.terrain.risers import _riser_edges
 
     rng = np.random.default_rng(0)
     for t in range(1500):

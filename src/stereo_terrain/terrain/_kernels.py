@@ -1,4 +1,4 @@
-"""Compiled inner loop of the terrain stage (Numba, :func:`stereo_terrain.terrain._riser_edges`).
+"""Compiled inner loop of the terrain stage (Numba, :func:`stereo_terrain.terrain.risers._riser_edges`).
 
 A riser's edge heights come from the samples near its plane: those inside its lateral
 extent, connected in height to its own, cut into lateral slices whose low and high order
@@ -19,7 +19,7 @@ from numba import njit
 def riser_edge_slices(
     z: np.ndarray, lat: np.ndarray, v_lo: float, v_hi: float, seed_z: float, max_gap: float, bins: int
 ) -> tuple[int, np.ndarray, np.ndarray, float, float]:  # pragma: no cover - compiled
-    """The slices' edge heights of one riser (see ``terrain._riser_edges``).
+    """The slices' edge heights of one riser (see ``risers._riser_edges``).
 
     Parameters
     ----------

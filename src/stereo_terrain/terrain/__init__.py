@@ -1,0 +1,37 @@
+"""Stage 5: a polytope (stairs, box, or nothing) from unordered planes (paper section 3.3).
+
+Input is a :class:`PlaneSet` in a gravity-aligned frame (``yaw``: z up). The vertical
+planes that can be risers (short, facing the robot, all facing the same way) are ordered
+by their position along the stair axis; between each consecutive pair the *active*
+horizontal plane is the one with most inliers in between; neighbouring planes are
+intersected to get the edges and vertices of every step.
+
+Step height comes from the tread plane when it is visible; treads above the cameras are
+not, and then the height comes from the riser's top edge.
+
+Package layout (data flows one way, each module imports only those before it):
+``model`` (:class:`TerrainConfig`, :class:`StairModel`, :class:`Step`, :class:`Polytope`) ->
+``_kernels`` (compiled inner loop of the riser edges, Numba) -> ``risers`` (riser
+candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices) ->
+``assemble`` (stair-axis families, the ground, the chain of steps and the first-step rules)
+-> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
+``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
+"""
+
+from __future__ import annotations
+
+from .build import build_terrain
+from .model import BOX, NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
+from .sigmas import estimate_step_sigmas
+
+__all__ = [
+    "BOX",
+    "NONE",
+    "STAIRS",
+    "Polytope",
+    "StairModel",
+    "Step",
+    "TerrainConfig",
+    "build_terrain",
+    "estimate_step_sigmas",
+]

@@ -1,0 +1,218 @@
+"""The terrain stage's values: its config (:class:`TerrainConfig`) and what it finds
+(:class:`StairModel` of :class:`Step` and a :class:`Polytope`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..checks import check_fields, check_min
+from ..errors import ConfigError
+from ..msac import Plane
+
+STAIRS, BOX, NONE = "stairs", "box", "none"
+
+
+@dataclass(frozen=True)
+class TerrainConfig:
+    """What counts as a step.
+
+    Attributes
+    ----------
+    min_rise_m, max_rise_m : float
+        A riser shorter than ``min_rise_m`` is noise; a vertical plane taller than
+        ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step. The ground must be
+        ``min_rise_m`` or more below the cameras (a surface above them is seen from below);
+        a camera less than that above the frame's origin means a frame without a floor
+        (no rig, none found). A riser in front of the stairs whose top is the lowest plane
+        stands on a floor that formed no plane when its bottom edge is this much lower and
+        its own samples span this much (issue 11).
+    max_obstacle_rise_m : float
+        Safety net. When no obstacle is found with ``max_rise_m``, the vertical planes up
+        to this height are tried again, so that a step too high to climb (above the
+        swing's reach, ``SwingConfig.max_height_m``) is reported, and planned as not
+        traversable, instead of being taken for a wall and ignored. Only then: raising
+        ``max_rise_m`` itself would merge two noisy risers into one tall step more often.
+    min_riser_width_m : float
+    min_riser_points : int
+        Grid samples a riser needs.
+    merge_distance_m : float
+        Risers closer than this along the stair axis are one.
+    max_facing_angle_deg : float
+        A riser must face the robot: its normal within this of the direction to the camera.
+    axis_spread_deg : float
+        Risers of one staircase face the same way within this angle (every pair of them).
+    tread_height_tolerance_m : float
+        A horizontal plane is the tread above a riser if its height is within this of the
+        riser's top edge.
+    min_tread_points : int
+        Samples of a horizontal plane a tread needs (between its riser and the next); as
+        many samples of the ground seen in front of a riser make it the floor, not a
+        tread on it (issue 11).
+    edge_band_m : float
+        Samples this close to a riser plane count when finding its top and bottom edges.
+    chain_tolerance_m : float
+        A riser's bottom edge must be within this of the level the step before it ended
+        (unless that level is above the cameras and the edge is hidden).
+    disparity_sigma_px : float
+        1-sigma of one pixel's disparity (matching noise, independent from pixel to pixel
+        beyond ``matching_window_px``), for the step sigmas (:func:`estimate_step_sigmas`).
+        Measured on the rendered approaches (``benchmarks/bench_tracking.py --noise``): the
+        robust spread of plane inliers' disparities about their plane, median 0.14 px
+        (p90 0.24 px) over 10 approaches, 320x240 and 640x480.
+    disparity_bias_px : float
+        1-sigma of the disparity error shared by all pixels of one face (sub-pixel bias,
+        fill, smoothing), which averaging over the face does not reduce; measured the same
+        way from the first riser's position error of single frames: 0.13 px rms.
+    matching_window_px : float
+        Pixels closer than this share their matching errors (the SGBM block and its
+        smoothing): a plane's ``n`` samples count as ``n (stride / window)**2`` when the
+        grid stride is smaller.
+    edge_sigma_cells : float
+        1-sigma of an edge found from the samples (a riser's top edge, a tread's front
+        edge, a riser's lateral ends) in grid cells: the samples are a grid of
+        ``stride_px`` pixels, so an edge is known to about a cell.
+    width_loss_cells : float
+        A riser's inliers stop up to this many grid cells short of each lateral end (local
+        normals there mix the riser with the side faces and the wall; the orientation
+        method's ``sample_radius_cells``), so its width is short by up to twice that: part
+        of ``width_sigma_m``.
+    face_bias_correlation : float
+        Correlation of the shared disparity error of neighbouring faces (a tread and the
+        surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
+        Measured on the rendered approaches: single-frame rise errors are about 0.3 of
+        what independent biases would give, i.e. a correlation near 0.9.
+    """
+
+    min_rise_m: float = 0.04
+    max_rise_m: float = 0.30
+    max_obstacle_rise_m: float = 0.50
+    edge_margin_m: float = 0.06
+    min_riser_width_m: float = 0.15
+    min_riser_points: int = 25
+    merge_distance_m: float = 0.06
+    max_facing_angle_deg: float = 70.0
+    axis_spread_deg: float = 20.0
+    tread_height_tolerance_m: float = 0.06
+    edge_band_m: float = 0.02
+    chain_tolerance_m: float = 0.08
+    min_tread_points: int = 15
+    disparity_sigma_px: float = 0.14
+    disparity_bias_px: float = 0.13
+    matching_window_px: float = 5.0
+    edge_sigma_cells: float = 0.7
+    face_bias_correlation: float = 0.9
+    width_loss_cells: float = 5.0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        check_min(self, 1, "min_riser_points", "min_tread_points")
+        check_min(self, 0, "disparity_sigma_px", "disparity_bias_px", "edge_sigma_cells", "width_loss_cells")
+        if not 0 <= self.face_bias_correlation <= 1:
+            raise ConfigError(
+                f"TerrainConfig.face_bias_correlation must be in [0, 1], got {self.face_bias_correlation}"
+            )
+        if not self.matching_window_px > 0:
+            raise ConfigError(f"TerrainConfig.matching_window_px must be > 0, got {self.matching_window_px}")
+        check_min(
+            self,
+            0,
+            "edge_margin_m",
+            "min_riser_width_m",
+            "merge_distance_m",
+            "tread_height_tolerance_m",
+            "edge_band_m",
+            "chain_tolerance_m",
+        )
+        for name in ("max_facing_angle_deg", "axis_spread_deg"):
+            if not 0 < getattr(self, name) <= 90:
+                raise ConfigError(f"TerrainConfig.{name} must be in (0, 90] deg, got {getattr(self, name)}")
+        if not 0 < self.min_rise_m < self.max_rise_m <= self.max_obstacle_rise_m:
+            raise ConfigError(
+                "need 0 < min_rise_m < max_rise_m <= max_obstacle_rise_m, got "
+                f"{self.min_rise_m}, {self.max_rise_m}, {self.max_obstacle_rise_m}"
+            )
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of a staircase (or the box) in the gravity-aligned frame.
+
+    Attributes
+    ----------
+    rise_m : float
+        Height of this tread above the surface before it.
+    run_m : float or None
+        Tread depth along the stair axis; None when not seen whole.
+    distance_m : float
+        Where the frame's x axis (y = 0) meets the riser plane.
+    width_m : float or None
+        Lateral extent of the riser; None when it leaves the image.
+    top_z_m : float
+        Height of the tread above the frame origin.
+    axis_position_m : float
+        Riser position along the stair axis.
+    riser : Plane
+    tread : Plane or None
+        None when the tread was not seen (height from the riser's top edge).
+    rise_inferred : bool
+        True for a first step whose foot is out of view (stairs filling the image, no floor
+        in front): its rise is the median of the other steps' rises.
+    rise_sigma_m, run_sigma_m, distance_sigma_m, width_sigma_m : float or None
+        1-sigma of ``rise_m``, ``run_m``, ``distance_m`` and ``width_m`` (issue 14,
+        :func:`estimate_step_sigmas`); NaN until estimated, None where the value is None.
+    """
+
+    rise_m: float
+    run_m: float | None
+    distance_m: float
+    width_m: float | None
+    top_z_m: float
+    axis_position_m: float
+    riser: Plane = field(repr=False)
+    tread: Plane | None = field(repr=False, default=None)
+    rise_inferred: bool = False
+    rise_sigma_m: float = math.nan
+    run_sigma_m: float | None = math.nan
+    distance_sigma_m: float = math.nan
+    width_sigma_m: float | None = math.nan
+
+
+@dataclass(frozen=True)
+class Polytope:
+    """Vertices and quadrilateral faces (riser, then tread, per step)."""
+
+    vertices: np.ndarray = field(repr=False)  # (V, 3) float64, metres
+    faces: tuple[tuple[int, int, int, int], ...] = ()
+
+
+@dataclass(frozen=True)
+class StairModel:
+    """What the terrain stage found.
+
+    Attributes
+    ----------
+    obstacle : str
+        ``stairs``, ``box`` or ``none``.
+    steps : tuple of Step, nearest first
+    yaw_rad : float
+        Stair axis w.r.t. the frame's x axis.
+    ground_z_m : float
+    polytope : Polytope
+    frame : str
+    note : str
+        Why the result is what it is (e.g. why nothing was found).
+    yaw_sigma_rad : float
+        1-sigma of ``yaw_rad`` (issue 14); NaN until estimated.
+    """
+
+    obstacle: str
+    steps: tuple[Step, ...]
+    yaw_rad: float
+    ground_z_m: float
+    polytope: Polytope
+    frame: str
+    note: str = ""
+    yaw_sigma_rad: float = math.nan

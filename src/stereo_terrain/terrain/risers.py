@@ -1,0 +1,173 @@
+"""Riser candidates and their edges: the vertical planes that can be risers, their bottom
+and top edge heights and lateral extent, and a tread's front edge (where a riser too
+poorly matched to be a plane stands)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
+from ..cloud import GridSample
+from ..msac import Plane
+from ..planes.orientation import PlaneSegment
+from ._kernels import riser_edge_slices
+from .model import TerrainConfig
+
+
+@dataclass(frozen=True)
+class _Riser:
+    plane: Plane
+    idx: np.ndarray
+    s: float
+    z_lo: float
+    z_hi: float
+    v_lo: float
+    v_hi: float
+    touches_border: bool
+    foot_hidden: bool = False  # its inliers reach the image's last rows: its foot is out of view
+
+
+def _riser_edges(
+    P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float, seed_z: float
+) -> tuple[float, float] | None:
+    """Bottom and top edge heights of a riser from every sample on its plane (None when no
+    sample is on it).
+
+    Inliers alone stop short of the edges (normals there mix two faces); any sample within
+    ``thr`` of the plane and inside its lateral extent is on the riser or on the surface
+    meeting it at the edge, whose height is the edge's. Two things on the same plane are
+    not the riser and must not stretch it:
+
+    * stray matches far above or below it (a textureless sky, a wall's far end): only the
+      samples connected in height to the riser's own (``seed_z``, its inliers' median; no
+      gap over :data:`_EDGE_GAP_M`) count;
+    * a newel post, a baluster or a door frame standing on the riser's line: the edges come
+      from :data:`_EDGE_BINS` lateral slices of the riser (a high percentile of the slices'
+      top edges, a low one of their bottoms), so that something narrow standing on the
+      riser, in one or two slices, does not raise its top.
+    """
+    near = plane.residuals(P) < thr
+    lat = P[near] @ v
+    # The rest (extent, sort, connected heights, slices) in one compiled pass (issue 13).
+    kept, lows, highs, lo_all, hi_all = riser_edge_slices(
+        P[near, 2], lat, float(v_lo), float(v_hi), float(seed_z), _EDGE_GAP_M, _EDGE_BINS
+    )
+    if kept == 0:
+        return None
+    if len(lows) == 0:
+        return float(lo_all), float(hi_all)
+    # The top: a high percentile (a slice at the riser's ends may see less of it, two
+    # slices of eight may hold a post). The bottom: the lowest slices (nothing stands
+    # below a riser on its plane, while something in front, a box, may hide the bottom of
+    # a wall behind it in the middle slices and make it look like a riser on the box).
+    return float(percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(percentile(highs, _EDGE_QUANTILE))
+
+
+#: Lateral slices of a riser over which its edge heights are taken, and the percentiles
+#: of the slices' top and bottom edges that are the riser's.
+_EDGE_BINS = 8
+_EDGE_QUANTILE = 70.0
+_EDGE_BOTTOM_QUANTILE = 10.0
+
+
+#: Largest gap in height between the samples of one riser face (the spacing of grid
+#: samples on a riser 3 m away is about 3 cm).
+_EDGE_GAP_M = 0.05
+
+
+def _tread_front(
+    P: np.ndarray,
+    normals: np.ndarray,
+    plane: Plane,
+    u: np.ndarray,
+    v: np.ndarray,
+    v_lo: float,
+    v_hi: float,
+    *,
+    thr: float,
+) -> float | None:
+    """Position along the stair axis of a tread's front edge (its nosing), from every sample
+    on its plane inside the stair's lateral extent, except those on the staircase's side
+    faces (normals along the lateral axis); None if too few."""
+    near = (plane.residuals(P) < thr) & (np.abs(normals @ v) < 0.7)
+    q = P[near]
+    lat = q @ v
+    s = (q @ u)[(lat > v_lo) & (lat < v_hi)]
+    if len(s) < 10:
+        return None
+    return float(percentile(s, 2))
+
+
+def _axis_from_normal(n: np.ndarray) -> np.ndarray:
+    """Stair axis (horizontal unit vector pointing up the stairs) from a riser normal."""
+    a = -np.array([n[0], n[1], 0.0])
+    return a / max(np.linalg.norm(a), 1e-12)
+
+
+#: A riser's points may not reach more than ``edge_margin_m`` below the level it stands on:
+#: this low percentile of their heights (robust to a few stray points) is the test.
+_LOW_INLIER_PCT = 5.0
+
+#: A plane with this share (``_LOW_INLIER_PCT``) of its inliers in the image's first grid
+#: rows goes on above the image: its top edge is not seen (issue 11).
+_TOP_CUT_ROWS = 2
+
+
+def _riser_candidates(
+    samples: GridSample, P: np.ndarray, cam: np.ndarray, verticals: list[PlaneSegment], config: TerrainConfig
+) -> list[_Riser]:
+    """The vertical planes that can be risers (the first part of :func:`~.assemble._assemble`)."""
+    # Candidate risers: short vertical planes facing the camera.
+    col_lo, col_hi = samples.cols.min(), samples.cols.max()
+    row_hi = samples.rows.max()
+    border = 2 * samples.stride_px
+    grid_row = samples.grid_index // samples.grid_shape[1]
+    cos_face = math.cos(math.radians(config.max_facing_angle_deg))
+    cands: list[_Riser] = []
+    for seg in verticals:
+        if seg.count < config.min_riser_points:
+            continue
+        pts = P[seg.indices]
+        n = seg.plane.normal
+        to_cam = cam - median(pts, axis=0)
+        to_cam[2] = 0.0
+        if n @ to_cam < cos_face * np.linalg.norm(to_cam):
+            continue
+        u = _axis_from_normal(n)
+        v = np.array([-u[1], u[0], 0.0])
+        lat = pts @ v
+        v_lo, v_hi = percentile(lat, [2, 98])
+        if v_hi - v_lo < config.min_riser_width_m:
+            continue
+        edges = _riser_edges(
+            P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(pts[:, 2]))
+        )
+        if edges is None:
+            continue
+        z_lo, z_hi = edges
+        if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
+            continue
+        if float(percentile(grid_row[seg.indices], _LOW_INLIER_PCT)) <= _TOP_CUT_ROWS:
+            # The face goes on above the image (a wall, a cupboard's front): the height
+            # seen is the image's, not a riser's, and no tread above it can be seen.
+            continue
+        cols = samples.cols[seg.indices]
+        touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
+        foot_hidden = bool(samples.rows[seg.indices].max() >= row_hi - border)
+        cands.append(
+            _Riser(
+                seg.plane,
+                seg.indices,
+                float(median(pts @ u)),
+                z_lo,
+                z_hi,
+                float(v_lo),
+                float(v_hi),
+                touches,
+                foot_hidden,
+            )
+        )
+    return cands

@@ -1,0 +1,269 @@
+"""The 1-sigmas of a staircase's rise, run, distance, width and yaw (issue 14), from the
+disparity noise and the plane fits: :func:`estimate_step_sigmas`."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
+from ..errors import ConfigError
+from ..msac import Plane
+from ..planes.orientation import PlaneSet
+from .model import StairModel, Step, TerrainConfig
+
+
+def _wrap_angle(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+#: A sample is on a face when its local normal is within about 30 deg of the face's.
+_FACE_COS = 0.85
+
+
+@dataclass(frozen=True)
+class _FaceError:
+    """What the samples on one face say about its uncertainty."""
+
+    range_m: float  # median distance of its samples from the camera
+    ray: np.ndarray  # (3,) unit, camera -> the samples' median
+    n_eff: float  # samples, discounted for shared matching errors
+    rms_m: float  # spread of the samples about the plane
+    count: int
+    centre: np.ndarray  # (3,) the samples' median point (where a fitted plane pivots)
+
+
+def _face_error(
+    P: np.ndarray, normals: np.ndarray, cam: np.ndarray, plane: Plane, mask: np.ndarray, *, n_factor: float
+) -> _FaceError | None:
+    """The samples on ``plane`` (within ``mask``; local normal within 30 deg of the plane's)."""
+    sel = mask & (np.abs(normals @ plane.normal) > _FACE_COS)
+    q = P[sel]
+    if len(q) < 3:
+        return None
+    med = median(q, axis=0)
+    rel = med - cam
+    rng = float(np.linalg.norm(rel))
+    if rng < 1e-6:
+        return None
+    res = plane.signed_distance(q)
+    rms = float(np.sqrt(np.mean(res * res)))
+    return _FaceError(rng, rel / rng, max(1.0, len(q) * n_factor), rms, len(q), med)
+
+
+def estimate_step_sigmas(
+    model: StairModel,
+    planes: PlaneSet,
+    *,
+    focal_px: float,
+    baseline_m: float,
+    config: TerrainConfig | None = None,
+) -> StairModel:
+    """``model`` with a 1-sigma for every step's rise, run, distance and width and for the
+    stair yaw, propagated from the disparity noise and the plane fits.
+
+    Per face (riser, tread, ground), from its samples in ``planes``: a disparity error
+    ``sigma_d`` moves a point at range ``r`` by ``r**2 sigma_d / (f b)`` along its ray, so
+    the face moves along its normal by that times ``|ray . n|``. The shared part
+    (``disparity_bias_px``) does not average out over the face; the independent part
+    (``disparity_sigma_px``) and the samples' spread about the plane (its fit residual) do,
+    over the effective sample count (:attr:`TerrainConfig.matching_window_px`). Added to
+    that:
+
+    * a top from the riser's top edge (its tread not seen), a riser put at a tread's front
+      edge, and the riser's lateral ends are edges of the sample grid: ``edge_sigma_cells``
+      grid cells at the face's range (a cell on the ground is longer by
+      ``1 / |ray . z|``);
+    * an inferred rise (``rise_inferred``, the foot out of view) is the median of the other
+      rises: their spread and their own sigma;
+    * the yaw: each riser's normal turns when its two ends move by their position sigma
+      independently (``sqrt(2) sigma / extent``), and by its fit (spread over sqrt(n)
+      and the lateral spread); the risers are combined as the stage combines them
+      (weighted by inliers), and their weighted spread about the stair yaw is added (a
+      riser plane fitted a few degrees off pulls the mean);
+    * the distance: where the frame's x axis meets a riser plane turns with the riser's own
+      yaw error about its samples' centre, by ``|c_y| / cos^2(yaw)`` per radian (a riser
+      seen only off to one side, its plane turned, also meets the axis short or long).
+
+    Parameters
+    ----------
+    model : StairModel
+        From :func:`build_terrain` on ``planes``.
+    planes : PlaneSet
+        Yaw frame (z up).
+    focal_px, baseline_m : float
+        Of the rectified pair (``Rectification.focal_px``, ``baseline_m``).
+    config : TerrainConfig
+
+    Returns
+    -------
+    StairModel
+        The same model with ``rise_sigma_m``, ``run_sigma_m``, ``distance_sigma_m``,
+        ``width_sigma_m`` of each step and ``yaw_sigma_rad`` set (None where the value is
+        None, NaN where the samples say nothing).
+    """
+    config = config or TerrainConfig()
+    if not (focal_px > 0 and baseline_m > 0):
+        raise ConfigError(
+            f"estimate_step_sigmas needs focal_px, baseline_m > 0, got {focal_px}, {baseline_m}"
+        )
+    if not model.steps:
+        return model
+    samples = planes.samples
+    P = samples.points.astype(np.float64)
+    normals = samples.normals.astype(np.float64)
+    cam = np.asarray(planes.camera_position, dtype=np.float64)
+    fb = float(focal_px * baseline_m)
+    stride = float(samples.stride_px)
+    n_factor = min(1.0, (stride / config.matching_window_px) ** 2)
+    u = np.array([math.cos(model.yaw_rad), math.sin(model.yaw_rad), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    s_all, v_all = P @ u, P @ v
+    band = config.edge_band_m
+
+    def random_var(face: _FaceError) -> float:
+        """Variance of the face's position along its ray from what averages out over it."""
+        scale = face.range_m**2 / fb
+        return ((scale * config.disparity_sigma_px) ** 2 + face.rms_m**2) / face.n_eff
+
+    def bias_m(face: _FaceError) -> float:
+        """1-sigma of the face's position along its ray from the shared disparity error."""
+        return face.range_m**2 / fb * config.disparity_bias_px
+
+    def shift_sigma(face: _FaceError) -> float:
+        """1-sigma of the face's position along its normal (before the projection)."""
+        return math.sqrt(bias_m(face) ** 2 + random_var(face))
+
+    def height(face: _FaceError, edge_m: float = 0.0) -> tuple[float, float]:
+        """Of a face's height: the independent variance and the signed coefficient of the
+        shared disparity error (a closer face moves along its ray, up or down)."""
+        rz = float(face.ray[2])
+        return random_var(face) * rz * rz + edge_m * edge_m, bias_m(face) * rz
+
+    def cell_m(face: _FaceError) -> float:
+        return stride * face.range_m / focal_px
+
+    steps = list(model.steps)
+    positions: list[float] = []  # 1-sigma of each riser's position along the axis
+    levers: list[float] = []  # 1-sigma of the distance from the riser's own yaw error
+    tops: list[tuple[float, float]] = []  # each step's top height: (independent var, bias coef)
+    widths: list[float | None] = []
+    yaw_info: list[tuple[float, float, float]] = []  # (weight, 1-sigma of the riser's yaw, its yaw)
+    s_prev = -np.inf
+    for i, st in enumerate(steps):
+        s_next = steps[i + 1].axis_position_m if i + 1 < len(steps) else np.inf
+        s_pos = st.axis_position_m
+        on_riser = (st.riser.residuals(P) < band) & (s_all > s_prev) & (s_all < s_next)
+        riser = _face_error(P, normals, cam, st.riser, on_riser, n_factor=n_factor)
+        virtual = riser is None or riser.count < config.min_riser_points
+        tread_face = None
+        if st.tread is not None:
+            on_tread = (st.tread.residuals(P) < band) & (s_all > s_pos - band) & (s_all < s_next + band)
+            tread_face = _face_error(P, normals, cam, st.tread, on_tread, n_factor=n_factor)
+        # Riser position along the stair axis.
+        lever = 0.0
+        if not virtual:
+            assert riser is not None
+            sig_pos = shift_sigma(riser) * abs(float(riser.ray @ st.riser.normal))
+            # the riser's own samples (the band also holds the tread's and the ground's
+            # edges along the riser, which run on beyond a riser seen only in part)
+            lat = v_all[on_riser & (np.abs(normals @ st.riser.normal) > _FACE_COS)]
+            if len(lat) > 2:
+                lo, hi = percentile(lat, [2, 98])
+                # the riser's own extent (its samples' band may run on along the plane)
+                hi = min(hi, lo + st.width_m) if st.width_m is not None else hi
+                if hi - lo > 1e-3:
+                    # The riser's two ends move independently by the position sigma: the
+                    # normal turns by their difference over the riser's extent; the fit
+                    # itself adds its spread over sqrt(n) and the lateral spread.
+                    turn = math.sqrt(2.0) * sig_pos / float(hi - lo)
+                    fit = riser.rms_m / math.sqrt(riser.n_eff) / max(float(np.std(lat)), 1e-3)
+                    riser_yaw = math.atan2(-st.riser.normal[1], -st.riser.normal[0])
+                    sig_yaw = math.hypot(turn, fit)
+                    yaw_info.append((float(riser.count), sig_yaw, riser_yaw))
+                    # The plane turns about its samples' centre: where it meets the frame's
+                    # x axis (y = 0), x = c_x + c_y tan(yaw), moves by c_y / cos^2(yaw) per
+                    # radian (a riser seen only off to one side and turned is also short).
+                    cos2 = max(math.cos(riser_yaw) ** 2, 0.04)
+                    lever = abs(float(riser.centre[1])) / cos2 * sig_yaw
+        elif tread_face is not None:  # at a tread's front edge: an edge on the ground grid
+            ground_cell = cell_m(tread_face) / max(abs(float(tread_face.ray[2])), 0.1)
+            sig_pos = math.hypot(config.edge_sigma_cells * ground_cell, shift_sigma(tread_face))
+        else:
+            sig_pos = math.nan
+        positions.append(sig_pos)
+        levers.append(lever)
+        # Top of the step: the tread plane, else the riser's top edge.
+        if tread_face is not None:
+            tops.append(height(tread_face))
+        elif riser is not None:
+            tops.append(height(riser, config.edge_sigma_cells * cell_m(riser)))
+        else:
+            tops.append((math.nan, math.nan))
+        if st.width_m is None:
+            widths.append(None)
+        elif riser is not None:
+            # Two edges of the grid, and the inliers' shortfall at both ends (up to
+            # width_loss_cells each; uniform: 1/sqrt(3) of it as a sigma).
+            loss = 2.0 * config.width_loss_cells * cell_m(riser) / math.sqrt(3.0)
+            widths.append(math.hypot(math.sqrt(2.0) * config.edge_sigma_cells * cell_m(riser), loss))
+        else:
+            widths.append(math.nan)
+        s_prev = s_pos
+
+    # The surface before the first step: the ground (the horizontal samples at its height
+    # in front of the first riser).
+    first_s = steps[0].axis_position_m
+    ground_plane = Plane(np.array([0.0, 0.0, 1.0]), -model.ground_z_m)
+    on_ground = (ground_plane.residuals(P) < band) & (s_all < first_s)
+    ground = _face_error(P, normals, cam, ground_plane, on_ground, n_factor=n_factor)
+    below_first = height(ground) if ground is not None else tops[0]
+    rho = config.face_bias_correlation
+
+    def rise_sigma(top: tuple[float, float], below: tuple[float, float]) -> float:
+        # The shared disparity error of two neighbouring faces is correlated (rho): it
+        # moves both heights alike and largely cancels in their difference.
+        (va, a), (vb, b) = top, below
+        var_bias = a * a + b * b - 2.0 * rho * a * b
+        return math.sqrt(va + vb + max(var_bias, 0.0))
+
+    rises = np.array([s.rise_m for s in steps])
+    out: list[Step] = []
+    for i, st in enumerate(steps):
+        sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
+        if st.rise_inferred:
+            others = rises[1:]
+            spread = float(np.std(others)) if len(others) > 1 else 0.0
+            own = float(np.nanmean([rise_sigma(tops[k], tops[k - 1]) for k in range(1, len(steps))]))
+            # the median of n values: its own error, and how far a rise may differ from it
+            sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
+        n_x = abs(float(st.riser.normal[0]))
+        sig_dist = math.hypot(positions[i] / max(n_x, 0.2), levers[i])
+        sig_run = None
+        if st.run_m is not None:
+            nxt = positions[i + 1] if i + 1 < len(positions) else math.nan
+            sig_run = math.hypot(positions[i], nxt)
+        out.append(
+            dataclasses.replace(
+                st,
+                rise_sigma_m=float(sig_rise),
+                run_sigma_m=None if sig_run is None else float(sig_run),
+                distance_sigma_m=float(sig_dist),
+                width_sigma_m=widths[i],
+            )
+        )
+    if yaw_info:
+        w = np.array([a for a, _, _ in yaw_info])
+        w = w / w.sum()
+        sig = np.array([b for _, b, _ in yaw_info])
+        dev = np.array([_wrap_angle(c - model.yaw_rad) for _, _, c in yaw_info])
+        # The risers' own disagreement (one riser plane fitted a few degrees off pulls the
+        # weighted mean): their weighted spread about the stair yaw.
+        spread = float(np.sqrt(np.sum(w * dev**2)))
+        yaw_sigma = math.hypot(float(np.sqrt(np.sum(w**2 * sig**2))), spread)
+    else:
+        yaw_sigma = math.nan
+    return dataclasses.replace(model, steps=tuple(out), yaw_sigma_rad=yaw_sigma)
