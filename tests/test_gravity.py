@@ -285,8 +285,8 @@ def test_scalar_gauss_newton_is_the_matrix_one():
 def test_the_rig_check_runs_only_when_the_planes_do_not_settle_it(monkeypatch):
     """With a rig the local normals' estimate (the rig check) is skipped when the planes
     found in the rig's frame agree with it; a rig 15 deg off still runs it (issue 13)."""
-    from stereo_terrain import pipeline as pipeline_module
     from stereo_terrain.frames import Rig, camera_mount
+    from stereo_terrain.pipeline import gravity_steps as pipeline_module
 
     scene = render_scene(default_scene_spec())
     calls = []

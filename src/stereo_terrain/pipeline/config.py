@@ -1,0 +1,169 @@
+"""The pipeline's configuration: :class:`PipelineConfig` (every stage's config with SI
+defaults), built from a mapping or a YAML file."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..checks import check_fields
+from ..cloud import CloudConfig
+from ..drift import DriftConfig
+from ..errors import ConfigError
+from ..gravity import GravityConfig
+from ..planes.contour import ContourConfig
+from ..planes.orientation import OrientationConfig
+from ..rectify import RECTIFY_FOVS
+from ..stereo.fill import PlanarFillConfig
+from ..stereo.opencv import OpenCVSGBMConfig
+from ..stereo.sgm import SGMConfig
+from ..stereo.vertical import VerticalAlignConfig
+from ..swing import SwingConfig
+from ..terrain import TerrainConfig
+from ..tracking import TrackingConfig
+from ..vanishing import VerticalLinesConfig
+
+#: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
+PLANE_METHODS = ("orientation", "contour", "auto")
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    """Configuration of the whole pipeline; every stage's config with SI defaults.
+
+    Attributes
+    ----------
+    backend : str
+        Disparity backend: ``opencv`` (default; StereoSGBM) or ``sgm`` (the project's own
+        engine; more accurate on textured real scenes, slower; see the README).
+    sgbm, sgm : OpenCVSGBMConfig, SGMConfig
+        Options of the two backends (only the chosen one's are used); e.g. ``sgm: {device:
+        auto}`` runs our engine on a GPU when one is present.
+    max_disparity_px : int or None
+        Disparity search range; None chooses it from ``min_depth_m`` (a multiple of 16).
+    fill : PlanarFillConfig
+        Planar fill of texture-poor faces after matching (``fill.enabled``).
+    min_depth_m : float
+        Closest depth the disparity range must reach when chosen automatically.
+    method : str
+        Plane extraction: ``orientation`` (default; paper 3.2.2), ``contour`` (paper
+        3.2.1) or ``auto`` (both; the contour planes are added when that gives more steps,
+        and the result's ``plane_stage`` says which was used and why).
+    gravity : GravityConfig
+        Gravity from the scene's plane families without a rig, and the check of a rig
+        against the scene (:mod:`stereo_terrain.gravity`).
+    drift : DriftConfig
+        Online correction of the rectification for a rig that moved since calibration
+        (``drift.online``, off by default; see :mod:`stereo_terrain.drift`).
+    rectify_fov : str
+        What the rectified view keeps (:data:`stereo_terrain.rectify.RECTIFY_FOVS`):
+        ``valid`` (default; OpenCV alpha 0), ``full-height`` (the raw images' whole height:
+        for a camera close to stairs whose floor is a thin strip at the bottom), ``keep``
+        (alpha 0's focal length in a larger image that holds the whole raw left image) or
+        ``all``.
+    vertical : VerticalAlignConfig
+        Per-frame correction of a residual vertical offset of the right image
+        (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
+    vanishing : VerticalLinesConfig
+        Without a rig, up also from the vanishing point of the image's vertical lines
+        (:mod:`stereo_terrain.vanishing`; ``vanishing.enabled``, on by default), combined
+        with the planes' estimate (:func:`stereo_terrain.vanishing.combine_with_lines`).
+    tracking : TrackingConfig
+        The staircase tracked over frames by the live loop (``run``, ``replay``; issue
+        14, :mod:`stereo_terrain.tracking`); ``tracking: {enabled: false}`` gives single
+        frames. A single ``reconstruct`` does not use it.
+    """
+
+    backend: str = "opencv"
+    max_disparity_px: int | None = None
+    min_depth_m: float = 0.7
+    method: str = "orientation"
+    sgbm: OpenCVSGBMConfig = field(default_factory=OpenCVSGBMConfig)
+    sgm: SGMConfig = field(default_factory=SGMConfig)
+    fill: PlanarFillConfig = field(default_factory=PlanarFillConfig)
+    cloud: CloudConfig = field(default_factory=CloudConfig)
+    orientation: OrientationConfig = field(default_factory=OrientationConfig)
+    contour: ContourConfig = field(default_factory=ContourConfig)
+    terrain: TerrainConfig = field(default_factory=TerrainConfig)
+    swing: SwingConfig = field(default_factory=SwingConfig)
+    drift: DriftConfig = field(default_factory=DriftConfig)
+    gravity: GravityConfig = field(default_factory=GravityConfig)
+    # Stage 1 options (rectify.py, stereo/vertical.py): issue 11.
+    rectify_fov: str = "valid"
+    vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
+    tracking: TrackingConfig = field(default_factory=TrackingConfig)  # issue 14
+    vanishing: VerticalLinesConfig = field(default_factory=VerticalLinesConfig)  # issue 11
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        mdp = self.max_disparity_px
+        if mdp is not None and (isinstance(mdp, bool) or not isinstance(mdp, int)):
+            raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
+        if self.backend not in ("opencv", "sgm"):
+            raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv, sgm")
+        if self.method not in PLANE_METHODS:
+            raise ConfigError(f"unknown method '{self.method}'; choose one of: {', '.join(PLANE_METHODS)}")
+        if not self.min_depth_m > 0:
+            raise ConfigError(f"min_depth_m must be > 0, got {self.min_depth_m}")
+        if self.rectify_fov not in RECTIFY_FOVS:
+            choices = ", ".join(RECTIFY_FOVS)
+            raise ConfigError(f"unknown rectify_fov '{self.rectify_fov}'; choose one of: {choices}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PipelineConfig:
+        """Build from a nested mapping (as loaded from YAML); unknown keys are errors."""
+        if not isinstance(data, dict):
+            raise ConfigError("pipeline config must be a mapping")
+        kwargs: dict[str, Any] = {}
+        nested = {f.name: f.type for f in dataclasses.fields(cls)}
+        sub_types = {
+            "sgbm": OpenCVSGBMConfig,
+            "sgm": SGMConfig,
+            "fill": PlanarFillConfig,
+            "cloud": CloudConfig,
+            "orientation": OrientationConfig,
+            "contour": ContourConfig,
+            "terrain": TerrainConfig,
+            "swing": SwingConfig,
+            "drift": DriftConfig,
+            "gravity": GravityConfig,
+            "vertical": VerticalAlignConfig,
+            "tracking": TrackingConfig,
+            "vanishing": VerticalLinesConfig,
+        }
+        for key, value in data.items():
+            if key not in nested:
+                raise ConfigError(f"unknown pipeline config key '{key}'; known: {sorted(nested)}")
+            if key in sub_types:
+                sub = sub_types[key]
+                known = {f.name for f in dataclasses.fields(sub)}
+                if not isinstance(value, dict):
+                    raise ConfigError(f"config '{key}' must be a mapping of {sorted(known)}")
+                if not set(value) <= known:
+                    raise ConfigError(
+                        f"config '{key}': unknown keys {set(value) - known}; known: {sorted(known)}"
+                    )
+                try:
+                    kwargs[key] = sub(**value)
+                except (TypeError, ValueError) as exc:  # ConfigError included: name the section
+                    raise ConfigError(f"config '{key}': {exc}") from None
+            else:
+                kwargs[key] = value
+        try:
+            return cls(**kwargs)
+        except ConfigError:
+            raise
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"pipeline config: {exc}") from None
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> PipelineConfig:
+        from ..checks import load_yaml_file  # UTF-8, nesting depth, YAML errors: one message
+
+        data = load_yaml_file(path, "config file")
+        try:
+            return cls.from_dict({} if data is None else data)
+        except ConfigError as exc:
+            raise ConfigError(f"config file {path}: {exc}") from None

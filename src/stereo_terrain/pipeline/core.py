@@ -1,0 +1,366 @@
+"""The orchestrator: :class:`Pipeline` runs the stages in order on each stereo pair."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import numpy as np
+
+from ..calibration import StereoCalibration
+from ..cloud import GridSample, sample_disparity, transform_sample
+from ..drift import CorrectionUpdate, OnlineRectifier
+from ..frames import Rig, Transform
+from ..gravity import GravityEstimate, estimate_up, levelling, refine_up_from_planes
+from ..planes.auto import combine_plane_sets
+from ..planes.contour import extract_planes_contour
+from ..planes.orientation import PlaneSet, extract_planes_orientation, transform_planes
+from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
+from ..stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
+from ..stereo.fill import FlatRegions, fill_planar_regions, find_flat_regions
+from ..stereo.manhattan import fill_manhattan_faces
+from ..stereo.vertical import VerticalOffset, align_vertical
+from ..swing import plan_swing
+from ..terrain import StairModel, build_terrain, estimate_step_sigmas
+from ..vanishing import SceneLines, combine_with_lines, horizontal_direction, scene_lines
+from .config import PipelineConfig
+from .gravity_steps import (
+    _gravity_report,
+    _level_from_scene,
+    _level_with_line_frame,
+    _level_with_lines,
+    _origin_on_floor,
+    _rig_check,
+)
+from .result import TerrainResult
+from .warm_up import warm_up_kernels
+
+
+class Pipeline:
+    """Runs every stage on stereo pairs from one calibrated rig.
+
+    Parameters
+    ----------
+    calibration : StereoCalibration
+    rig : Rig, optional
+        Mounting and body attitude; without it up comes from the scene (its level and
+        upright planes and lines) and the result says ``gravity_source: "scene"``.
+    config : PipelineConfig, optional
+
+    backend : DisparityBackend, optional
+        A disparity engine to use instead of the config's.
+    warm_up : bool
+        Load (or compile) the compiled kernels the configured stages use before the first
+        frame, so that it costs about what a steady one does (:func:`warm_up_kernels`).
+
+    Examples
+    --------
+    >>> from stereo_terrain.synthetic import default_scene_spec, render_scene
+    >>> scene = render_scene(default_scene_spec())
+    >>> result = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right)
+    >>> result.terrain.obstacle
+    'stairs'
+    """
+
+    def __init__(
+        self,
+        calibration: StereoCalibration,
+        rig: Rig | None = None,
+        config: PipelineConfig | None = None,
+        *,
+        backend: DisparityBackend | None = None,
+        warm_up: bool = True,
+    ) -> None:
+        self.config = config or PipelineConfig()
+        self.calibration = calibration
+        self.rig = rig
+        self.rectification: Rectification = compute_rectification(calibration, fov=self.config.rectify_fov)
+        # Online drift correction (opt-in): owns the rectification from here on.
+        self.rectifier: OnlineRectifier | None = (
+            OnlineRectifier(self.rectification, self.config.drift) if self.config.drift.online else None
+        )
+        self.last_correction: CorrectionUpdate | None = None
+        self.last_vertical: VerticalOffset | None = None  # stereo/vertical.py, last frame
+        if self.config.max_disparity_px is not None:
+            width = self.rectification.image_size[0]  # rectified (larger with rectify_fov="keep")
+            self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, width)
+        else:
+            self.max_disparity_px = default_max_disparity(self.rectification, self.config.min_depth_m)
+        if backend is None:
+            chosen = self.config.sgbm if self.config.backend == "opencv" else self.config.sgm
+            options = dataclasses.asdict(chosen)
+            backend = make_backend(self.config.backend, **options)
+        self.backend = backend
+        # Rectified left camera -> yaw frame from the rig (None without one: the floor decides).
+        self.T_yaw_camera_rect: Transform | None = (
+            None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
+        )
+        if warm_up:
+            warm_up_kernels(
+                self.config, with_rig=rig is not None, backend=None if backend is None else self.backend
+            )
+
+    def reset_drift(self) -> None:
+        """Forget what the online drift correction has seen and go back to the calibration's
+        rectification (e.g. after a warm-up on a rendered pair)."""
+        if self.rectifier is not None:
+            self.rectifier.reset()
+            self.rectification = self.rectifier.current
+        self.last_correction = None
+
+    def set_rig(self, rig: Rig) -> None:
+        """Use ``rig`` from the next frame on (e.g. the body attitude from the state estimator)."""
+        self.rig = rig
+        self.T_yaw_camera_rect = rig.T_yaw_camera @ self.rectification.T_camera_rect
+
+    def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
+        """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""
+        timing: dict[str, float] = {}
+        t0 = t = time.perf_counter()
+
+        def lap(name: str) -> None:
+            nonlocal t
+            now = time.perf_counter()
+            timing[name] = (now - t) * 1000.0
+            t = now
+
+        pair = rectify(left, right, self.rectification)
+        if self.rectifier is not None:
+            self.last_correction = self.rectifier.update(pair)
+            if self.last_correction.changed:  # re-rectify this frame with the corrected rig
+                self.rectification = self.last_correction.rectification
+                pair = rectify(left, right, self.rectification)
+        pair, self.last_vertical = align_vertical(pair, self.config.vertical)  # residual vertical offset
+        lap("rectify")
+        regions = None
+        if self.config.fill.enabled:
+            # The fill's regions need only the left image: found on another core while the
+            # matcher runs (OpenCV releases the GIL; issue 13).
+            regions = _background().submit(
+                find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
+            )
+        lines_job = None
+        want_up = self.T_yaw_camera_rect is None and self.config.vanishing.enabled
+        want_horizontal = self.config.fill.enabled and self.config.fill.manhattan
+        rig_up = None if self.T_yaw_camera_rect is None else self._rig_up_camera(self.T_yaw_camera_rect)
+        if want_up or (want_horizontal and (rig_up is not None or self.config.vanishing.enabled)):
+            # Image only, so found on the other core while the matcher runs, as the fill's
+            # regions are: without a rig, up from the image's vertical lines; and the
+            # scene's horizontal direction for the Manhattan fill.
+            lines_job = _background().submit(
+                scene_lines,
+                pair.left,
+                pair.rectification,
+                self.config.vanishing,
+                known_up=rig_up,
+                want_up=want_up,
+                want_horizontal=want_horizontal,
+                prior_cone_deg=self.config.gravity.prior_cone_deg,
+            )
+        disp = self.backend.compute(pair, self.max_disparity_px)
+        if regions is not None:
+            disp = self._fill(disp, pair, regions.result(), lines_job, rig_up, want_horizontal)
+        lap("disparity")
+        cfg = self.config
+        cam_sample = sample_disparity(
+            disp, _identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
+        )
+        lap("cloud")
+        rig_T = self.T_yaw_camera_rect
+        prior = rig_up  # the rig's up in the camera, as the lines' job had it
+        lines: GravityEstimate | None = None  # up from the image's vertical lines (no rig)
+        before_planes: GravityEstimate | None
+        if rig_T is not None:
+            # The local normals' estimate only checks the rig, and is needed only when the
+            # planes do not settle the check (_rig_check, after the planes; issue 13).
+            T, source, before_planes = rig_T, "rig", None
+        else:  # before_planes: what levelled the frame (its up is in the start's frame)
+            coarse = estimate_up(cam_sample, cfg.gravity, prior_up=prior)
+            T, source, before_planes = _level_from_scene(cam_sample, coarse, cfg)
+            lines = None if lines_job is None else lines_job.result().up
+            if lines is not None and lines.ok:
+                T, source, before_planes = _level_with_lines(
+                    T, source, before_planes, lines, cfg.vanishing.overrule_planes
+                )
+        lap("gravity")
+        samples = transform_sample(cam_sample, T)
+        planes = self._extract_planes(samples, pair.left)
+        fine = refine_up_from_planes(planes, cfg.gravity)
+        if lines is not None and lines.ok:
+            # The final planes' up and the lines' (in the same, levelled frame).
+            fine = combine_with_lines(
+                fine,
+                dataclasses.replace(lines, up=T.apply_vectors(lines.up), frame=fine.frame),
+                overrule=cfg.vanishing.overrule_planes,
+            )
+        if rig_T is None and lines_job is not None and cfg.vanishing.frame:
+            segments = lines_job.result().segments
+            framed = _level_with_line_frame(fine, before_planes, source, T, segments, pair, cfg)
+            if framed is not None:
+                fine, source = framed, "scene"
+        if source == "scene" and fine.ok:
+            # The last, small correction from the final planes (more of them, tighter).
+            correction = levelling(fine.up)
+            T = correction @ T
+            planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
+        floor_known = source == "rig"
+        if not floor_known:
+            planes, T, floor_known = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
+        if before_planes is None:
+            before_planes = _rig_check(cam_sample, fine, prior, cfg.gravity, cfg.orientation.angle_tol_deg)
+        gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
+        planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known)
+        rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
+        terrain = estimate_step_sigmas(
+            terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
+        )
+        swing = plan_swing(terrain, self.config.swing)
+        lap("polytope")
+        timing["total"] = (time.perf_counter() - t0) * 1000.0
+        return TerrainResult(
+            terrain,
+            swing,
+            planes,
+            disp,
+            pair,
+            T,
+            source,
+            timing,
+            gravity,
+            self.config.cloud,
+            choice,
+            self.config.method,
+        )
+
+    def _fill(
+        self,
+        disp: DisparityMap,
+        pair: RectifiedPair,
+        flat: FlatRegions,
+        lines_job: Future[SceneLines] | None,
+        rig_up: np.ndarray | None,
+        manhattan: bool,
+    ) -> DisparityMap:
+        """Texture-poor faces: the planar fill (disparity from their outline, see
+        stereo/fill.py), then the Manhattan fill (faces with one end in view: planes of the
+        scene's three directions, see stereo/manhattan.py) when up and a horizontal
+        direction are known: up from the rig, else from the image's vertical lines, else
+        (they do not fix it) a first estimate from the planar-filled disparity's planes."""
+        cfg = self.config
+        occluded: list[int] = []
+        values, filled = fill_planar_regions(
+            disp.disparity,
+            pair.left,
+            cfg.fill,
+            max_disparity_px=disp.max_disparity_px,
+            valid=pair.rectification.valid_left,
+            regions=flat,
+            occluded=occluded,
+        )
+        found = None if lines_job is None else lines_job.result()
+        if manhattan and found is not None:
+            up, horizontal = rig_up, found.horizontal
+            if up is None and found.up is not None and found.up.ok:
+                up = found.up.up
+            elif up is None:
+                first = sample_disparity(
+                    dataclasses.replace(disp, disparity=values, filled=filled),
+                    _identity_camera_rect(),
+                    cfg.cloud,
+                    target_points=cfg.orientation.target_points,
+                )
+                coarse = estimate_up(first, cfg.gravity)
+                if coarse.ok and coarse.sigma_deg <= cfg.fill.manhattan_max_up_sigma_deg:
+                    up = coarse.up
+                    horizontal = horizontal_direction(found.segments, pair.rectification, up, cfg.vanishing)
+            if up is not None and horizontal is not None:
+                values, filled = fill_manhattan_faces(
+                    disp.disparity,
+                    values,
+                    filled,
+                    flat.without(occluded) if occluded else flat,  # an occluder's edge holds them
+                    pair.left,
+                    pair.rectification,
+                    up,
+                    horizontal,
+                    cfg.fill,
+                    max_disparity_px=disp.max_disparity_px,
+                )
+        return dataclasses.replace(disp, disparity=values, filled=filled)
+
+    def _rig_up_camera(self, rig_T: Transform) -> np.ndarray:
+        """The rig's up in the rectified camera frame (read-only), computed once per rig
+        transform rather than once per frame (issue 13)."""
+        cached: tuple[Transform, np.ndarray] | None = getattr(self, "_rig_up_cache", None)
+        if cached is None or cached[0] is not rig_T:
+            up = rig_T.inverse().apply_vectors(np.array([0.0, 0.0, 1.0]))
+            up.setflags(write=False)
+            cached = self._rig_up_cache = (rig_T, up)
+        return cached[1]
+
+    def _extract_planes(self, samples: GridSample, image: np.ndarray) -> PlaneSet:
+        """The primary plane set: the contour method's when asked for, else the
+        orientation method's (``auto`` adds contour planes later, on the final frame)."""
+        if self.config.method == "contour":
+            return extract_planes_contour(samples, image, self.config.contour)
+        return extract_planes_orientation(samples, self.config.orientation)
+
+    def _planes_and_terrain(
+        self, planes: PlaneSet, image: np.ndarray, lap: Callable[[str], None], floor_known: bool
+    ) -> tuple[PlaneSet, StairModel, str]:
+        """The terrain built on ``planes`` (from :meth:`_extract_planes`); ``floor_known``:
+        the frame's origin is on the floor (:func:`build_terrain`).
+
+        ``auto`` also runs the contour method; the union (orientation planes plus the
+        contour planes that are new) replaces the orientation planes only when its
+        staircase has more steps, since extra planes can also only add steps.
+        """
+        cfg = self.config
+        if cfg.method == "contour":
+            lap("planes")
+            return planes, build_terrain(planes, cfg.terrain, floor_known=floor_known), "contour requested"
+        if cfg.method == "orientation":
+            lap("planes")
+            terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known)
+            return planes, terrain, "orientation requested (the default)"
+        contour = extract_planes_contour(planes.samples, image, cfg.contour)
+        combined, added = combine_plane_sets(planes, contour)
+        lap("planes")
+        terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known)
+        if added == 0:
+            why = "orientation: the contour method found no plane the orientation method missed"
+            return planes, terrain, why
+        terrain_c = build_terrain(combined, cfg.terrain, floor_known=floor_known)
+        if len(terrain_c.steps) > len(terrain.steps):
+            why = (
+                f"combined: {added} contour plane(s) added {len(terrain_c.steps) - len(terrain.steps)} "
+                f"step(s) to the orientation method's {len(terrain.steps)}"
+            )
+            return combined, terrain_c, why
+        return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+@functools.cache
+def _identity_camera_rect() -> Transform:
+    """The identity of ``camera_rect``, built once (a Transform checks its matrix when
+    built: issue 13)."""
+    return Transform.identity("camera_rect")
+
+
+_BACKGROUND: dict[int, ThreadPoolExecutor] = {}
+
+
+def _background() -> ThreadPoolExecutor:
+    """The process's one worker thread for work that overlaps the disparity matcher (shared
+    by every pipeline, so that many pipelines do not leave many idle threads). Keyed by
+    process id: a child forked after a frame has no thread behind its parent's executor,
+    and would wait on it forever."""
+    pid = os.getpid()
+    if pid not in _BACKGROUND:
+        _BACKGROUND.clear()
+        _BACKGROUND[pid] = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-terrain")
+    return _BACKGROUND[pid]

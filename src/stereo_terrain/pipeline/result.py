@@ -1,0 +1,131 @@
+"""What one frame produced: :class:`TerrainResult` and its JSON (the terrain result of
+CONVENTIONS.md, version 1)."""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..cloud import CloudConfig, PointCloud, disparity_to_cloud, transform_cloud
+from ..frames import Transform
+from ..gravity import GravityReport
+from ..planes.orientation import PlaneSet
+from ..rectify import RectifiedPair
+from ..stereo import DisparityMap
+from ..swing import SwingPlan
+from ..terrain import StairModel
+
+RESULT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class TerrainResult:
+    """Everything one frame produced; :meth:`to_json_dict` gives the JSON contract.
+
+    Attributes
+    ----------
+    terrain : StairModel
+    swing : SwingPlan
+    planes : PlaneSet (yaw frame)
+    disparity : DisparityMap
+    cloud : PointCloud (yaw frame), computed on first access
+    rectified : RectifiedPair
+    T_yaw_camera_rect : Transform
+    gravity_source : str
+        ``rig``, ``scene`` (no rig: up from the scene's plane families) or
+        ``assumed-level`` (no rig and nothing in view fixes up: a level camera is assumed).
+    gravity : GravityReport
+        Its uncertainty, and with a rig how far the scene's own estimate is from it.
+    timing_ms : dict of stage -> milliseconds
+    plane_choice : str
+        Why the planes are those of ``planes.method`` (``auto`` explains its pick).
+    method_requested : str
+    """
+
+    terrain: StairModel
+    swing: SwingPlan
+    planes: PlaneSet = field(repr=False)
+    disparity: DisparityMap = field(repr=False)
+    rectified: RectifiedPair = field(repr=False)
+    T_yaw_camera_rect: Transform = field(repr=False)
+    gravity_source: str
+    timing_ms: dict[str, float]
+    gravity: GravityReport | None = field(default=None, repr=False)
+    cloud_config: CloudConfig = field(default_factory=CloudConfig, repr=False)
+    plane_choice: str = ""
+    method_requested: str = "orientation"
+
+    @functools.cached_property
+    def cloud(self) -> PointCloud:
+        """The full-resolution organized cloud in the yaw frame (computed on first use)."""
+        return transform_cloud(disparity_to_cloud(self.disparity, self.cloud_config), self.T_yaw_camera_rect)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """The terrain result of CONVENTIONS.md (version 1)."""
+        t = self.terrain
+
+        def r(x: float | None, nd: int = 4) -> float | None:
+            return None if x is None else round(float(x), nd)
+
+        return {
+            "version": RESULT_VERSION,
+            "frame": "yaw",
+            "obstacle": t.obstacle,
+            "steps": [
+                {
+                    "rise": r(s.rise_m),
+                    "run": r(s.run_m),
+                    "distance": r(s.distance_m),
+                    "width": r(s.width_m),
+                    "rise_inferred": s.rise_inferred,
+                    # issue 14: 1-sigma of each (null where the value is null or unknown)
+                    "rise_sigma": _sigma(s.rise_sigma_m),
+                    "run_sigma": _sigma(s.run_sigma_m),
+                    "distance_sigma": _sigma(s.distance_sigma_m),
+                    "width_sigma": _sigma(s.width_sigma_m),
+                }
+                for s in t.steps
+            ],
+            "yaw": r(t.yaw_rad),
+            "yaw_sigma": _sigma(t.yaw_sigma_rad, 5),
+            "planes": [
+                {
+                    "normal": [round(float(v), 5) for v in seg.plane.normal],
+                    "offset": r(seg.plane.offset),
+                    "kind": seg.kind,
+                    "inliers": int(seg.count),
+                    "rms": r(seg.rms_m, 5),
+                }
+                for seg in self.planes.segments
+            ],
+            "polytope": {
+                "vertices": [[round(float(c), 4) for c in p] for p in t.polytope.vertices],
+                "faces": [list(f) for f in t.polytope.faces],
+            },
+            "swing": {
+                "height": r(self.swing.height_m),
+                "trigger_distance": r(self.swing.trigger_distance_m),
+                "traversable": self.swing.traversable,
+            },
+            "timing_ms": {k: round(v, 2) for k, v in self.timing_ms.items()},
+            "gravity_source": self.gravity_source,
+            "gravity": None if self.gravity is None else self.gravity.to_json_dict(),
+            "note": t.note,
+            "plane_stage": {
+                "method_requested": self.method_requested,
+                "method_used": self.planes.method,
+                "reason": self.plane_choice,
+                "stop_reason": self.planes.stop_reason,
+                "parameters": self.planes.parameters,
+            },
+        }
+
+
+def _sigma(x: float | None, nd: int = 4) -> float | None:
+    """A 1-sigma for the JSON result: None when unknown (None or NaN), never below the
+    rounding."""
+    if x is None or not math.isfinite(x):
+        return None
+    return max(round(float(x), nd), 10.0**-nd)
