@@ -45,21 +45,24 @@ def _without_treads(full: PlaneSet) -> PlaneSet:
     return dataclasses.replace(full, segments=keep)
 
 
-def test_a_face_going_on_above_the_image_is_not_a_riser():
+@pytest.mark.parametrize(("grid_row", "cut"), [(0, True), (2, True), (3, False)])
+def test_a_face_going_on_above_the_image_is_not_a_riser(grid_row, cut):
     """A vertical face whose samples reach the image's top edge goes on out of view (the
     Middlebury Teddy's and Jadeplant's back walls, a textureless backdrop): the height seen
-    is the image's, not a step's. The same face further down the image is a step."""
+    is the image's, not a step's. The band is the grid's rows 0-2 (row 0's boxes reach past
+    the image and never hold samples, so the first two rows with samples); the same face
+    one row further down is a step."""
     one = _stairs(n_steps=1, rise=0.2)
     assert build_terrain(one).obstacle != NONE
     riser = next(s for s in one.segments if s.kind == VERTICAL)
     gw = one.samples.grid_shape[1]
     grid_index = one.samples.grid_index.copy()
-    grid_index[riser.indices] = np.arange(len(riser.indices)) % gw  # the grid's first row
+    grid_index[riser.indices] = grid_row * gw + np.arange(len(riser.indices)) % gw
     rows = one.samples.rows.copy()
-    rows[riser.indices] = 2
-    cut = dataclasses.replace(one, samples=dataclasses.replace(one.samples, grid_index=grid_index, rows=rows))
-    model = build_terrain(cut)
-    assert model.obstacle == NONE, model.note
+    rows[riser.indices] = 2 + grid_row * one.samples.stride_px
+    samples = dataclasses.replace(one.samples, grid_index=grid_index, rows=rows)
+    model = build_terrain(dataclasses.replace(one, samples=samples))
+    assert (model.obstacle == NONE) == cut, model.note
 
 
 def _turned(full: PlaneSet, turns_deg: dict[int, float]) -> PlaneSet:

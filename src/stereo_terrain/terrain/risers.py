@@ -111,8 +111,9 @@ def _axis_from_normal(n: np.ndarray) -> np.ndarray:
 #: this low percentile of their heights (robust to a few stray points) is the test.
 _LOW_INLIER_PCT = 5.0
 
-#: A plane with this share (``_LOW_INLIER_PCT``) of its inliers in the image's first grid
-#: rows goes on above the image: its top edge is not seen (issue 11).
+#: A plane with this share (``_LOW_INLIER_PCT``) of its inliers in the grid's rows 0 to
+#: this goes on above the image: its top edge is not seen (issue 11). Row 0's boxes reach
+#: past the image and never hold samples, so these are the first two rows with samples.
 _TOP_CUT_ROWS = 2
 
 
