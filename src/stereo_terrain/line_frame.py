@@ -147,8 +147,7 @@ def up_from_line_frame(
 
     if len(segments) < config.min_inliers:
         return failed(f"{len(segments)} line segment(s) in the image (need {config.min_inliers})")
-    seg = _Segments(np.asarray(segments, dtype=np.float64), rectification, config.endpoint_sigma_px)
-    sigma = np.sqrt(seg.noise**2 + math.radians(config.structure_sigma_deg) ** 2)
+    seg, sigma = _segments_and_sigma(segments, rectification, config)
     s0 = math.radians(prior_sigma_deg)
     # 1. Starts: the prior's up, and ups from triples of segments (the minimal case):
     # the first two meet at a vanishing point v; if v is horizontal, the third's
@@ -245,7 +244,7 @@ def _peaks(seg: _Segments, gain: np.ndarray, u: np.ndarray, free: np.ndarray, to
     grid = np.arange(180) * (math.pi / 180)
     e = _tangent_basis(u)
     a = np.abs(seg.angles(np.cos(grid)[:, None] * e[0] + np.sin(grid)[:, None] * e[1]))  # (180, N)
-    fit = np.maximum(0.0, 1.0 - (a / tol) ** 2) * free
+    fit = _fit_weight(a, tol) * free
     pair = fit[:90] + fit[90:]
     first = int(np.argmax(pair @ gain))
     members = free & ((a[first] < tol) | (a[first + 90] < tol))
@@ -337,7 +336,7 @@ def _fit(
     # The score counts up and the Manhattan pair only: each Atlanta direction has a free
     # angle of its own, and any three segments of a scene that meet near the horizon
     # would make one (they help the fit, they do not choose it).
-    fit = np.where(inliers & (family < 3), np.maximum(0.0, 1.0 - (angle / tol) ** 2), 0.0)
+    fit = np.where(inliers & (family < 3), _fit_weight(angle, tol), 0.0)
     score = float(fit @ (tol / sigma) ** 2) - (math.acos(min(1.0, max(-1.0, float(u @ u0)))) / s0) ** 2
     return _Fit(u if u @ u0 >= 0 else -u, thetas, inliers, normal, chi2, score)
 
@@ -416,8 +415,7 @@ def up_from_lines_and_planes(
         # Two frames that contradict each other: the vertical lines, the direct witness of
         # up, choose (a sloped family, handrails or the staircase's slope, taken for a
         # horizontal direction turns up about the steps' edges and loses the verticals).
-        seg = _Segments(np.asarray(segments, dtype=np.float64), rectification, config.endpoint_sigma_px)
-        sigma = np.sqrt(seg.noise**2 + math.radians(config.structure_sigma_deg) ** 2)
+        seg, sigma = _segments_and_sigma(segments, rectification, config)
         tol = math.radians(config.frame_inlier_deg)
         v_near, v_alone = (_support(seg, sigma, u, tol) for u in (near.up, alone.up))
         if not overrule or v_alone <= _VERTICAL_MARGIN * v_near:
@@ -432,6 +430,21 @@ def up_from_lines_and_planes(
         return dataclasses.replace(alone, reason=why)
     # No frame near the planes' up, and the upright one does not contradict it: both.
     return _both(planes_up, planes_sigma_deg, alone, f"{alone.reason}, with the planes' up")
+
+
+def _fit_weight(angle: np.ndarray, tol: float) -> np.ndarray:
+    """A segment's share of its gain at ``angle`` (radians) from a direction: 1 on it,
+    falling quadratically to 0 at ``tol`` (the frame's truncated quadratic)."""
+    return np.maximum(0.0, 1.0 - (angle / tol) ** 2)
+
+
+def _segments_and_sigma(
+    segments: np.ndarray, rectification: Rectification, config: VerticalLinesConfig
+) -> tuple[_Segments, np.ndarray]:
+    """The segments in the camera's rays, and each one's direction sigma (radians): its
+    ends' noise and the structure's own (real edges are not exactly plumb or level)."""
+    seg = _Segments(np.asarray(segments, dtype=np.float64), rectification, config.endpoint_sigma_px)
+    return seg, np.sqrt(seg.noise**2 + math.radians(config.structure_sigma_deg) ** 2)
 
 
 def _both(up: np.ndarray, sigma_deg: float, other: GravityEstimate, reason: str) -> GravityEstimate:
@@ -449,4 +462,4 @@ def _support(seg: _Segments, sigma: np.ndarray, up: np.ndarray, tol: float) -> f
     """What the segments pointing at ``up``'s vanishing point (within ``tol``) gain
     (chi^2, as in the frame's score)."""
     a = np.abs(seg.angles(up[None]))[0]
-    return float(np.maximum(0.0, 1.0 - (a / tol) ** 2) @ (tol / sigma) ** 2)
+    return float(_fit_weight(a, tol) @ (tol / sigma) ** 2)

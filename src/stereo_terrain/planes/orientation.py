@@ -292,8 +292,12 @@ def normal_agreement_cos(samples: GridSample, config: OrientationConfig) -> np.n
     """Per sample, the cosine a plane's normal and the sample's own must reach to agree:
     ``normal_agreement_deg``, widened where the sample's normal is uncertain
     (:func:`noise_widened`)."""
-    out = np.full(len(samples), float(np.cos(np.radians(config.normal_agreement_deg))))
-    wide = noise_widened(samples, config, config.normal_agreement_deg)
+    return _agreement_cos(noise_widened(samples, config, config.normal_agreement_deg), config, len(samples))
+
+
+def _agreement_cos(wide: np.ndarray | None, config: OrientationConfig, n: int) -> np.ndarray:
+    """:func:`normal_agreement_cos` from the widened tolerances ``wide`` already found."""
+    out = np.full(n, float(np.cos(np.radians(config.normal_agreement_deg))))
     if wide is not None:
         out = np.where(wide > np.radians(config.normal_agreement_deg), np.cos(wide), out)
     return out
@@ -450,7 +454,9 @@ def extract_planes_orientation(
     ).astype(np.float32)
     lut, gr, gc = grid_lookup(samples)
     cos_tol, sin_tol = np.cos(np.radians(config.angle_tol_deg)), np.sin(np.radians(config.angle_tol_deg))
-    agree_cos = normal_agreement_cos(samples, config)
+    # Far samples' normal tests, widened by their noise (None: nothing widens).
+    wide = noise_widened(samples, config, config.normal_agreement_deg)
+    agree_cos = _agreement_cos(wide, config, len(samples))
     upf = up.astype(np.float32)
     nz = np.abs(N @ upf)
     # First sample points: local normal near horizontal or vertical (with some slack).
@@ -463,7 +469,6 @@ def extract_planes_orientation(
     )
     # Far samples, whose normals are too noisy for that test, seed within their noise where
     # the agreement test is widened for them (the same angle).
-    wide = noise_widened(samples, config, config.normal_agreement_deg)
     if wide is not None:
         far = wide > np.radians(config.normal_agreement_deg)
         seedable |= far & ((nz >= np.cos(wide)) | (nz <= np.sin(wide)))
