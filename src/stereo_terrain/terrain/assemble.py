@@ -259,7 +259,7 @@ def _assemble_along(
             if (r.foot_hidden or _stands_below(P, r, ground_z, config))
             and r.s < first_s - config.merge_distance_m
             and abs(r.z_hi - ground_z) <= config.tread_height_tolerance_m
-            and not _ground_before(s_h, v_h, h_z, horizontals, ground_z, r, config)
+            and not _ground_before(s_h, v_h, h_z, ground_z, r, config)
         ]
         if cut_off:
             r0 = max(cut_off, key=lambda r: r.s)  # the one just before the chain
@@ -320,7 +320,7 @@ def _stands_below(P: np.ndarray, r: _Riser, ground_z: float, config: TerrainConf
     return r.z_lo < ground_z - config.min_rise_m and float(hi - lo) >= config.min_rise_m
 
 
-def _ground_before(s_h, v_h, h_z, horizontals, ground_z: float, r: _Riser, config: TerrainConfig) -> bool:
+def _ground_before(s_h, v_h, h_z, ground_z: float, r: _Riser, config: TerrainConfig) -> bool:
     """Whether the surface at ``ground_z`` is seen in front of riser ``r`` (before it along
     the stair axis, within its lateral extent): then it is the floor the riser stands on or
     beside, not a tread on top of it (issue 11)."""

@@ -25,8 +25,9 @@ class TerrainConfig:
         A riser shorter than ``min_rise_m`` is noise; a vertical plane taller than
         ``max_rise_m`` (plus ``edge_margin_m``) is a wall, not a step. The ground must be
         ``min_rise_m`` or more below the cameras (a surface above them is seen from below);
-        a camera less than that above the frame's origin means a frame without a floor
-        (no rig, none found). A riser in front of the stairs whose top is the lowest plane
+        where ``build_terrain`` is not told whether the frame has a floor
+        (``floor_known``), a camera less than that above the frame's origin means it has
+        none (no rig, none found). A riser in front of the stairs whose top is the lowest plane
         stands on a floor that formed no plane when its bottom edge is this much lower and
         its own samples span this much (issue 11).
     max_obstacle_rise_m : float
