@@ -46,12 +46,12 @@ def scenes(tmp_path_factory):
     return root
 
 
-def _evaluation_accuracy(root):
+def _evaluation_accuracy(root, use_rig=True):
     """What ``evaluation`` says of a fresh pipeline's first call on each scene."""
     scores = []
     for d in scene_dirs(root):
         s = read_bench_scene(d)
-        result = Pipeline(s.calibration, s.rig).run(s.left, s.right).to_json_dict()
+        result = Pipeline(s.calibration, s.rig if use_rig else None).run(s.left, s.right).to_json_dict()
         scores.append(score_result(result, json.loads((d / "truth.json").read_text())))
     return summarize(scores)
 
@@ -82,6 +82,17 @@ def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_
     # The table: one row per scene and the summary lines.
     assert sum(line.startswith("| scene_") for line in text.splitlines()) == 3
     assert "ratio" in text and "accuracy:" in text
+
+
+def test_bench_without_the_rigs_scores_gravity_from_the_scene(scenes, capsys):
+    code, text, err = run_cli(["bench", scenes, "--repeat", "1", "--no-rig", "--json", "-"], capsys)
+    assert code == 0, err
+    acc, ref = json.loads(text)["accuracy"], _evaluation_accuracy(scenes, use_rig=False)
+    assert acc["detection_rate"] == pytest.approx(ref["detection_rate"])
+    assert acc["step_count_accuracy"] == pytest.approx(ref["count_rate"])
+    (outcome,) = list(iter_bench([scenes / "scene_000"], PipelineConfig(), 1, timed=False, use_rig=False))
+    assert outcome.result["gravity_source"] == "scene"
+    assert read_bench_scene(scenes / "scene_000").rig is not None  # the folder has one
 
 
 def test_bench_json_to_stdout_is_json_only(scenes, capsys):
@@ -159,12 +170,14 @@ from stereo_terrain import _cloud_kernels as ck
 from stereo_terrain.stereo import _regions as rk
 from stereo_terrain.terrain import _kernels as tk
 from stereo_terrain.stereo import _disparity_kernels as dk
+from stereo_terrain import _gravity_kernels as gk
 calib, rig, left, right = _warm_up_scene()
 Pipeline(calib, rig, PipelineConfig(method="auto"))
 # (the orientation method's scoring, inliers, refinement and triplets run inside oriented_round)
 names = ["msac_costs"], ["region_msac", "oriented_round"], ["grid_cells_normals"], ["_label_stats"], [
-    "riser_edge_slices"], ["disparity_from_fixed_point"]
-mods = (mk, pk, ck, rk, tk, dk)
+    "riser_edge_slices"], ["disparity_from_fixed_point"], [
+    "truncated_family_error_sums", "floor_inlier_counts"]
+mods = (mk, pk, ck, rk, tk, dk, gk)
 cold = [n for mod, ns in zip(mods, names) for n in ns if not getattr(mod, n).signatures]
 print("cold:", cold)
 """

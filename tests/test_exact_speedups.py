@@ -187,3 +187,23 @@ def test_truncated_family_error_sums_are_the_numpy_passes_bit_for_bit():
         want = err.sum(axis=0)
         got = truncated_family_error_sums(cosines, s2)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+
+
+def test_floor_inlier_counts_are_the_numpy_passes():
+    """floor_up's hypothesis counts by one compiled pass (issue 13): NumPy's counts, with
+    residuals and cosines placed exactly on the thresholds too."""
+    from stereo_terrain._gravity_kernels import floor_inlier_counts
+
+    rng = np.random.default_rng(9)
+    for t in range(200):
+        H, S = int(rng.integers(1, 60)), int(rng.integers(0, 400))
+        dots = rng.normal(scale=0.05, size=(H, S))
+        offsets = rng.normal(scale=0.05, size=H)
+        thr = rng.uniform(0.015, 0.06, size=S).astype(np.float32)
+        cosines = rng.uniform(-1.0, 1.0, size=(H, S))
+        if t % 4 == 0 and S:  # on the boundaries
+            dots[:, : S // 2] = thr[: S // 2].astype(np.float64) - offsets[:, None]
+            cosines[:, S // 3 :] = rng.choice([0.9, -0.9], size=(H, S - S // 3))
+        want = ((np.abs(dots + offsets[:, None]) < thr) & (np.abs(cosines) >= 0.9)).sum(axis=1)
+        got = floor_inlier_counts(dots, offsets, thr, cosines, 0.9)
+        assert got.tolist() == want.tolist()

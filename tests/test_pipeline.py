@@ -137,6 +137,34 @@ def test_result_is_deterministic():
     assert a == b
 
 
+def test_a_frame_holds_blas_to_one_thread_and_gives_the_threads_back(monkeypatch):
+    """OpenBLAS's idle workers spin after a threaded call and take a core from the next
+    frame's matcher (issue 13): a frame runs with one BLAS thread, and the caller's setting
+    is back afterwards."""
+    from threadpoolctl import ThreadpoolController
+
+    import stereo_terrain.pipeline.core as core
+
+    blas = ThreadpoolController().select(user_api="blas")
+    if not blas.lib_controllers:
+        pytest.skip("no BLAS library that threadpoolctl can limit")
+    seen = []
+    real = core.refine_up_from_planes
+
+    def spy(*args, **kwargs):
+        seen.append({c["num_threads"] for c in blas.info()})
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(core, "refine_up_from_planes", spy)
+    scene = render_scene(default_scene_spec())
+    with blas.limit(limits=2):
+        before = [c["num_threads"] for c in blas.info()]
+        Pipeline(scene.calibration).run(scene.left, scene.right)
+        after = [c["num_threads"] for c in blas.info()]
+    assert seen and all(s == {1} for s in seen)
+    assert after == before
+
+
 def test_without_rig_the_scene_levels_the_cloud():
     scene = render_scene(default_scene_spec())
     data = Pipeline(scene.calibration).run(scene.left, scene.right).to_json_dict()

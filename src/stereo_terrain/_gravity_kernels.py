@@ -40,3 +40,24 @@ def truncated_family_error_sums(  # pragma: no cover - compiled
             else:
                 out[j] += e
     return out
+
+
+@njit(cache=True, nogil=True)
+def floor_inlier_counts(  # pragma: no cover - compiled
+    dots: np.ndarray, offsets: np.ndarray, thresholds: np.ndarray, cosines: np.ndarray, min_cos: float
+) -> np.ndarray:
+    """Per hypothesis ``h``, the points ``j`` with ``|dots[h, j] + offsets[h]| <
+    thresholds[j]`` and ``|cosines[h, j]| >= min_cos``: NumPy's
+    ``((np.abs(dots + offsets[:, None]) < thresholds) & (np.abs(cosines) >= min_cos)).sum(axis=1)``
+    in one pass (the same float64 sums and comparisons, so the same counts; for
+    :func:`stereo_terrain.gravity.floor_up`)."""
+    n_h, n_s = dots.shape
+    out = np.zeros(n_h, dtype=np.int64)
+    for h in range(n_h):
+        off = offsets[h]
+        k = 0
+        for j in range(n_s):
+            if abs(dots[h, j] + off) < thresholds[j] and abs(cosines[h, j]) >= min_cos:
+                k += 1
+        out[h] = k
+    return out

@@ -183,11 +183,13 @@ def read_truth(path: str | Path) -> dict[str, Any]:
     return check_truth(data, path)
 
 
-def read_bench_scene(folder: str | Path) -> BenchScene:
-    """Read one scene folder (images checked against the calibration's size)."""
+def read_bench_scene(folder: str | Path, *, use_rig: bool = True) -> BenchScene:
+    """Read one scene folder (images checked against the calibration's size); its
+    ``rig.yaml`` is left unread with ``use_rig=False`` (gravity from the scene, as a user
+    without a rig file runs the pipeline)."""
     folder = Path(folder)
     calib = read_calibration(folder / "calib.yaml")
-    rig = load_rig(folder / "rig.yaml") if (folder / "rig.yaml").is_file() else None
+    rig = load_rig(folder / "rig.yaml") if use_rig and (folder / "rig.yaml").is_file() else None
     left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
     for name, img in (("left.png", left), ("right.png", right)):
         if (img.shape[1], img.shape[0]) != calib.image_size:
@@ -250,17 +252,18 @@ def time_scene(scene: BenchScene, config: PipelineConfig, repeat: int) -> SceneO
 
 
 def iter_bench(
-    dirs: list[Path], config: PipelineConfig, repeat: int, *, timed: bool = True
+    dirs: list[Path], config: PipelineConfig, repeat: int, *, timed: bool = True, use_rig: bool = True
 ) -> Iterator[SceneOutcome]:
-    """Each scene folder's outcome in turn (scenes read one at a time)."""
+    """Each scene folder's outcome in turn (scenes read one at a time; ``use_rig=False``:
+    without their ``rig.yaml``)."""
     for d in dirs:
-        scene = read_bench_scene(d)
+        scene = read_bench_scene(d, use_rig=use_rig)
         yield time_scene(scene, config, repeat) if timed else evaluate_scene(scene, config)
 
 
-def _ray_evaluate(folder: str, config: dict[str, Any]) -> dict[str, Any]:
+def _ray_evaluate(folder: str, config: dict[str, Any], use_rig: bool = True) -> dict[str, Any]:
     """A Ray task: read the scene on the worker, run it, return the JSON result."""
-    scene = read_bench_scene(folder)
+    scene = read_bench_scene(folder, use_rig=use_rig)
     return evaluate_scene(scene, PipelineConfig.from_dict(config)).result
 
 
@@ -271,6 +274,7 @@ def score_with_ray(
     *,
     num_cpus: int = 2,
     on_done: Callable[[int, str], None] | None = None,
+    use_rig: bool = True,
 ) -> list[SceneOutcome]:
     """Accuracy of every scene, computed by Ray tasks (one per scene).
 
@@ -286,6 +290,8 @@ def score_with_ray(
         with ``num_cpus`` workers, shut down again at the end.
     on_done : callable(done, name), optional
         Called as each scene finishes (a progress bar).
+    use_rig : bool
+        False: the scenes' ``rig.yaml`` files are not read (gravity from the scene).
 
     Returns
     -------
@@ -313,7 +319,7 @@ def score_with_ray(
             raise InputError(f"bench --ray: cannot connect to Ray at {address}: {exc}") from None
     try:
         task = ray.remote(num_cpus=1)(_ray_evaluate)
-        pending = {task.remote(str(d.resolve()), config): i for i, d in enumerate(dirs)}
+        pending = {task.remote(str(d.resolve()), config, use_rig): i for i, d in enumerate(dirs)}
         results: list[dict[str, Any] | None] = [None] * len(dirs)
         done = 0
         while pending:

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._gravity_kernels import truncated_family_error_sums
+from ._gravity_kernels import floor_inlier_counts, truncated_family_error_sums
 from ._numeric import cross3, median
 from .checks import check_fields, check_min
 from .cloud import GridSample
@@ -378,10 +378,12 @@ def estimate_up(
 
 
 def load_gravity_kernels() -> None:
-    """Load (or compile) :func:`estimate_up`'s compiled kernel now rather than in its first
-    call (the pipeline's warm-up: with a rig that agrees with the scene the estimate does
-    not run on the warm-up pair)."""
+    """Load (or compile) the compiled kernels of :func:`estimate_up` and :func:`floor_up`
+    now rather than in their first call (the pipeline's warm-up: with a rig that agrees
+    with the scene neither runs on the warm-up pair)."""
     truncated_family_error_sums(np.zeros((1, 2), np.float32), np.float32(0.0))
+    one = np.zeros((1, 1))
+    floor_inlier_counts(one, np.zeros(1), np.zeros(1, np.float32), one, 0.9)
 
 
 def floor_up(
@@ -417,9 +419,10 @@ def floor_up(
     normals, offsets = normals[ok], offsets[ok]
     sub = rng.choice(len(pts), size=min(2000, len(pts)), replace=False)
     thr = np.clip(3.0 * samples.sigma_m, 0.015, 0.06)
-    resid = np.abs(normals @ pts[sub].T + offsets[:, None])
-    agree = np.abs(normals @ samples.normals[sub].T.astype(np.float64)) >= 0.9
-    best = int(np.argmax(((resid < thr[sub]) & agree).sum(axis=1)))
+    counts = floor_inlier_counts(
+        normals @ pts[sub].T, offsets, thr[sub], normals @ samples.normals[sub].T.astype(np.float64), 0.9
+    )
+    best = int(np.argmax(counts))
     plane = Plane(normals[best], offsets[best])
     inl = (plane.residuals(pts) < thr) & (np.abs(samples.normals @ plane.normal) >= 0.9)
     if inl.sum() < 30:

@@ -25,6 +25,11 @@ def add_parsers(sub: Any) -> None:
         choices=["orientation", "contour", "auto"],
         help="plane extraction (default: the config's)",
     )
+    b.add_argument(
+        "--no-rig",
+        action="store_true",
+        help="leave the scenes' rig.yaml unread: gravity and the floor from the scene, as without a rig file",
+    )
     b.add_argument("--repeat", type=positive_int, default=5, help="warm calls per scene (default 5)")
     b.add_argument("--json", type=Path, help="write the summary here ('-' for stdout)")
     b.add_argument(
@@ -58,16 +63,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
             dataclasses.asdict(config),
             address,
             on_done=lambda i, name: progress(i, len(dirs), name),
+            use_rig=not args.no_rig,
         )
     else:
         outcomes = []
-        for i, outcome in enumerate(iter_bench(dirs, config, args.repeat)):
+        for i, outcome in enumerate(iter_bench(dirs, config, args.repeat, use_rig=not args.no_rig)):
             outcomes.append(outcome)
             progress(i + 1, len(dirs), outcome.name)
     summary = bench_summary(outcomes)
     if args.json is not None:
         write_json(summary, args.json)
     if str(args.json) != "-":
+        if args.no_rig:
+            print("without the scenes' rig.yaml: gravity and the floor from the scene")
         if args.ray is not None:
             print(f"accuracy on Ray ({args.ray}); timing is measured only without --ray")
         print("\n".join(bench_table(outcomes, summary)))

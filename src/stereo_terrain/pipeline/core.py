@@ -8,6 +8,7 @@ import os
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -103,6 +104,7 @@ class Pipeline:
             warm_up_kernels(
                 self.config, with_rig=rig is not None, backend=None if backend is None else self.backend
             )
+        _find_blas()
 
     def reset_drift(self) -> None:
         """Forget what the online drift correction has seen and go back to the calibration's
@@ -119,6 +121,10 @@ class Pipeline:
 
     def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""
+        with _one_blas_thread():
+            return self._run(left, right)
+
+    def _run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
         timing: dict[str, float] = {}
         t0 = t = time.perf_counter()
 
@@ -349,6 +355,32 @@ def _identity_camera_rect() -> Transform:
     """The identity of ``camera_rect``, built once (a Transform checks its matrix when
     built: issue 13)."""
     return Transform.identity("camera_rect")
+
+
+_BLAS: list[Any] = []
+
+
+def _find_blas() -> None:
+    """Look up the process's BLAS libraries now (threadpoolctl; about 3 ms), for
+    :func:`_one_blas_thread`. Each ``Pipeline(...)`` does, after its warm-up has loaded
+    what its frames use."""
+    from threadpoolctl import ThreadpoolController
+
+    _BLAS[:] = [ThreadpoolController().select(user_api="blas")]
+
+
+def _one_blas_thread() -> Any:
+    """A context that holds the BLAS libraries (NumPy's OpenBLAS) to one thread.
+
+    The pipeline's matrix products are small (hundreds of plane hypotheses times a few
+    thousand points) and gain nothing from a second BLAS thread, but after each threaded
+    call OpenBLAS leaves its workers spinning for a while, and on two cores they take one
+    from the disparity matcher of the next frame: OpenCV's 3-way SGBM right after a frame
+    without a rig took 36 ms instead of 25 (docs/benchmarks.md, "BLAS threads"). The
+    limit is process-wide while a frame runs and is undone after it."""
+    if not _BLAS:
+        _find_blas()
+    return _BLAS[0].limit(limits=1)
 
 
 _BACKGROUND: dict[int, ThreadPoolExecutor] = {}
