@@ -256,3 +256,31 @@ def test_no_overrule_keeps_the_planes_up():
     assert up_from_lines_and_planes(segments, _rectification(), junk, 2.0, cfg).ok
     kept = up_from_lines_and_planes(segments, _rectification(), junk, 2.0, cfg, overrule=False)
     assert not kept.ok
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 40), st.integers(1, 6), st.integers(1, 4))
+def test_pair_angles_are_the_full_angles_picked_bit_for_bit(seed, n, k, batch):
+    """The fit's residuals take each segment's angle to its own direction only
+    (``pair_angles``, issue 13): the same bits as the full (K, N) angles, picked; with a
+    leading batch axis too. ``_tangent_basis`` keeps np.linalg.norm's bits."""
+    from stereo_terrain.gravity import _tangent_basis
+    from stereo_terrain.line_frame import _Segments
+
+    rng = np.random.default_rng(seed)
+    ends = rng.uniform(0.0, 640.0, size=(n, 4))
+    seg = _Segments(ends, _rectification(), 0.5)
+    dirs = rng.normal(size=(batch, k, 3))
+    dirs[..., 2] *= rng.choice([0.0, 1.0])  # vanishing points at infinity too
+    which, idx = rng.integers(0, k, size=3 * n), rng.integers(0, n, size=3 * n)
+    got = seg.pair_angles(dirs, which, idx)
+    for b in range(batch):
+        want = seg.angles(dirs[b])[which, idx]
+        assert got[b].tobytes() == want.tobytes()
+        assert seg.pair_angles(dirs[b], which, idx).tobytes() == want.tobytes()
+    u = dirs[0, 0] / np.linalg.norm(dirs[0, 0])
+    a = np.cross(u, (1.0, 0.0, 0.0))
+    if np.linalg.norm(a) < 0.5:
+        a = np.cross(u, (0.0, 1.0, 0.0))
+    a /= np.linalg.norm(a)
+    assert _tangent_basis(u).tobytes() == np.vstack([a, np.cross(u, a)]).tobytes()

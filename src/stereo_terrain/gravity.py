@@ -482,11 +482,15 @@ def _jackknife_sigma_deg(
 
 def _tangent_basis(u: np.ndarray) -> np.ndarray:
     """(2, 3): two unit vectors orthogonal to ``u`` and to each other."""
+    # np.linalg.norm of a vector is sqrt(x.dot(x)) (the same bits, without its wrapper).
     a = cross3(u, (1.0, 0.0, 0.0))
-    if np.linalg.norm(a) < 0.5:
+    if math.sqrt(a.dot(a)) < 0.5:
         a = cross3(u, (0.0, 1.0, 0.0))
-    a /= np.linalg.norm(a)
-    return np.vstack([a, cross3(u, a)])
+    a /= math.sqrt(a.dot(a))
+    out = np.empty((2, 3))
+    out[0] = a
+    out[1] = cross3(u, a)
+    return out
 
 
 def _sym2_eigen(a: float, b: float, d: float) -> tuple[float, float]:

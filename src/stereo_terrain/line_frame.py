@@ -76,6 +76,13 @@ _MAX_HORIZONTALS = 4
 _MIN_MEMBERS = 3
 
 
+def _row_norms(v: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(v, axis=-1, keepdims=True)`` of 2-vectors: the same sum of squares
+    and root (the same bits), without the wrapper's cost (the fit calls it thousands of
+    times a frame)."""
+    return np.sqrt(v[..., :1] * v[..., :1] + v[..., 1:] * v[..., 1:])
+
+
 class _Segments:
     """The segments in normalised image coordinates: midpoints, unit directions, lengths."""
 
@@ -92,10 +99,23 @@ class _Segments:
         """``(K, N)``: signed angle (radians) between each segment and the line from its
         midpoint to the vanishing point of each of the ``(K, 3)`` directions."""
         to = directions[:, None, :2] - self.mid[None] * directions[:, None, 2:3]
-        to /= np.linalg.norm(to, axis=-1, keepdims=True) + 1e-15
+        to /= _row_norms(to) + 1e-15
         along = self.direction[None, :, 0] * to[..., 0] + self.direction[None, :, 1] * to[..., 1]
         cross = self.direction[None, :, 0] * to[..., 1] - self.direction[None, :, 1] * to[..., 0]
         # The line from the midpoint has no orientation: fold it onto the segment's.
+        return np.arcsin(np.clip(np.where(along < 0, -cross, cross), -1.0, 1.0))
+
+    def pair_angles(self, directions: np.ndarray, which: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """``angles(directions)[which, idx]``, computed for those pairs only (the same
+        operations on each pair, so the same values: the fit's residuals need one
+        direction per segment, not all of them); ``directions`` may have leading axes
+        (``(..., K, 3)`` gives ``(..., len(idx))``)."""
+        d = directions[..., which, :]
+        to = d[..., :2] - self.mid[idx] * d[..., 2:3]
+        to /= _row_norms(to) + 1e-15
+        own = self.direction[idx]
+        along = own[:, 0] * to[..., 0] + own[:, 1] * to[..., 1]
+        cross = own[:, 0] * to[..., 1] - own[:, 1] * to[..., 0]
         return np.arcsin(np.clip(np.where(along < 0, -cross, cross), -1.0, 1.0))
 
 
@@ -234,7 +254,10 @@ def _directions(u: np.ndarray, thetas: np.ndarray) -> np.ndarray:
         return u[None]
     angles = np.concatenate([thetas[:1], thetas[:1] + 0.5 * math.pi, thetas[1:]])
     e = _tangent_basis(u)
-    return np.vstack([u[None], np.cos(angles)[:, None] * e[0] + np.sin(angles)[:, None] * e[1]])
+    out = np.empty((len(angles) + 1, 3))
+    out[0] = u
+    out[1:] = np.cos(angles)[:, None] * e[0] + np.sin(angles)[:, None] * e[1]
+    return out
 
 
 def _peaks(seg: _Segments, gain: np.ndarray, u: np.ndarray, free: np.ndarray, tol: float) -> np.ndarray:
@@ -302,19 +325,19 @@ def _fit(
         idx, fam = np.flatnonzero(inliers), family[inliers]
         e = _tangent_basis(u)
 
-        def residuals(p: np.ndarray, idx=idx, fam=fam, e=e, u=u, thetas=thetas) -> np.ndarray:
+        # The residuals at the parameters 0 and at each one moved by 1e-6 (a numeric
+        # Jacobian), the segments' angles of all of them in one pass.
+        params = np.vstack([np.zeros(2 + len(thetas)), 1e-6 * np.eye(2 + len(thetas))])
+        dirs = np.empty((len(params), len(thetas) + 1 + (len(thetas) > 0), 3))
+        prior = np.empty((len(params), 2))
+        for m, p in enumerate(params):
             uu = u + p[0] * e[0] + p[1] * e[1]
-            uu = uu / np.linalg.norm(uu)
-            lines = seg.angles(_directions(uu, thetas + p[2:]))[fam, idx] / sigma[idx]
-            return np.concatenate([lines, (prior_basis @ uu) / s0])
-
-        p0 = np.zeros(2 + len(thetas))
-        r = residuals(p0)
-        J = np.empty((len(r), len(p0)))
-        for j in range(len(p0)):  # numeric Jacobian
-            dp = p0.copy()
-            dp[j] = 1e-6
-            J[:, j] = (residuals(dp) - r) / 1e-6
+            uu = uu / math.sqrt(uu.dot(uu))
+            dirs[m] = _directions(uu, thetas + p[2:])
+            prior[m] = prior_basis @ uu
+        rows = np.concatenate([seg.pair_angles(dirs, fam, idx) / sigma[idx], prior / s0], axis=1)
+        r = rows[0]
+        J = np.ascontiguousarray(((rows[1:] - r) / 1e-6).T)
         weights = np.ones(len(r))
         weights[: len(idx)] = 1.0 / (1.0 + (r[: len(idx)] / _CAUCHY_SCALE) ** 2)
         normal = J.T @ (J * weights[:, None])
@@ -327,9 +350,9 @@ def _fit(
             normal = None
             break
         u = u + step[0] * e[0] + step[1] * e[1]
-        u = u / np.linalg.norm(u)
+        u = u / math.sqrt(u.dot(u))
         thetas = thetas + step[2:]
-        if float(np.linalg.norm(step)) < 1e-8:
+        if math.sqrt(step.dot(step)) < 1e-8:
             break
     tol = math.radians(config.frame_inlier_deg)
     family, inliers, angle = _assign(seg, u, thetas, tol)
