@@ -357,7 +357,7 @@ def _identity_camera_rect() -> Transform:
     return Transform.identity("camera_rect")
 
 
-_BLAS: list[Any] = []
+_BLAS: list[Any] = []  # the process's BLAS libraries (threadpoolctl), see _find_blas
 
 
 def _find_blas() -> None:
@@ -370,14 +370,18 @@ def _find_blas() -> None:
 
 
 def _one_blas_thread() -> Any:
-    """A context that holds the BLAS libraries (NumPy's OpenBLAS) to one thread.
+    """A context that holds the BLAS libraries (NumPy's OpenBLAS) to one thread while a
+    frame runs, and gives the caller's setting back after it.
 
     The pipeline's matrix products are small (hundreds of plane hypotheses times a few
     thousand points) and gain nothing from a second BLAS thread, but after each threaded
     call OpenBLAS leaves its workers spinning for a while, and on two cores they take one
     from the disparity matcher of the next frame: OpenCV's 3-way SGBM right after a frame
-    without a rig took 36 ms instead of 25 (docs/benchmarks.md, "BLAS threads"). The
-    limit is process-wide while a frame runs and is undone after it."""
+    without a rig took 36 ms instead of 25 (docs/benchmarks.md, "Fifth session: frames
+    without a rig"). The limit is process-wide, as OpenBLAS's own setting is. Set from a
+    thread other than the main one, it was measured to change nothing with the OpenBLAS
+    builds of this project's wheels: a frame run there keeps the process's setting (the
+    CLI, the live loop and ``bench`` run frames on the main thread)."""
     if not _BLAS:
         _find_blas()
     return _BLAS[0].limit(limits=1)
