@@ -34,6 +34,7 @@ KEYS = {
     "opencv_sgbm_3way_ms",
     "ratio_to_opencv_3way",
     "accuracy",
+    "rigs_read",
 }
 ACCURACY_KEYS = {"detection_rate", "step_count_accuracy", "rise_err_median_cm", "rise_err_p90_cm"}
 
@@ -62,7 +63,7 @@ def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_
     assert code == 0, err
     data = json.loads(out.read_text())
     assert set(data) == KEYS
-    assert data["scenes"] == 3
+    assert data["scenes"] == 3 and data["rigs_read"] is True
     assert set(data["frame_ms"]) == {"median", "p90"}
     assert set(data["first_frame_ms"]) == {"median"}
     assert set(data["opencv_sgbm_3way_ms"]) == {"median"} and set(data["ratio_to_opencv_3way"]) == {"median"}
@@ -87,12 +88,19 @@ def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_
 def test_bench_without_the_rigs_scores_gravity_from_the_scene(scenes, capsys):
     code, text, err = run_cli(["bench", scenes, "--repeat", "1", "--no-rig", "--json", "-"], capsys)
     assert code == 0, err
-    acc, ref = json.loads(text)["accuracy"], _evaluation_accuracy(scenes, use_rig=False)
+    data = json.loads(text)
+    assert data["rigs_read"] is False
+    acc, ref = data["accuracy"], _evaluation_accuracy(scenes, use_rig=False)
     assert acc["detection_rate"] == pytest.approx(ref["detection_rate"])
     assert acc["step_count_accuracy"] == pytest.approx(ref["count_rate"])
     (outcome,) = list(iter_bench([scenes / "scene_000"], PipelineConfig(), 1, timed=False, use_rig=False))
     assert outcome.result["gravity_source"] == "scene"
     assert read_bench_scene(scenes / "scene_000").rig is not None  # the folder has one
+    # What a Ray worker runs for `bench --ray --no-rig` (without Ray).
+    from stereo_terrain.bench import _ray_evaluate
+
+    worker = _ray_evaluate(str(scenes / "scene_000"), dataclasses.asdict(PipelineConfig()), False)
+    assert worker["gravity_source"] == "scene" and worker["steps"] == outcome.result["steps"]
 
 
 def test_bench_json_to_stdout_is_json_only(scenes, capsys):

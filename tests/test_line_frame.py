@@ -284,3 +284,46 @@ def test_pair_angles_are_the_full_angles_picked_bit_for_bit(seed, n, k, batch):
         a = np.cross(u, (0.0, 1.0, 0.0))
     a /= np.linalg.norm(a)
     assert _tangent_basis(u).tobytes() == np.vstack([a, np.cross(u, a)]).tobytes()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(3, 40), st.integers(0, 3))
+def test_the_fits_jacobian_is_the_one_parameter_at_a_time_loop_bit_for_bit(seed, n, n_thetas):
+    """The Gauss-Newton step's residuals and numeric Jacobian in one pass (issue 13) give
+    the bits of the loop it replaced: one residual vector per moved parameter, each from
+    the full (K, N) angles picked and np.linalg.norm. ``_row_norms`` is np.linalg.norm's."""
+    from stereo_terrain.gravity import _tangent_basis
+    from stereo_terrain.line_frame import _directions, _residuals_and_jacobian, _row_norms, _Segments
+
+    rng = np.random.default_rng(seed)
+    seg = _Segments(rng.uniform(0.0, 640.0, size=(n, 4)), _rectification(), 0.5)
+    sigma = rng.uniform(0.005, 0.05, size=n)
+    u = rng.normal(size=3) + np.array([0.0, -3.0, 0.0])
+    u /= np.linalg.norm(u)
+    e = _tangent_basis(u)
+    u0 = u + 0.05 * rng.normal(size=3)
+    u0 /= np.linalg.norm(u0)
+    prior_basis, s0 = _tangent_basis(u0), 0.1
+    thetas = rng.uniform(0.0, np.pi, size=n_thetas)
+    k = 1 if n_thetas == 0 else n_thetas + 2
+    idx = np.flatnonzero(rng.random(n) < 0.7)
+    fam = rng.integers(0, k, size=len(idx))
+
+    def residuals(p):  # the loop's body, as it was
+        uu = u + p[0] * e[0] + p[1] * e[1]
+        uu = uu / np.linalg.norm(uu)
+        lines = seg.angles(_directions(uu, thetas + p[2:]))[fam, idx] / sigma[idx]
+        return np.concatenate([lines, (prior_basis @ uu) / s0])
+
+    p0 = np.zeros(2 + n_thetas)
+    want_r = residuals(p0)
+    want_J = np.empty((len(want_r), len(p0)))
+    for j in range(len(p0)):
+        dp = p0.copy()
+        dp[j] = 1e-6
+        want_J[:, j] = (residuals(dp) - want_r) / 1e-6
+    r, J = _residuals_and_jacobian(seg, sigma, u, e, thetas, fam, idx, prior_basis, s0)
+    assert r.tobytes() == want_r.tobytes()
+    assert J.flags.c_contiguous and J.tobytes() == want_J.tobytes()
+    x = rng.normal(size=(3, n, 2))
+    assert _row_norms(x).tobytes() == np.linalg.norm(x, axis=-1, keepdims=True).tobytes()

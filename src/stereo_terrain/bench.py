@@ -386,10 +386,11 @@ def accuracy_summary(outcomes: list[SceneOutcome]) -> dict[str, float | None]:
     }
 
 
-def bench_summary(outcomes: list[SceneOutcome]) -> dict[str, Any]:
-    """The ``bench --json`` document (the shape of issue 13). Timing statistics pool the
-    warm frames of all scenes; ``first_frame_ms`` is the median over scenes; timing
-    values are null when not measured."""
+def bench_summary(outcomes: list[SceneOutcome], *, rigs_read: bool = True) -> dict[str, Any]:
+    """The ``bench --json`` document (the shape of issue 13, and ``rigs_read``: whether
+    the scenes' ``rig.yaml`` files were read, false with ``--no-rig``). Timing statistics
+    pool the warm frames of all scenes; ``first_frame_ms`` is the median over scenes;
+    timing values are null when not measured."""
     timed = [o.timing for o in outcomes if o.timing is not None]
     frames = [f for t in timed for f in t.frames_ms]
     stages: dict[str, float | None] = {}
@@ -403,6 +404,7 @@ def bench_summary(outcomes: list[SceneOutcome]) -> dict[str, Any]:
         "opencv_sgbm_3way_ms": {"median": _median([v for t in timed for v in t.opencv_3way_ms])},
         "ratio_to_opencv_3way": {"median": _median([r for t in timed for r in t.ratios])},
         "accuracy": accuracy_summary(outcomes),
+        "rigs_read": rigs_read,
     }
 
 

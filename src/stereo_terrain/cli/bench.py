@@ -70,7 +70,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         for i, outcome in enumerate(iter_bench(dirs, config, args.repeat, use_rig=not args.no_rig)):
             outcomes.append(outcome)
             progress(i + 1, len(dirs), outcome.name)
-    summary = bench_summary(outcomes)
+    summary = bench_summary(outcomes, rigs_read=not args.no_rig)
     if args.json is not None:
         write_json(summary, args.json)
     if str(args.json) != "-":

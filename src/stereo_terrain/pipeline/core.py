@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import os
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -120,7 +122,10 @@ class Pipeline:
         self.T_yaw_camera_rect = rig.T_yaw_camera @ self.rectification.T_camera_rect
 
     def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
-        """Process one raw stereo pair (grey or BGR uint8, the calibration's size)."""
+        """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
+
+        On the main thread the process's BLAS is held to one thread while the frame runs
+        (see :func:`_one_blas_thread`); the caller's setting is back afterwards."""
         with _one_blas_thread():
             return self._run(left, right)
 
@@ -369,19 +374,22 @@ def _find_blas() -> None:
     _BLAS[:] = [ThreadpoolController().select(user_api="blas")]
 
 
-def _one_blas_thread() -> Any:
+def _one_blas_thread() -> contextlib.AbstractContextManager[Any]:
     """A context that holds the BLAS libraries (NumPy's OpenBLAS) to one thread while a
-    frame runs, and gives the caller's setting back after it.
+    frame runs on the main thread, and gives the caller's setting back after it.
 
     The pipeline's matrix products are small (hundreds of plane hypotheses times a few
     thousand points) and gain nothing from a second BLAS thread, but after each threaded
     call OpenBLAS leaves its workers spinning for a while, and on two cores they take one
     from the disparity matcher of the next frame: OpenCV's 3-way SGBM right after a frame
     without a rig took 36 ms instead of 25 (docs/benchmarks.md, "Fifth session: frames
-    without a rig"). The limit is process-wide, as OpenBLAS's own setting is. Set from a
-    thread other than the main one, it was measured to change nothing with the OpenBLAS
-    builds of this project's wheels: a frame run there keeps the process's setting (the
-    CLI, the live loop and ``bench`` run frames on the main thread)."""
+    without a rig"). OpenBLAS's setting is process-wide: frames run at once in other
+    threads would save and restore each other's values (and could leave the process at
+    one thread), so a frame on another thread leaves it alone. The CLI, the live loop and
+    ``bench`` run frames on the main thread. Libraries loaded after the last
+    ``Pipeline(...)`` are not limited."""
+    if threading.current_thread() is not threading.main_thread():
+        return contextlib.nullcontext()
     if not _BLAS:
         _find_blas()
     return _BLAS[0].limit(limits=1)
