@@ -98,25 +98,26 @@ class _Segments:
     def angles(self, directions: np.ndarray) -> np.ndarray:
         """``(K, N)``: signed angle (radians) between each segment and the line from its
         midpoint to the vanishing point of each of the ``(K, 3)`` directions."""
-        to = directions[:, None, :2] - self.mid[None] * directions[:, None, 2:3]
-        to /= _row_norms(to) + 1e-15
-        along = self.direction[None, :, 0] * to[..., 0] + self.direction[None, :, 1] * to[..., 1]
-        cross = self.direction[None, :, 0] * to[..., 1] - self.direction[None, :, 1] * to[..., 0]
-        # The line from the midpoint has no orientation: fold it onto the segment's.
-        return np.arcsin(np.clip(np.where(along < 0, -cross, cross), -1.0, 1.0))
+        return _angles_to(directions[:, None, :], self.mid[None], self.direction[None])
 
     def pair_angles(self, directions: np.ndarray, which: np.ndarray, idx: np.ndarray) -> np.ndarray:
         """``angles(directions)[which, idx]``, computed for those pairs only (the same
         operations on each pair, so the same values: the fit's residuals need one
         direction per segment, not all of them); ``directions`` may have leading axes
         (``(..., K, 3)`` gives ``(..., len(idx))``)."""
-        d = directions[..., which, :]
-        to = d[..., :2] - self.mid[idx] * d[..., 2:3]
-        to /= _row_norms(to) + 1e-15
-        own = self.direction[idx]
-        along = own[:, 0] * to[..., 0] + own[:, 1] * to[..., 1]
-        cross = own[:, 0] * to[..., 1] - own[:, 1] * to[..., 0]
-        return np.arcsin(np.clip(np.where(along < 0, -cross, cross), -1.0, 1.0))
+        return _angles_to(directions[..., which, :], self.mid[idx], self.direction[idx])
+
+
+def _angles_to(directions: np.ndarray, mid: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """Signed angle (radians) between segments (midpoints ``mid``, unit directions
+    ``own``, ``(..., 2)``) and the lines from their midpoints to the vanishing points of
+    ``directions`` (``(..., 3)``), all three broadcast together."""
+    to = directions[..., :2] - mid * directions[..., 2:3]
+    to /= _row_norms(to) + 1e-15
+    along = own[..., 0] * to[..., 0] + own[..., 1] * to[..., 1]
+    cross = own[..., 0] * to[..., 1] - own[..., 1] * to[..., 0]
+    # The line from the midpoint has no orientation: fold it onto the segment's.
+    return np.arcsin(np.clip(np.where(along < 0, -cross, cross), -1.0, 1.0))
 
 
 def up_from_line_frame(
