@@ -25,6 +25,9 @@ distances within 3 cm, and adds steps).
     .venv/bin/python benchmarks/bench_position_risers.py --scenes-dir DIR [--scenes-dir DIR2]
         [--real] [--no-rig] [--mode all|extend]
 
+The terrain stage runs with ``continue_steps`` off (``TERRAIN``), as when these numbers
+were taken; ``terrain/continuation.py`` is what the ``extend`` mode became.
+
 ``--real`` adds the real scenes of ../shared/data (no ground truth: their results are
 listed when they change).
 """
@@ -38,7 +41,6 @@ import math
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 import stereo_terrain.pipeline.core as core
@@ -49,12 +51,17 @@ from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.planes.orientation import PlaneSegment, PlaneSet
 from stereo_terrain.rectify import read_image
-from stereo_terrain.terrain import StairModel, build_terrain
+from stereo_terrain.terrain import StairModel, TerrainConfig, build_terrain
+from stereo_terrain.terrain.continuation import largest_grid_patch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_real_stairs import DATA, REAL_SCENES  # noqa: E402
 
 UP = np.array([0.0, 0.0, 1.0])
+#: The terrain stage without its own continuation beyond the last riser plane
+#: (terrain/continuation.py, which grew out of this script's "extend" mode): the plane sets
+#: as they were when these numbers were taken.
+TERRAIN = TerrainConfig(continue_steps=False)
 
 
 class _Capture:
@@ -112,7 +119,6 @@ def add_position_risers(
     for seg in planes.segments:
         free[seg.indices] = False
     thr = np.clip(3.0 * s.sigma_m, 0.012, 0.05)
-    gh, gw = s.grid_shape
     added: list[PlaneSegment] = []
     for e in _directions(planes, horizontal):
         across = np.cross(UP, e)
@@ -126,20 +132,8 @@ def add_position_risers(
             counts = np.searchsorted(sa, sa + t, side="right") - np.searchsorted(sa, sa - t)
             best: np.ndarray | None = None
             for j in np.argsort(-counts)[:20]:
-                inl = idx[np.abs(a - sa[j]) < thr[idx]]
-                grid = np.zeros((gh, gw), np.uint8)
-                cells = s.grid_index[inl]
-                grid.flat[cells] = 1
-                n_lab, lab = cv2.connectedComponents(
-                    cv2.dilate(grid, np.ones((3, 3), np.uint8)), connectivity=8
-                )
-                if n_lab <= 1:
-                    continue
-                labels = lab.flat[cells]
-                sizes = np.bincount(labels, minlength=n_lab)
-                sizes[0] = 0
-                patch = inl[labels == int(np.argmax(sizes))]
-                if best is None or len(patch) > len(best):
+                patch = largest_grid_patch(idx[np.abs(a - sa[j]) < thr[idx]], s)
+                if patch is not None and (best is None or len(patch) > len(best)):
                     best = patch
             if best is None:
                 break
@@ -181,11 +175,11 @@ def _extends(before: StairModel, after: StairModel, tol_m: float = 0.03) -> bool
 
 def _both(seen: dict, args: argparse.Namespace) -> tuple[StairModel, StairModel]:
     planes, floor_known = seen["planes"], seen["floor_known"]
-    before = build_terrain(planes, floor_known=floor_known)
+    before = build_terrain(planes, TERRAIN, floor_known=floor_known)
     if args.mode == "extend" and before.obstacle != "stairs":
         return before, before
     more = add_position_risers(planes, seen["horizontal"], args.min_points, args.min_height)
-    after = build_terrain(more, floor_known=floor_known)
+    after = build_terrain(more, TERRAIN, floor_known=floor_known)
     if args.mode == "extend" and not _extends(before, after):
         after = before
     return before, after

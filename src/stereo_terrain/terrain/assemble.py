@@ -11,6 +11,7 @@ import numpy as np
 from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
 from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
 from .polytope import _classify_single_step, _polytope
 from .risers import (
@@ -300,11 +301,23 @@ def _assemble_along(
     if not steps:
         return _no_obstacle(planes, "risers found but no step rises above the ground", ground_z)
     h_info = list(zip(horizontals, h_z, s_h, v_h, strict=True))
+    used = np.zeros(len(P), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    lateral = (v_lo_all, v_hi_all)
+    if ordered:
+        lateral = (min(r.v_lo for r in ordered), max(r.v_hi for r in ordered))
+    steps, continued = continue_steps(steps, samples, P, used, u, v, lateral, config)
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
     if inferred_first:
         note += "; the first riser's foot is out of view: its rise is the median of the others"
+    if continued:
+        note += (
+            f"; {continued} more beyond the last riser plane, from their samples' positions"
+            " (rise: the median of the others)"
+        )
     if len(steps) == 1:
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)

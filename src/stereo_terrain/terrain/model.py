@@ -80,6 +80,15 @@ class TerrainConfig:
         normals there mix the riser with the side faces and the wall; the orientation
         method's ``sample_radius_cells``), so its width is short by up to twice that: part
         of ``width_sigma_m``.
+    continue_steps : bool
+        Look for the next riser beyond the last riser plane of a staircase of two or more
+        steps where the steps' spacing puts it, from its samples' positions alone (a far
+        riser whose samples' normals are too noisy to form a plane); its rise is the
+        median of the others (``rise_inferred``). See :mod:`.continuation`.
+    continue_run_tolerance : float
+        Such a riser must stand within this fraction of the median run from the last one.
+    max_continued_steps : int
+        At most this many steps are added so.
     face_bias_correlation : float
         Correlation of the shared disparity error of neighbouring faces (a tread and the
         surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
@@ -106,10 +115,18 @@ class TerrainConfig:
     edge_sigma_cells: float = 0.7
     face_bias_correlation: float = 0.9
     width_loss_cells: float = 5.0
+    continue_steps: bool = True
+    continue_run_tolerance: float = 0.25
+    max_continued_steps: int = 3
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "min_riser_points", "min_tread_points")
+        check_min(self, 0, "max_continued_steps")
+        if not 0 < self.continue_run_tolerance < 1:
+            raise ConfigError(
+                f"TerrainConfig.continue_run_tolerance must be in (0, 1), got {self.continue_run_tolerance}"
+            )
         check_min(self, 0, "disparity_sigma_px", "disparity_bias_px", "edge_sigma_cells", "width_loss_cells")
         if not 0 <= self.face_bias_correlation <= 1:
             raise ConfigError(
@@ -160,7 +177,8 @@ class Step:
         None when the tread was not seen (height from the riser's top edge).
     rise_inferred : bool
         True for a first step whose foot is out of view (stairs filling the image, no floor
-        in front): its rise is the median of the other steps' rises.
+        in front), and for a step found beyond the last riser plane from its samples'
+        positions (:mod:`.continuation`): its rise is the median of the other steps' rises.
     rise_sigma_m, run_sigma_m, distance_sigma_m, width_sigma_m : float or None
         1-sigma of ``rise_m``, ``run_m``, ``distance_m`` and ``width_m`` (issue 14,
         :func:`estimate_step_sigmas`); NaN until estimated, None where the value is None.

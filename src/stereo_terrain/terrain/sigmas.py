@@ -77,8 +77,9 @@ def estimate_step_sigmas(
       edge, and the riser's lateral ends are edges of the sample grid: ``edge_sigma_cells``
       grid cells at the face's range (a cell on the ground is longer by
       ``1 / |ray . z|``);
-    * an inferred rise (``rise_inferred``, the foot out of view) is the median of the other
-      rises: their spread and their own sigma;
+    * an inferred rise (``rise_inferred``: a first step whose foot is out of view, or a
+      step found beyond the last riser plane) is the median of the measured rises: their
+      spread and their own sigma;
     * the yaw: each riser's normal turns when its two ends move by their position sigma
       independently (``sqrt(2) sigma / extent``), and by its fit (spread over sqrt(n)
       and the lateral spread); the risers are combined as the stage combines them
@@ -235,9 +236,13 @@ def estimate_step_sigmas(
     for i, st in enumerate(steps):
         sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
         if st.rise_inferred:
-            others = rises[1:]
+            # the median of the measured rises (a first step whose foot is out of view, a
+            # step found beyond the last riser plane: terrain/continuation.py)
+            measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
+            others = rises[measured]
             spread = float(np.std(others)) if len(others) > 1 else 0.0
-            own = float(np.nanmean([rise_sigma(tops[k], tops[k - 1]) for k in range(1, len(steps))]))
+            own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
+            own = float(np.nanmean(own_each)) if own_each else math.nan
             # the median of n values: its own error, and how far a rise may differ from it
             sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
         n_x = abs(float(st.riser.normal[0]))

@@ -1,0 +1,151 @@
+"""Steps beyond the last riser plane: the next riser of a staircase found from its samples'
+positions where it formed no plane (issue 11).
+
+A far riser is a few centimetres of disparity noise tall: its samples lie on it (within
+their depth noise) but their normals, differences of box means a few pixels apart, are
+tens of degrees off, so the orientation method's normal test refuses them and the chain
+stops early (docs/benchmarks.md, "Sixth session"). A staircase's steps are regular, so
+where the chain already holds two steps or more, the next riser is looked for where its
+spacing puts it: among the samples that no plane took, within the staircase's width and
+between the last tread's height and one rise above it, a band of samples at one position
+along the stair axis (the most samples within their inlier threshold), connected in the
+image and spanning at least half a rise and ``min_riser_width_m``. Its position gives the
+last step's run and the new step's distance; its rise is not measured (its top and foot
+are where the noise is worst) but taken as the median of the others, and said so
+(``rise_inferred``), as for a first step whose foot is out of view.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import cv2
+import numpy as np
+
+from .._numeric import median, percentile
+from ..cloud import GridSample
+from ..msac import Plane
+from .model import Step, TerrainConfig
+
+#: Inlier threshold of a sample, ``threshold_sigmas`` of its depth sigma within these
+#: bounds (the orientation method's defaults).
+_THRESHOLD_SIGMAS, _MIN_THRESHOLD_M, _MAX_THRESHOLD_M = 3.0, 0.012, 0.05
+#: Offsets tried: the positions with most samples within the threshold, best first.
+_OFFSETS_TRIED = 20
+
+
+def continue_steps(
+    steps: list[Step],
+    samples: GridSample,
+    P: np.ndarray,
+    used: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    config: TerrainConfig,
+) -> tuple[list[Step], int]:
+    """``steps`` with the risers found beyond the last one (module docstring), and how many.
+
+    Parameters
+    ----------
+    steps : the chain's steps, nearest first (at least two for anything to be added)
+    samples : GridSample the planes were found in (gravity-aligned frame)
+    P : (N, 3) float64, its points
+    used : (N,) bool, the samples some plane took
+    u, v : (3,) float, the stair axis and the lateral direction
+    lateral : the staircase's lateral extent along ``v``, metres
+    config : TerrainConfig (``continue_steps``, ``continue_run_tolerance``,
+        ``max_continued_steps``, ``min_riser_points``, ``min_riser_width_m``,
+        ``edge_margin_m``)
+    """
+    if not config.continue_steps or config.max_continued_steps < 1 or len(steps) < 2:
+        return steps, 0
+    runs = [s.run_m for s in steps if s.run_m is not None]
+    rises = [s.rise_m for s in steps if not s.rise_inferred]
+    if not runs or len(rises) < 2:
+        return steps, 0
+    run, rise = float(median(np.asarray(runs))), float(median(np.asarray(rises)))
+    tol = config.continue_run_tolerance
+    s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
+    thr = np.clip(_THRESHOLD_SIGMAS * samples.sigma_m, _MIN_THRESHOLD_M, _MAX_THRESHOLD_M)
+    free = ~used & np.isfinite(s_all)
+    out = list(steps)
+    added = 0
+    while added < config.max_continued_steps:
+        last = out[-1]
+        s0, top = last.axis_position_m, last.top_z_m
+        lo, hi = s0 + (1.0 - tol) * run, s0 + (1.0 + tol) * run
+        band = (
+            free
+            & (s_all > lo - _MAX_THRESHOLD_M)
+            & (s_all < hi + _MAX_THRESHOLD_M)
+            & (v_all > lateral[0] - 0.1)
+            & (v_all < lateral[1] + 0.1)
+            & (z_all > top - config.edge_margin_m)
+            & (z_all < top + rise + config.edge_margin_m)
+        )
+        patch = _riser_patch(np.flatnonzero(band), s_all, thr, samples, lo, hi, config)
+        if patch is None:
+            break
+        z_lo, z_hi = percentile(z_all[patch], [5.0, 95.0])
+        v_lo, v_hi = percentile(v_all[patch], [5.0, 95.0])
+        if z_hi - z_lo < 0.5 * rise or v_hi - v_lo < config.min_riser_width_m:
+            break
+        a0 = float(median(s_all[patch]))
+        plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
+        n = plane.normal
+        distance = -plane.offset / n[0] if abs(n[0]) > 0.2 else a0 / max(abs(u[0]), 1e-6)
+        out[-1] = dataclasses.replace(last, run_m=a0 - s0)
+        out.append(Step(rise, None, float(distance), None, top + rise, a0, plane, None, rise_inferred=True))
+        free[patch] = False
+        added += 1
+    return out, added
+
+
+def _riser_patch(
+    idx: np.ndarray,
+    s_all: np.ndarray,
+    thr: np.ndarray,
+    samples: GridSample,
+    lo: float,
+    hi: float,
+    config: TerrainConfig,
+) -> np.ndarray | None:
+    """Of the samples ``idx``, the largest connected patch (8-neighbours in the sample grid,
+    gaps of one cell bridged) at the position along the axis, within ``[lo, hi]``, that
+    most of them lie within their threshold of; None when it has fewer than
+    ``min_riser_points`` samples."""
+    if len(idx) < config.min_riser_points:
+        return None
+    a = s_all[idx]
+    order = np.sort(a)
+    t = float(median(thr[idx]))
+    counts = np.searchsorted(order, order + t, side="right") - np.searchsorted(order, order - t)
+    best: np.ndarray | None = None
+    for j in np.argsort(-counts, kind="stable")[:_OFFSETS_TRIED]:
+        a0 = order[j]
+        if not lo <= a0 <= hi or counts[j] < config.min_riser_points:
+            continue
+        patch = largest_grid_patch(idx[np.abs(a - a0) < thr[idx]], samples)
+        if patch is not None and (best is None or len(patch) > len(best)):
+            best = patch
+    if best is None or len(best) < config.min_riser_points:
+        return None
+    return best
+
+
+def largest_grid_patch(indices: np.ndarray, samples: GridSample) -> np.ndarray | None:
+    """Of the samples ``indices``, those of the largest patch of 8-connected cells in the
+    sample grid (gaps of one cell bridged); None when there is none."""
+    gh, gw = samples.grid_shape
+    grid = np.zeros((gh, gw), np.uint8)
+    cells = samples.grid_index[indices]
+    grid.flat[cells] = 1
+    n_lab, lab = cv2.connectedComponents(cv2.dilate(grid, np.ones((3, 3), np.uint8)), connectivity=8)
+    if n_lab <= 1:
+        return None
+    labels = lab.flat[cells]
+    sizes = np.bincount(labels, minlength=n_lab)
+    sizes[0] = 0
+    patch: np.ndarray = indices[labels == int(np.argmax(sizes))]
+    return patch

@@ -1,0 +1,112 @@
+"""Steps beyond the last riser plane, found from their samples' positions
+(terrain/continuation.py): a far riser whose normals were too noisy to form a plane."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.cloud import GridSample
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain, estimate_step_sigmas
+
+from .test_terrain import _stairs
+
+OFF = TerrainConfig(continue_steps=False)
+
+
+def _last_riser_unplaned(full: PlaneSet, n_steps: int, rise: float, run: float, yaw: float, distance: float):
+    """``full`` without the plane segments of its last riser and the landing on it: their
+    samples stay in the cloud, taken by no plane (as when their normals were too noisy)."""
+    s_last = distance * np.cos(yaw) + (n_steps - 1) * run
+    keep = []
+    for seg in full.segments:
+        d = seg.plane.offset
+        last_riser = seg.kind == VERTICAL and abs(d - s_last) < 1e-6
+        landing = seg.kind == HORIZONTAL and abs(d + n_steps * rise) < 1e-6
+        if not (last_riser or landing):
+            keep.append(seg)
+    assert len(keep) == len(full.segments) - 2
+    return dataclasses.replace(full, segments=tuple(keep))
+
+
+def _unplaned(n_steps: int, rise: float = 0.17, run: float = 0.29, distance: float = 1.3, yaw: float = 0.0):
+    full = _stairs(n_steps=n_steps, rise=rise, run=run, yaw=yaw, distance=distance)
+    return _last_riser_unplaned(full, n_steps, rise, run, yaw, distance)
+
+
+def _moved_samples(planes: PlaneSet, mask: np.ndarray, shift: np.ndarray) -> PlaneSet:
+    pts = planes.samples.points.copy()
+    pts[mask] += shift.astype(np.float32)
+    return dataclasses.replace(planes, samples=GridSample(**{**planes.samples.__dict__, "points": pts}))
+
+
+def test_a_far_riser_without_a_plane_continues_the_staircase():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _unplaned(4, rise, run, distance)
+    before = build_terrain(planes, OFF)
+    assert before.obstacle == STAIRS and len(before.steps) == 3
+    model = build_terrain(planes)
+    assert model.obstacle == STAIRS and len(model.steps) == 4
+    last = model.steps[-1]
+    assert last.rise_inferred and last.tread is None and last.run_m is None
+    assert last.rise_m == pytest.approx(float(np.median([s.rise_m for s in before.steps])), abs=1e-9)
+    assert last.distance_m == pytest.approx(distance + 3 * run, abs=0.005)
+    assert model.steps[-2].run_m == pytest.approx(run, abs=0.005)
+    assert [s.rise_m for s in model.steps[:3]] == [s.rise_m for s in before.steps]
+    assert "more beyond the last riser plane" in model.note
+    assert len(model.polytope.faces) > len(before.polytope.faces)
+    # Its rise's sigma is that of a median of the measured rises, not of its own edges.
+    sig = estimate_step_sigmas(model, planes, focal_px=500.0, baseline_m=0.1).steps
+    assert all(np.isfinite(s.rise_sigma_m) for s in sig)
+    assert sig[-1].rise_sigma_m >= TerrainConfig().min_rise_m / 2
+
+
+def test_a_band_off_the_steps_spacing_is_not_a_step():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _unplaned(4, rise, run, distance)
+    used = np.zeros(len(planes.samples.points), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    # The leftover samples (the last riser and the landing) pushed 15 cm further: the band
+    # now stands 44 cm behind the last riser plane, 50% more than the steps' run.
+    moved = _moved_samples(planes, ~used, np.array([0.15, 0.0, 0.0]))
+    assert len(build_terrain(moved).steps) == 3
+
+
+def test_off_by_config_and_never_from_one_step():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _unplaned(4, rise, run, distance)
+    assert len(build_terrain(planes, OFF).steps) == 3
+    assert len(build_terrain(planes, TerrainConfig(max_continued_steps=0)).steps) == 3
+    # One step and a riser band beyond it: the spacing of one step is no spacing.
+    two = _unplaned(2, rise, run, distance)
+    assert len(build_terrain(two).steps) == 1
+
+
+@pytest.mark.parametrize("bad", [0.0, 1.0, -0.1])
+def test_continuation_tolerance_is_checked(bad):
+    with pytest.raises(ConfigError, match="continue_run_tolerance"):
+        TerrainConfig(continue_run_tolerance=bad)
+    with pytest.raises(ConfigError):
+        TerrainConfig(max_continued_steps=-1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    rise=st.floats(0.12, 0.21),
+    run=st.floats(0.24, 0.34),
+    yaw_deg=st.floats(-30.0, 30.0),
+    distance=st.floats(1.0, 1.8),
+)
+def test_the_continued_riser_stands_where_the_stairs_put_it(rise, run, yaw_deg, distance):
+    yaw = np.radians(yaw_deg)
+    planes = _unplaned(4, rise, run, distance, yaw)
+    model = build_terrain(planes)
+    assert len(model.steps) == 4 and model.steps[-1].rise_inferred
+    # Where the frame's x axis meets the fourth riser.
+    assert model.steps[-1].distance_m == pytest.approx(distance + 3 * run / np.cos(yaw), abs=0.01)
+    assert model.steps[-1].rise_m == pytest.approx(rise, abs=0.005)
