@@ -10,10 +10,12 @@ from hypothesis import strategies as st
 
 from stereo_terrain.cloud import GridSample
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from stereo_terrain.msac import Plane
+from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
 from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain, estimate_step_sigmas
 
 from .test_terrain import _stairs
+from .test_terrain_clutter import _add_samples
 
 OFF = TerrainConfig(continue_steps=False)
 
@@ -33,9 +35,12 @@ def _last_riser_unplaned(full: PlaneSet, n_steps: int, rise: float, run: float, 
     return dataclasses.replace(full, segments=tuple(keep))
 
 
-def _unplaned(n_steps: int, rise: float = 0.17, run: float = 0.29, distance: float = 1.3, yaw: float = 0.0):
-    full = _stairs(n_steps=n_steps, rise=rise, run=run, yaw=yaw, distance=distance)
-    return _last_riser_unplaned(full, n_steps, rise, run, yaw, distance)
+def _unplaned(n_steps: int, rise=0.17, run=0.29, distance=1.3, yaw=0.0, last: int = 1) -> PlaneSet:
+    """``_stairs`` whose ``last`` risers (and the treads on them) formed no plane."""
+    planes = _stairs(n_steps=n_steps, rise=rise, run=run, yaw=yaw, distance=distance)
+    for k in range(last):
+        planes = _last_riser_unplaned(planes, n_steps - k, rise, run, yaw, distance)
+    return planes
 
 
 def _moved_samples(planes: PlaneSet, mask: np.ndarray, shift: np.ndarray) -> PlaneSet:
@@ -110,3 +115,70 @@ def test_the_continued_riser_stands_where_the_stairs_put_it(rise, run, yaw_deg, 
     # Where the frame's x axis meets the fourth riser.
     assert model.steps[-1].distance_m == pytest.approx(distance + 3 * run / np.cos(yaw), abs=0.01)
     assert model.steps[-1].rise_m == pytest.approx(rise, abs=0.005)
+
+
+def test_two_far_risers_without_planes_continue_one_after_the_other():
+    model = build_terrain(_unplaned(5, last=2))
+    assert len(model.steps) == 5
+    assert [s.rise_inferred for s in model.steps] == [False, False, False, True, True]
+    assert [s.distance_m for s in model.steps[3:]] == pytest.approx(
+        [1.3 + 3 * 0.29, 1.3 + 4 * 0.29], abs=0.005
+    )
+    assert model.steps[3].run_m == pytest.approx(0.29, abs=0.005)
+
+
+def test_a_step_too_tall_to_climb_is_still_reported():
+    """The safety net (build_terrain's retry with max_obstacle_rise_m) runs without the
+    continuation: a step continued at the median of tall rises has no top seen, which the
+    net refuses, so with the continuation it would hide the tall steps."""
+    model = build_terrain(_unplaned(3, rise=0.40))
+    off = build_terrain(_unplaned(3, rise=0.40), OFF)
+    assert off.obstacle == STAIRS and "taller than a stair rise" in off.note
+    assert model.obstacle == STAIRS and "taller than a stair rise" in model.note
+    assert [s.rise_m for s in model.steps] == [s.rise_m for s in off.steps]
+
+
+def test_a_sample_without_a_sigma_does_not_stop_the_continuation():
+    planes = _unplaned(4)
+    sigma = planes.samples.sigma_m.copy()
+    used = np.zeros(len(sigma), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    sigma[np.flatnonzero(~used)[0]] = np.nan
+    samples = GridSample(**{**planes.samples.__dict__, "sigma_m": sigma})
+    assert len(build_terrain(dataclasses.replace(planes, samples=samples)).steps) == 4
+
+
+def test_the_patch_must_be_one_connected_face_in_the_image():
+    """The leftover samples scattered over the sample grid, none next to another, form no
+    patch: nothing is continued."""
+    planes = _unplaned(4)
+    used = np.zeros(len(planes.samples.points), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    gi = planes.samples.grid_index.copy()
+    gh, gw = planes.samples.grid_shape
+    free = np.flatnonzero(~used)
+    # Each leftover sample alone, 4 cells from the next (more than the one-cell gap the
+    # patch bridges).
+    k = np.arange(len(free))
+    per_col = gh // 4
+    gi[free] = 4 * (k % per_col) * gw + (4 * (k // per_col)) % gw
+    scattered_samples = GridSample(**{**planes.samples.__dict__, "grid_index": gi})
+    scattered = dataclasses.replace(planes, samples=scattered_samples)
+    assert len(build_terrain(planes).steps) == 4
+    assert len(build_terrain(scattered).steps) == 3
+
+
+def test_the_foot_of_a_wall_where_the_next_riser_would_stand_is_not_a_step():
+    """The last tread ends at a wall (a plane too tall for a riser, across the stairs): the
+    samples at its foot that the wall's plane left are not a fourth riser."""
+    planes = _unplaned(4)
+    s3 = 1.3 + 3 * 0.29
+    lat, z = np.meshgrid(np.arange(-0.5, 0.5, 0.02), np.arange(0.55, 2.0, 0.02), indexing="ij")
+    wall = np.stack([np.full(lat.size, s3), lat.ravel(), z.ravel()], axis=1)
+    samples, idx = _add_samples(planes, wall, np.array([-1.0, 0.0, 0.0]))
+    segment = PlaneSegment(Plane(np.array([-1.0, 0.0, 0.0]), s3), VERTICAL, idx, 0.0)
+    walled = dataclasses.replace(planes, samples=samples, segments=(*planes.segments, segment))
+    assert len(build_terrain(planes).steps) == 4
+    assert len(build_terrain(walled).steps) == 3

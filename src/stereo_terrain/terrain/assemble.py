@@ -89,10 +89,32 @@ def _assemble(
         model = _assemble_along(
             planes, config, family, yaw, horizontals, h_z, tread_first=tread_first, floor_known=floor_known
         )
-        if best is None or len(model.steps) > len(best.steps):
+        if best is None or _chained(model) > _chained(best):
             best = model
     assert best is not None
     return best
+
+
+def _chained(model: StairModel) -> int:
+    """The steps a model chained from riser planes and treads: not those continued beyond
+    the last riser plane (:mod:`.continuation`; inferred, never first)."""
+    return len(model.steps) - sum(1 for s in model.steps[1:] if s.rise_inferred)
+
+
+def _walls_across(planes: PlaneSet, P: np.ndarray, u: np.ndarray, config: TerrainConfig) -> list[float]:
+    """Positions along the stair axis ``u`` of the vertical planes across it (facing the
+    robot within ``axis_spread_deg``) whose samples span more height than a riser can:
+    walls, which a continued riser must not be the foot of (:mod:`.continuation`)."""
+    cos_spread = math.cos(math.radians(config.axis_spread_deg))
+    too_tall = config.max_rise_m + config.edge_margin_m
+    walls = []
+    for seg in planes.segments:
+        if seg.kind != VERTICAL or abs(float(seg.plane.normal @ u)) < cos_spread:
+            continue
+        z_lo, z_hi = percentile(P[seg.indices, 2], [5.0, 95.0])
+        if z_hi - z_lo > too_tall:
+            walls.append(float(median(P[seg.indices] @ u)))
+    return walls
 
 
 def _assemble_along(
@@ -304,10 +326,11 @@ def _assemble_along(
     used = np.zeros(len(P), dtype=bool)
     for seg in planes.segments:
         used[seg.indices] = True
-    lateral = (v_lo_all, v_hi_all)
-    if ordered:
-        lateral = (min(r.v_lo for r in ordered), max(r.v_hi for r in ordered))
-    steps, continued = continue_steps(steps, samples, P, used, u, v, lateral, config)
+    # (``ordered`` holds a riser plane once there are steps: the first step is one.)
+    lateral = (min(r.v_lo for r in ordered), max(r.v_hi for r in ordered))
+    steps, continued = continue_steps(
+        steps, samples, P, used, u, v, lateral, config, walls=_walls_across(planes, P, u, config)
+    )
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"

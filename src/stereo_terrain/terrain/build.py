@@ -44,10 +44,11 @@ def build_terrain(
         return model
     # Safety net: is there a step too tall for a stair, that the robot cannot climb?
     # (A first riser inferred from a tread alone is not enough for a step too tall to be a
-    # stair: that is a table top.)
+    # stair: that is a table top. Nor are steps continued beyond the last riser plane at
+    # the median rise: the net asks for tall faces whose top is seen.)
     tall = _assemble(
         planes,
-        dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m),
+        dataclasses.replace(config, max_rise_m=config.max_obstacle_rise_m, continue_steps=False),
         tread_first=False,
         floor_known=floor_known,
     )

@@ -18,6 +18,7 @@ are where the noise is worst) but taken as the median of the others, and said so
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
@@ -43,6 +44,8 @@ def continue_steps(
     v: np.ndarray,
     lateral: tuple[float, float],
     config: TerrainConfig,
+    *,
+    walls: Sequence[float] = (),
 ) -> tuple[list[Step], int]:
     """``steps`` with the risers found beyond the last one (module docstring), and how many.
 
@@ -54,6 +57,9 @@ def continue_steps(
     used : (N,) bool, the samples some plane took
     u, v : (3,) float, the stair axis and the lateral direction
     lateral : the staircase's lateral extent along ``v``, metres
+    walls : positions along the axis of vertical planes facing the robot that are too tall
+        for a riser: a riser continued within ``merge_distance_m`` of one would be the foot
+        of that wall (the last tread ending at a wall), not a step
     config : TerrainConfig (``continue_steps``, ``continue_run_tolerance``,
         ``max_continued_steps``, ``min_riser_points``, ``min_riser_width_m``,
         ``edge_margin_m``)
@@ -68,7 +74,8 @@ def continue_steps(
     tol = config.continue_run_tolerance
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
     thr = np.clip(_THRESHOLD_SIGMAS * samples.sigma_m, _MIN_THRESHOLD_M, _MAX_THRESHOLD_M)
-    free = ~used & np.isfinite(s_all)
+    free = ~used & np.isfinite(s_all) & np.isfinite(thr)
+    taken = np.asarray(list(walls), dtype=np.float64)
     out = list(steps)
     added = 0
     while added < config.max_continued_steps:
@@ -92,6 +99,8 @@ def continue_steps(
         if z_hi - z_lo < 0.5 * rise or v_hi - v_lo < config.min_riser_width_m:
             break
         a0 = float(median(s_all[patch]))
+        if taken.size and float(np.min(np.abs(taken - a0))) < config.merge_distance_m:
+            break
         plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
         n = plane.normal
         distance = -plane.offset / n[0] if abs(n[0]) > 0.2 else a0 / max(abs(u[0]), 1e-6)
@@ -122,10 +131,11 @@ def _riser_patch(
     t = float(median(thr[idx]))
     counts = np.searchsorted(order, order + t, side="right") - np.searchsorted(order, order - t)
     best: np.ndarray | None = None
-    for j in np.argsort(-counts, kind="stable")[:_OFFSETS_TRIED]:
+    inside = np.flatnonzero((order >= lo) & (order <= hi))  # positions within the spacing
+    for j in inside[np.argsort(-counts[inside], kind="stable")][:_OFFSETS_TRIED]:
         a0 = order[j]
-        if not lo <= a0 <= hi or counts[j] < config.min_riser_points:
-            continue
+        if counts[j] < config.min_riser_points:
+            break
         patch = largest_grid_patch(idx[np.abs(a - a0) < thr[idx]], samples)
         if patch is not None and (best is None or len(patch) > len(best)):
             best = patch

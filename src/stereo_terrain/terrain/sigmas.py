@@ -166,13 +166,16 @@ def estimate_step_sigmas(
             tread_face = _face_error(P, normals, cam, st.tread, on_tread, n_factor=n_factor)
         # Riser position along the stair axis.
         lever = 0.0
+        # A step continued beyond the last riser plane (terrain/continuation.py): its plane
+        # has the stair yaw by construction, so its samples give a position, not a yaw.
+        continued = i > 0 and st.rise_inferred
         if not virtual:
             assert riser is not None
             sig_pos = shift_sigma(riser) * abs(float(riser.ray @ st.riser.normal))
             # the riser's own samples (the band also holds the tread's and the ground's
             # edges along the riser, which run on beyond a riser seen only in part)
             lat = v_all[on_riser & (np.abs(normals @ st.riser.normal) > _FACE_COS)]
-            if len(lat) > 2:
+            if len(lat) > 2 and not continued:
                 lo, hi = percentile(lat, [2, 98])
                 # the riser's own extent (its samples' band may run on along the plane)
                 hi = min(hi, lo + st.width_m) if st.width_m is not None else hi
