@@ -5,11 +5,14 @@ textured) at 640x480, plus 320x240 and 1280x720 sets. Prints one table row per g
 results are recorded in docs/benchmarks.md.
 
     .venv/bin/python benchmarks/bench_accuracy.py [--scenes 60] [--backend opencv|sgm]
+        [--config CFG.yaml]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+from pathlib import Path
 
 import numpy as np
 
@@ -43,9 +46,12 @@ def main() -> None:
     ap.add_argument("--scenes", type=int, default=60)
     ap.add_argument("--small", type=int, default=10, help="scenes at 320x240 and at 1280x720 each")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--backend", choices=["opencv", "sgm"], default=PipelineConfig().backend)
+    ap.add_argument("--backend", choices=["opencv", "sgm"], default=None, help="default: the config's")
+    ap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")
     args = ap.parse_args()
-    config = PipelineConfig(backend=args.backend)
+    config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
+    if args.backend is not None:
+        config = dataclasses.replace(config, backend=args.backend)
     rng = np.random.default_rng(args.seed)
     mix, weak = run([random_scene_spec(rng) for _ in range(args.scenes)], config)
     low, _ = run(
