@@ -75,7 +75,7 @@ def continue_steps(
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
     thr = np.clip(_THRESHOLD_SIGMAS * samples.sigma_m, _MIN_THRESHOLD_M, _MAX_THRESHOLD_M)
     free = ~used & np.isfinite(s_all) & np.isfinite(thr)
-    taken = np.asarray(list(walls), dtype=np.float64)
+    wall_s = np.asarray(list(walls), dtype=np.float64)
     out = list(steps)
     added = 0
     while added < config.max_continued_steps:
@@ -99,7 +99,7 @@ def continue_steps(
         if z_hi - z_lo < 0.5 * rise or v_hi - v_lo < config.min_riser_width_m:
             break
         a0 = float(median(s_all[patch]))
-        if taken.size and float(np.min(np.abs(taken - a0))) < config.merge_distance_m:
+        if wall_s.size and float(np.min(np.abs(wall_s - a0))) < config.merge_distance_m:
             break
         plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
         n = plane.normal
