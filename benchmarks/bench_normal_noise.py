@@ -31,12 +31,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from stereo_terrain.calibration import read_calibration
 from stereo_terrain.pipeline import Pipeline
-from stereo_terrain.rectify import read_image
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_real_stairs import DATA, REAL_SCENES  # noqa: E402
+from bench_real_stairs import real_pairs  # noqa: E402
 from bench_stair_disparity import surface_classes, true_disparity  # noqa: E402
 
 K = 4  # the box half-size and half the tangents' length at 640 px (cloud.sample_disparity)
@@ -111,19 +109,9 @@ def main() -> None:
             f"| {d_med:.1f} | {math.tan(math.radians(20.0)) * d_med / f:.3f} |",
             flush=True,
         )
-    for name, folder, left, right, calib, _ in REAL_SCENES:
-        d = DATA / folder
-        if d.is_dir():
-            r = Pipeline(read_calibration(d / calib), None, warm_up=False).run(
-                read_image(d / left), read_image(d / right)
-            )
-            frames.append(f"{name}: {frame_sigma(r.disparity.disparity):.3f}")
-    for d in sorted((DATA / "middlebury2014Q").glob("*")):
-        if d.is_dir():
-            r = Pipeline(read_calibration(d / "calib.txt"), None, warm_up=False).run(
-                read_image(d / "im0.png"), read_image(d / "im1.png")
-            )
-            frames.append(f"{d.name}: {frame_sigma(r.disparity.disparity):.3f}")
+    for name, calibration, left, right in real_pairs():
+        r = Pipeline(calibration, None, warm_up=False).run(left, right)
+        frames.append(f"{name}: {frame_sigma(r.disparity.disparity):.3f}")
     print("\nFrame-level estimates of the vertical gradient's sigma (px/px):")
     for line in frames:
         print("-", line)

@@ -55,7 +55,7 @@ from stereo_terrain.terrain import StairModel, TerrainConfig, build_terrain
 from stereo_terrain.terrain.continuation import largest_grid_patch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_real_stairs import DATA, REAL_SCENES  # noqa: E402
+from bench_real_stairs import real_pairs  # noqa: E402
 
 UP = np.array([0.0, 0.0, 1.0])
 #: The terrain stage without its own continuation beyond the last riser plane
@@ -225,17 +225,8 @@ def main() -> None:
                 flush=True,
             )
     if args.real:
-        items = [(n, DATA / f, lf, rf, c) for n, f, lf, rf, c, _ in REAL_SCENES]
-        root = DATA / "middlebury2014Q"
-        items += [
-            (d.name, d, "im0.png", "im1.png", "calib.txt") for d in sorted(root.glob("*")) if d.is_dir()
-        ]
-        for name, d, lf, rf, c in items:
-            if not d.is_dir():
-                continue
-            seen = cap.run(
-                Pipeline(read_calibration(d / c), None, warm_up=False), read_image(d / lf), read_image(d / rf)
-            )
+        for name, calibration, left, right in real_pairs():
+            seen = cap.run(Pipeline(calibration, None, warm_up=False), left, right)
             before, after = _both(seen, args)
             changed.append(f"{name}: {before.obstacle} {_rises(before)} -> {after.obstacle} {_rises(after)}")
     print("\nResults that change (rises, cm):")

@@ -53,6 +53,19 @@ REAL_SCENES = [
 ]
 
 
+def real_pairs(with_rooms: bool = True):
+    """``(name, calibration, left, right)`` of each real scene of ``REAL_SCENES`` that is
+    present, then (``with_rooms``) of each Middlebury 2014 object scene (rooms without
+    stairs), read from ../shared/data."""
+    items = [(n, DATA / f, lf, rf, c) for n, f, lf, rf, c, _ in REAL_SCENES]
+    if with_rooms:
+        root = DATA / "middlebury2014Q"
+        items += [(d.name, d, "im0.png", "im1.png", "calib.txt") for d in sorted(root.glob("*"))]
+    for name, d, lf, rf, c in items:
+        if d.is_dir():
+            yield name, read_calibration(d / c), read_image(d / lf), read_image(d / rf)
+
+
 def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     """Angle between two vectors, degrees (here, not from the package: older versions of it
     must run this script too)."""

@@ -21,6 +21,7 @@ from .risers import (
     _riser_candidates,
     _riser_edges,
     _tread_front,
+    riser_distance,
 )
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
@@ -99,22 +100,6 @@ def _chained(model: StairModel) -> int:
     """The steps a model chained from riser planes and treads: not those continued beyond
     the last riser plane (:mod:`.continuation`; inferred, never first)."""
     return len(model.steps) - sum(1 for s in model.steps[1:] if s.rise_inferred)
-
-
-def _walls_across(planes: PlaneSet, P: np.ndarray, u: np.ndarray, config: TerrainConfig) -> list[float]:
-    """Positions along the stair axis ``u`` of the vertical planes across it (facing the
-    robot within ``axis_spread_deg``) whose samples span more height than a riser can:
-    walls, which a continued riser must not be the foot of (:mod:`.continuation`)."""
-    cos_spread = math.cos(math.radians(config.axis_spread_deg))
-    too_tall = config.max_rise_m + config.edge_margin_m
-    walls = []
-    for seg in planes.segments:
-        if seg.kind != VERTICAL or abs(float(seg.plane.normal @ u)) < cos_spread:
-            continue
-        z_lo, z_hi = percentile(P[seg.indices, 2], [5.0, 95.0])
-        if z_hi - z_lo > too_tall:
-            walls.append(float(median(P[seg.indices] @ u)))
-    return walls
 
 
 def _assemble_along(
@@ -301,8 +286,7 @@ def _assemble_along(
     for i, (cand, top, riser_plane, tread_plane, s_pos) in enumerate(chain):
         rise = top - prev_top
         run = chain[i + 1][4] - s_pos if i + 1 < len(chain) else None
-        n = riser_plane.normal
-        distance = -riser_plane.offset / n[0] if abs(n[0]) > 0.2 else s_pos / max(abs(u[0]), 1e-6)
+        distance = riser_distance(riser_plane, s_pos, u)
         width = None if cand is None or cand.touches_border else cand.v_hi - cand.v_lo
         steps.append(
             Step(
@@ -323,14 +307,9 @@ def _assemble_along(
     if not steps:
         return _no_obstacle(planes, "risers found but no step rises above the ground", ground_z)
     h_info = list(zip(horizontals, h_z, s_h, v_h, strict=True))
-    used = np.zeros(len(P), dtype=bool)
-    for seg in planes.segments:
-        used[seg.indices] = True
     # (``ordered`` holds a riser plane once there are steps: the first step is one.)
     lateral = (min(r.v_lo for r in ordered), max(r.v_hi for r in ordered))
-    steps, continued = continue_steps(
-        steps, samples, P, used, u, v, lateral, config, walls=_walls_across(planes, P, u, config)
-    )
+    steps, continued = continue_steps(steps, planes, P, u, v, lateral, config)
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"

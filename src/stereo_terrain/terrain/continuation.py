@@ -18,7 +18,7 @@ are where the noise is worst) but taken as the median of the others, and said so
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+import math
 
 import cv2
 import numpy as np
@@ -26,43 +26,42 @@ import numpy as np
 from .._numeric import median, percentile
 from ..cloud import GridSample
 from ..msac import Plane
+from ..planes.orientation import VERTICAL, OrientationConfig, PlaneSet
 from .model import Step, TerrainConfig
+from .risers import riser_distance
 
-#: Inlier threshold of a sample, ``threshold_sigmas`` of its depth sigma within these
-#: bounds (the orientation method's defaults).
-_THRESHOLD_SIGMAS, _MIN_THRESHOLD_M, _MAX_THRESHOLD_M = 3.0, 0.012, 0.05
+#: A sample's inlier threshold is the orientation method's (its default settings: the
+#: terrain stage is not given the plane stage's config).
+_INLIERS = OrientationConfig()
 #: Offsets tried: the positions with most samples within the threshold, best first.
 _OFFSETS_TRIED = 20
 
 
 def continue_steps(
     steps: list[Step],
-    samples: GridSample,
+    planes: PlaneSet,
     P: np.ndarray,
-    used: np.ndarray,
     u: np.ndarray,
     v: np.ndarray,
     lateral: tuple[float, float],
     config: TerrainConfig,
-    *,
-    walls: Sequence[float] = (),
 ) -> tuple[list[Step], int]:
     """``steps`` with the risers found beyond the last one (module docstring), and how many.
+
+    Not at the foot of a wall: a plane across the stairs too tall for a riser within
+    ``merge_distance_m`` of the position (the last tread ending at a wall,
+    :func:`_walls_across`).
 
     Parameters
     ----------
     steps : the chain's steps, nearest first (at least two for anything to be added)
-    samples : GridSample the planes were found in (gravity-aligned frame)
-    P : (N, 3) float64, its points
-    used : (N,) bool, the samples some plane took
+    planes : PlaneSet the steps were built from (gravity-aligned frame)
+    P : (N, 3) float64, its samples' points
     u, v : (3,) float, the stair axis and the lateral direction
     lateral : the staircase's lateral extent along ``v``, metres
-    walls : positions along the axis of vertical planes facing the robot that are too tall
-        for a riser: a riser continued within ``merge_distance_m`` of one would be the foot
-        of that wall (the last tread ending at a wall), not a step
     config : TerrainConfig (``continue_steps``, ``continue_run_tolerance``,
         ``max_continued_steps``, ``min_riser_points``, ``min_riser_width_m``,
-        ``edge_margin_m``)
+        ``edge_margin_m``, ``merge_distance_m``)
     """
     if not config.continue_steps or config.max_continued_steps < 1 or len(steps) < 2:
         return steps, 0
@@ -72,10 +71,16 @@ def continue_steps(
         return steps, 0
     run, rise = float(median(np.asarray(runs))), float(median(np.asarray(rises)))
     tol = config.continue_run_tolerance
+    samples = planes.samples
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
-    thr = np.clip(_THRESHOLD_SIGMAS * samples.sigma_m, _MIN_THRESHOLD_M, _MAX_THRESHOLD_M)
+    thr = np.clip(
+        _INLIERS.threshold_sigmas * samples.sigma_m, _INLIERS.min_threshold_m, _INLIERS.max_threshold_m
+    )
+    used = np.zeros(len(P), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
     free = ~used & np.isfinite(s_all) & np.isfinite(thr)
-    wall_s = np.asarray(list(walls), dtype=np.float64)
+    wall_s = np.asarray(_walls_across(planes, P, u, config), dtype=np.float64)
     out = list(steps)
     added = 0
     while added < config.max_continued_steps:
@@ -84,8 +89,8 @@ def continue_steps(
         lo, hi = s0 + (1.0 - tol) * run, s0 + (1.0 + tol) * run
         band = (
             free
-            & (s_all > lo - _MAX_THRESHOLD_M)
-            & (s_all < hi + _MAX_THRESHOLD_M)
+            & (s_all > lo - _INLIERS.max_threshold_m)
+            & (s_all < hi + _INLIERS.max_threshold_m)
             & (v_all > lateral[0] - 0.1)
             & (v_all < lateral[1] + 0.1)
             & (z_all > top - config.edge_margin_m)
@@ -102,13 +107,38 @@ def continue_steps(
         if wall_s.size and float(np.min(np.abs(wall_s - a0))) < config.merge_distance_m:
             break
         plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
-        n = plane.normal
-        distance = -plane.offset / n[0] if abs(n[0]) > 0.2 else a0 / max(abs(u[0]), 1e-6)
         out[-1] = dataclasses.replace(last, run_m=a0 - s0)
-        out.append(Step(rise, None, float(distance), None, top + rise, a0, plane, None, rise_inferred=True))
+        out.append(
+            Step(
+                rise,
+                None,
+                riser_distance(plane, a0, u),
+                None,
+                top + rise,
+                a0,
+                plane,
+                None,
+                rise_inferred=True,
+            )
+        )
         free[patch] = False
         added += 1
     return out, added
+
+
+def _walls_across(planes: PlaneSet, P: np.ndarray, u: np.ndarray, config: TerrainConfig) -> list[float]:
+    """Positions along the stair axis ``u`` of the vertical planes across it (facing the
+    robot within ``axis_spread_deg``) whose samples span more height than a riser can."""
+    cos_spread = math.cos(math.radians(config.axis_spread_deg))
+    too_tall = config.max_rise_m + config.edge_margin_m
+    walls = []
+    for seg in planes.segments:
+        if seg.kind != VERTICAL or abs(float(seg.plane.normal @ u)) < cos_spread:
+            continue
+        z_lo, z_hi = percentile(P[seg.indices, 2], [5.0, 95.0])
+        if z_hi - z_lo > too_tall:
+            walls.append(float(median(P[seg.indices] @ u)))
+    return walls
 
 
 def _riser_patch(

@@ -101,6 +101,14 @@ def _tread_front(
     return float(percentile(s, 2))
 
 
+def riser_distance(riser: Plane, s_pos: float, u: np.ndarray) -> float:
+    """A step's distance: where the frame's x axis (y = 0) meets its riser plane, or, for
+    a riser nearly parallel to that axis, its position ``s_pos`` along the stair axis ``u``
+    carried onto it."""
+    n = riser.normal
+    return float(-riser.offset / n[0] if abs(n[0]) > 0.2 else s_pos / max(abs(u[0]), 1e-6))
+
+
 def _axis_from_normal(n: np.ndarray) -> np.ndarray:
     """Stair axis (horizontal unit vector pointing up the stairs) from a riser normal."""
     a = -np.array([n[0], n[1], 0.0])
