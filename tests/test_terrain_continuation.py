@@ -82,14 +82,54 @@ def test_a_band_off_the_steps_spacing_is_not_a_step():
     assert len(build_terrain(moved).steps) == 3
 
 
-def test_off_by_config_and_never_from_one_step():
+def test_off_by_config():
     rise, run, distance = 0.17, 0.29, 1.3
     planes = _unplaned(4, rise, run, distance)
     assert len(build_terrain(planes, OFF).steps) == 3
     assert len(build_terrain(planes, TerrainConfig(max_continued_steps=0)).steps) == 3
-    # One step and a riser band beyond it: the spacing of one step is no spacing.
-    two = _unplaned(2, rise, run, distance)
-    assert len(build_terrain(two).steps) == 1
+    assert len(build_terrain(_unplaned(2, rise, run, distance), OFF).steps) == 1
+
+
+def test_one_step_continues_where_ordinary_stairs_put_the_next_riser():
+    rise, run, distance = 0.17, 0.29, 1.3
+    # One riser plane, and the next riser's samples beyond it in no plane: no run is known
+    # yet, so the next riser is sought 20-45 cm beyond (ordinary stairs).
+    model = build_terrain(_unplaned(2, rise, run, distance))
+    assert model.obstacle == STAIRS and len(model.steps) == 2
+    first, second = model.steps
+    assert not first.rise_inferred and second.rise_inferred
+    assert first.run_m == pytest.approx(run, abs=0.005)
+    assert second.distance_m == pytest.approx(distance + run, abs=0.005)
+    assert second.rise_m == pytest.approx(first.rise_m, abs=1e-9)
+    # Two unplaned risers: the first found sets the spacing the second is sought at.
+    three = build_terrain(_unplaned(3, rise, run, distance, last=2))
+    assert len(three.steps) == 3
+    assert three.steps[1].run_m == pytest.approx(run, abs=0.005)
+    assert three.steps[2].distance_m == pytest.approx(distance + 2 * run, abs=0.005)
+
+
+def test_one_step_with_a_band_beyond_ordinary_runs_stays_one_step():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _unplaned(2, rise, run, distance)
+    used = np.zeros(len(planes.samples.points), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    # The leftover riser band pushed 25 cm further: 54 cm beyond the riser plane.
+    moved = _moved_samples(planes, ~used, np.array([0.25, 0.0, 0.0]))
+    assert len(build_terrain(moved).steps) == 1
+    # ... which a config that allows such runs takes.
+    wide = TerrainConfig(continue_max_run_m=0.6)
+    assert len(build_terrain(moved, wide).steps) == 2
+
+
+@settings(max_examples=20, deadline=None)
+@given(rise=st.floats(0.12, 0.21), run=st.floats(0.22, 0.40), yaw_deg=st.floats(-30.0, 30.0))
+def test_one_step_continued_at_its_run(rise, run, yaw_deg):
+    yaw, distance = np.radians(yaw_deg), 1.2
+    model = build_terrain(_unplaned(2, rise, run, distance, yaw))
+    assert len(model.steps) == 2 and model.steps[1].rise_inferred
+    assert model.steps[0].run_m == pytest.approx(run, abs=0.01)
+    assert model.steps[1].distance_m == pytest.approx(distance + run / np.cos(yaw), abs=0.01)
 
 
 @pytest.mark.parametrize("bad", [0.0, 1.0, -0.1])
@@ -98,6 +138,10 @@ def test_continuation_tolerance_is_checked(bad):
         TerrainConfig(continue_run_tolerance=bad)
     with pytest.raises(ConfigError):
         TerrainConfig(max_continued_steps=-1)
+    with pytest.raises(ConfigError, match="continue_min_run_m"):
+        TerrainConfig(continue_min_run_m=0.5, continue_max_run_m=0.4)
+    with pytest.raises(ConfigError, match="continue_min_run_m"):
+        TerrainConfig(continue_min_run_m=0.0)
 
 
 @settings(max_examples=25, deadline=None)

@@ -309,6 +309,8 @@ def _assemble_along(
     h_info = list(zip(horizontals, h_z, s_h, v_h, strict=True))
     # (``ordered`` holds a riser plane once there are steps: the first step is one.)
     lateral = (min(r.v_lo for r in ordered), max(r.v_hi for r in ordered))
+    # Before a single step is classified: a riser found beyond it makes it a staircase,
+    # though the ground may be seen beyond its top elsewhere (which would make it a box).
     steps, continued = continue_steps(steps, planes, P, u, v, lateral, config)
 
     obstacle = STAIRS

@@ -5,13 +5,16 @@ A far riser is a few centimetres of disparity noise tall: its samples lie on it 
 their depth noise) but their normals, differences of box means a few pixels apart, are
 tens of degrees off, so the orientation method's normal test refuses them and the chain
 stops early (docs/benchmarks.md, "Sixth session"). A staircase's steps are regular, so
-where the chain already holds two steps or more, the next riser is looked for where its
-spacing puts it: among the samples that no plane took, within the staircase's width and
-between the last tread's height and one rise above it, a band of samples at one position
-along the stair axis (the most samples within their inlier threshold), connected in the
-image and spanning at least half a rise and ``min_riser_width_m``. Its position gives the
-last step's run and the new step's distance; its rise is not measured (its top and foot
-are where the noise is worst) but taken as the median of the others, and said so
+the next riser is looked for where its spacing puts it: within ``continue_run_tolerance``
+of the steps' median run, or, where no run is known yet (a single step whose tread's far
+edge is not seen), between ``continue_min_run_m`` and ``continue_max_run_m`` beyond it
+(ordinary stairs; once one riser is found so, its spacing is the run). It is sought
+among the samples that no plane took, within the staircase's width and between the last
+tread's height and one rise above it: a band of samples at one position along the stair
+axis (the most samples within their inlier threshold), connected in the image and
+spanning at least half a rise and ``min_riser_width_m``. Its position gives the last
+step's run and the new step's distance; its rise is not measured (its top and foot are
+where the noise is worst) but taken as the median of the measured ones, and said so
 (``rise_inferred``), as for a first step whose foot is out of view.
 """
 
@@ -54,7 +57,8 @@ def continue_steps(
 
     Parameters
     ----------
-    steps : the chain's steps, nearest first (at least two for anything to be added)
+    steps : the chain's steps, nearest first (one with a measured rise at least for
+        anything to be added)
     planes : PlaneSet the steps were built from (gravity-aligned frame)
     P : (N, 3) float64, its samples' points
     u, v : (3,) float, the stair axis and the lateral direction
@@ -63,13 +67,15 @@ def continue_steps(
         ``max_continued_steps``, ``min_riser_points``, ``min_riser_width_m``,
         ``edge_margin_m``, ``merge_distance_m``)
     """
-    if not config.continue_steps or config.max_continued_steps < 1 or len(steps) < 2:
+    if not config.continue_steps or config.max_continued_steps < 1 or not steps:
         return steps, 0
     runs = [s.run_m for s in steps if s.run_m is not None]
     rises = [s.rise_m for s in steps if not s.rise_inferred]
-    if not runs or len(rises) < 2:
+    if not rises:
         return steps, 0
-    run, rise = float(median(np.asarray(runs))), float(median(np.asarray(rises)))
+    # the spacing: the median run, or (none seen yet) the ordinary range until one is found
+    run: float | None = float(median(np.asarray(runs))) if runs else None
+    rise = float(median(np.asarray(rises)))
     tol = config.continue_run_tolerance
     samples = planes.samples
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
@@ -86,7 +92,10 @@ def continue_steps(
     while added < config.max_continued_steps:
         last = out[-1]
         s0, top = last.axis_position_m, last.top_z_m
-        lo, hi = s0 + (1.0 - tol) * run, s0 + (1.0 + tol) * run
+        if run is None:
+            lo, hi = s0 + config.continue_min_run_m, s0 + config.continue_max_run_m
+        else:
+            lo, hi = s0 + (1.0 - tol) * run, s0 + (1.0 + tol) * run
         band = (
             free
             & (s_all > lo - _INLIERS.max_threshold_m)
@@ -123,6 +132,8 @@ def continue_steps(
         )
         free[patch] = False
         added += 1
+        if run is None:
+            run = a0 - s0
     return out, added
 
 

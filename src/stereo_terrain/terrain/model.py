@@ -81,12 +81,17 @@ class TerrainConfig:
         method's ``sample_radius_cells``), so its width is short by up to twice that: part
         of ``width_sigma_m``.
     continue_steps : bool
-        Look for the next riser beyond the last riser plane of a staircase of two or more
-        steps where the steps' spacing puts it, from its samples' positions alone (a far
-        riser whose samples' normals are too noisy to form a plane); its rise is the
-        median of the others (``rise_inferred``). See :mod:`.continuation`.
+        Look for the next riser beyond the last riser plane of a staircase where the
+        steps' spacing puts it, from its samples' positions alone (a far riser whose
+        samples' normals are too noisy to form a plane); its rise is the median of the
+        measured ones (``rise_inferred``). See :mod:`.continuation`.
     continue_run_tolerance : float
         Such a riser must stand within this fraction of the median run from the last one.
+    continue_min_run_m, continue_max_run_m : float
+        Where no run is known yet (a single step whose tread's far edge is not seen), the
+        next riser must stand this far beyond it: the runs of ordinary building stairs
+        (codes ask for 22-36 cm) with a margin for the position's noise. A single step
+        so continued is a staircase, not a box.
     max_continued_steps : int
         At most this many steps are added so.
     face_bias_correlation : float
@@ -117,12 +122,19 @@ class TerrainConfig:
     width_loss_cells: float = 5.0
     continue_steps: bool = True
     continue_run_tolerance: float = 0.25
+    continue_min_run_m: float = 0.20
+    continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "min_riser_points", "min_tread_points")
         check_min(self, 0, "max_continued_steps")
+        if not 0 < self.continue_min_run_m < self.continue_max_run_m:
+            raise ConfigError(
+                "need 0 < continue_min_run_m < continue_max_run_m, got "
+                f"{self.continue_min_run_m}, {self.continue_max_run_m}"
+            )
         if not 0 < self.continue_run_tolerance < 1:
             raise ConfigError(
                 f"TerrainConfig.continue_run_tolerance must be in (0, 1), got {self.continue_run_tolerance}"
