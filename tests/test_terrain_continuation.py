@@ -49,6 +49,14 @@ def _moved_samples(planes: PlaneSet, mask: np.ndarray, shift: np.ndarray) -> Pla
     return dataclasses.replace(planes, samples=GridSample(**{**planes.samples.__dict__, "points": pts}))
 
 
+def _leftovers_moved(planes: PlaneSet, dx: float) -> PlaneSet:
+    """``planes`` with the samples no plane took moved ``dx`` along the frame's x axis."""
+    used = np.zeros(len(planes.samples.points), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    return _moved_samples(planes, ~used, np.array([dx, 0.0, 0.0]))
+
+
 def test_a_far_riser_without_a_plane_continues_the_staircase():
     rise, run, distance = 0.17, 0.29, 1.3
     planes = _unplaned(4, rise, run, distance)
@@ -72,13 +80,9 @@ def test_a_far_riser_without_a_plane_continues_the_staircase():
 
 def test_a_band_off_the_steps_spacing_is_not_a_step():
     rise, run, distance = 0.17, 0.29, 1.3
-    planes = _unplaned(4, rise, run, distance)
-    used = np.zeros(len(planes.samples.points), dtype=bool)
-    for seg in planes.segments:
-        used[seg.indices] = True
     # The leftover samples (the last riser and the landing) pushed 15 cm further: the band
     # now stands 44 cm behind the last riser plane, 50% more than the steps' run.
-    moved = _moved_samples(planes, ~used, np.array([0.15, 0.0, 0.0]))
+    moved = _leftovers_moved(_unplaned(4, rise, run, distance), 0.15)
     assert len(build_terrain(moved).steps) == 3
 
 
@@ -110,12 +114,8 @@ def test_one_step_continues_where_ordinary_stairs_put_the_next_riser():
 
 def test_one_step_with_a_band_beyond_ordinary_runs_stays_one_step():
     rise, run, distance = 0.17, 0.29, 1.3
-    planes = _unplaned(2, rise, run, distance)
-    used = np.zeros(len(planes.samples.points), dtype=bool)
-    for seg in planes.segments:
-        used[seg.indices] = True
     # The leftover riser band pushed 25 cm further: 54 cm beyond the riser plane.
-    moved = _moved_samples(planes, ~used, np.array([0.25, 0.0, 0.0]))
+    moved = _leftovers_moved(_unplaned(2, rise, run, distance), 0.25)
     assert len(build_terrain(moved).steps) == 1
     # ... which a config that allows such runs takes.
     wide = TerrainConfig(continue_max_run_m=0.6)
