@@ -112,6 +112,18 @@ def test_one_step_continues_where_ordinary_stairs_put_the_next_riser():
     assert three.steps[2].distance_m == pytest.approx(distance + 2 * run, abs=0.005)
 
 
+def test_a_lone_riser_whose_top_formed_no_plane_is_not_continued():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _unplaned(2, rise, run, distance)
+    # Its tread's plane gone too (its samples stay, taken by no plane): a riser alone, any
+    # vertical face of a step's height, is too weak a witness of stairs to extend.
+    tread = [s for s in planes.segments if s.kind == HORIZONTAL and abs(s.plane.offset + rise) < 1e-6]
+    assert len(tread) == 1
+    lone = dataclasses.replace(planes, segments=tuple(s for s in planes.segments if s is not tread[0]))
+    model = build_terrain(lone)
+    assert len(model.steps) == 1 and model.steps[0].tread is None
+
+
 def test_one_step_with_a_band_beyond_ordinary_runs_stays_one_step():
     rise, run, distance = 0.17, 0.29, 1.3
     # The leftover riser band pushed 25 cm further: 54 cm beyond the riser plane.

@@ -7,12 +7,13 @@ tens of degrees off, so the orientation method's normal test refuses them and th
 stops early (docs/benchmarks.md, "Sixth session"). A staircase's steps are regular, so
 the next riser is looked for where its spacing puts it: within ``continue_run_tolerance``
 of the steps' median run, or, where no run is known yet (a single step whose tread's far
-edge is not seen), between ``continue_min_run_m`` and ``continue_max_run_m`` beyond it
-(ordinary stairs; once one riser is found so, its spacing is the run). It is sought
-among the samples that no plane took, within the staircase's width and between the last
-tread's height and one rise above it: a band of samples at one position along the stair
-axis (the most samples within their inlier threshold), connected in the image and
-spanning at least half a rise and ``min_riser_width_m``. Its position gives the last
+edge is not seen, but its tread is: a lone riser without one is too weak a witness),
+between ``continue_min_run_m`` and ``continue_max_run_m`` beyond it (ordinary stairs;
+once one riser is found so, its spacing is the run). It is sought among the samples that
+no plane took, within the staircase's width and between the last tread's height and one
+rise above it: a band of samples at one position along the stair axis (the most samples
+within their inlier threshold), connected in the image and spanning at least half a rise
+and ``min_riser_width_m``. Its position gives the last
 step's run and the new step's distance; its rise is not measured (its top and foot are
 where the noise is worst) but taken as the median of the measured ones, and said so
 (``rise_inferred``), as for a first step whose foot is out of view.
@@ -75,6 +76,10 @@ def continue_steps(
         return steps, 0
     # the spacing: the median run, or (none seen yet) the ordinary range until one is found
     run: float | None = float(median(np.asarray(runs))) if runs else None
+    if run is None and steps[-1].tread is None:
+        # A lone riser whose top formed no plane: any vertical face of about a step's
+        # height (an object's front, a junk plane) is one, so it is no staircase to extend.
+        return steps, 0
     rise = float(median(np.asarray(rises)))
     tol = config.continue_run_tolerance
     samples = planes.samples

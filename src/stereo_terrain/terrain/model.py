@@ -88,10 +88,11 @@ class TerrainConfig:
     continue_run_tolerance : float
         Such a riser must stand within this fraction of the median run from the last one.
     continue_min_run_m, continue_max_run_m : float
-        Where no run is known yet (a single step whose tread's far edge is not seen), the
-        next riser must stand this far beyond it: the runs of ordinary building stairs
-        (codes ask for 22-36 cm) with a margin for the position's noise. A single step
-        so continued is a staircase, not a box.
+        Where no run is known yet (a single step whose tread's far edge is not seen; its
+        tread must be seen, a lone riser is not continued), the next riser must stand
+        this far beyond it: the runs of ordinary building stairs (codes ask for 22-36
+        cm) with a margin for the position's noise. A single step so continued is a
+        staircase, not a box.
     max_continued_steps : int
         At most this many steps are added so.
     face_bias_correlation : float
