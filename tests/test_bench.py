@@ -178,7 +178,7 @@ from stereo_terrain import _cloud_kernels as ck
 from stereo_terrain.stereo import _regions as rk
 from stereo_terrain.terrain import _kernels as tk
 from stereo_terrain.stereo import _disparity_kernels as dk
-from stereo_terrain import _gravity_kernels as gk
+from stereo_terrain.gravity import _kernels as gk
 calib, rig, left, right = _warm_up_scene()
 Pipeline(calib, rig, PipelineConfig(method="auto"))
 # (the orientation method's scoring, inliers, refinement and triplets run inside oriented_round)

@@ -168,7 +168,7 @@ def test_truncated_family_error_sums_are_the_numpy_passes_bit_for_bit():
     """estimate_up's hypothesis scores by one compiled pass (issue 13): NumPy's column sums
     of the truncated squared sines, bit for bit, for two hypotheses or more (NumPy sums a
     single column pairwise: estimate_up keeps NumPy's passes there)."""
-    from stereo_terrain._gravity_kernels import truncated_family_error_sums
+    from stereo_terrain.gravity._kernels import truncated_family_error_sums
 
     rng = np.random.default_rng(8)
     s2 = np.float32(math.sin(math.radians(10.0)) ** 2)
@@ -192,7 +192,7 @@ def test_truncated_family_error_sums_are_the_numpy_passes_bit_for_bit():
 def test_floor_inlier_counts_are_the_numpy_passes():
     """floor_up's hypothesis counts by one compiled pass (issue 13): NumPy's counts, with
     residuals and cosines placed exactly on the thresholds too."""
-    from stereo_terrain._gravity_kernels import floor_inlier_counts
+    from stereo_terrain.gravity._kernels import floor_inlier_counts
 
     rng = np.random.default_rng(9)
     for t in range(200):

@@ -214,7 +214,8 @@ NO_FLOOR_TOL_DEG = 1.5
 def _irls_reference(cons, u, floor):
     """The Gauss-Newton of refine_up_from_planes as NumPy matrices (before issue 13's
     scalar version): up and the widened largest variance, or None."""
-    from stereo_terrain.gravity import _CAUCHY_SCALE, _tangent_basis
+    from stereo_terrain.gravity.from_planes import _CAUCHY_SCALE
+    from stereo_terrain.gravity.geometry import _tangent_basis
     from stereo_terrain.planes.orientation import HORIZONTAL
 
     weights = np.ones(len(cons))
@@ -252,7 +253,7 @@ def _irls_reference(cons, u, floor):
 def test_scalar_gauss_newton_is_the_matrix_one():
     """refine_up_from_planes's Gauss-Newton in Python floats (issue 13) gives the matrix
     formulation's up and variance to rounding, and fails where it fails."""
-    from stereo_terrain.gravity import _irls_up
+    from stereo_terrain.gravity.from_planes import _irls_up
     from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL
 
     rng = np.random.default_rng(13)

@@ -1,4 +1,4 @@
-"""Up from the Manhattan frame of all the image's lines (stereo_terrain.line_frame)."""
+"""Up from the Manhattan frame of all the image's lines (stereo_terrain.gravity.line_frame)."""
 
 from __future__ import annotations
 
@@ -13,12 +13,17 @@ from hypothesis import strategies as st
 from stereo_terrain.calibration import StereoCalibration
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.frames import rotation_from_rpy
-from stereo_terrain.gravity import GravityConfig, angle_deg, refine_up_from_planes
-from stereo_terrain.line_frame import up_from_line_frame, up_from_lines_and_planes
+from stereo_terrain.gravity import (
+    GravityConfig,
+    VerticalLinesConfig,
+    angle_deg,
+    refine_up_from_planes,
+    up_from_line_frame,
+    up_from_lines_and_planes,
+)
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.rectify import compute_rectification
 from stereo_terrain.synthetic import random_scene_spec, render_scene
-from stereo_terrain.vanishing import VerticalLinesConfig
 
 W, H, F = 640, 480, 500.0
 CAMERA_UP = np.array([0.0, -1.0, 0.0])
@@ -264,8 +269,8 @@ def test_pair_angles_are_the_full_angles_picked_bit_for_bit(seed, n, k, batch):
     """The fit's residuals take each segment's angle to its own direction only
     (``pair_angles``, issue 13): the same bits as the full (K, N) angles, picked; with a
     leading batch axis too. ``_tangent_basis`` keeps np.linalg.norm's bits."""
-    from stereo_terrain.gravity import _tangent_basis
-    from stereo_terrain.line_frame import _Segments
+    from stereo_terrain.gravity.geometry import _tangent_basis
+    from stereo_terrain.gravity.line_frame import _Segments
 
     rng = np.random.default_rng(seed)
     ends = rng.uniform(0.0, 640.0, size=(n, 4))
@@ -292,8 +297,8 @@ def test_the_fits_jacobian_is_the_one_parameter_at_a_time_loop_bit_for_bit(seed,
     """The Gauss-Newton step's residuals and numeric Jacobian in one pass (issue 13) give
     the bits of the loop it replaced: one residual vector per moved parameter, each from
     the full (K, N) angles picked and np.linalg.norm. ``_row_norms`` is np.linalg.norm's."""
-    from stereo_terrain.gravity import _tangent_basis
-    from stereo_terrain.line_frame import _directions, _residuals_and_jacobian, _row_norms, _Segments
+    from stereo_terrain.gravity.geometry import _tangent_basis
+    from stereo_terrain.gravity.line_frame import _directions, _residuals_and_jacobian, _row_norms, _Segments
 
     rng = np.random.default_rng(seed)
     seg = _Segments(rng.uniform(0.0, 640.0, size=(n, 4)), _rectification(), 0.5)

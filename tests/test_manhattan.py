@@ -1,5 +1,5 @@
 """The Manhattan fill (stereo_terrain.stereo.manhattan) and the scene's horizontal direction
-(stereo_terrain.vanishing.horizontal_direction)."""
+(stereo_terrain.gravity.horizontal_direction)."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 from stereo_terrain.calibration import StereoCalibration
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.frames import rotation_from_rpy
+from stereo_terrain.gravity import VerticalLinesConfig, horizontal_direction
 from stereo_terrain.rectify import compute_rectification
 from stereo_terrain.stereo.fill import PlanarFillConfig, fill_planar_regions, find_flat_regions
 from stereo_terrain.stereo.manhattan import _repeats_a_neighbour, _stacked, fill_manhattan_faces
-from stereo_terrain.vanishing import VerticalLinesConfig, horizontal_direction
 
 W, H, F, B = 640, 480, 500.0, 0.08
 #: Horizontal direction from exact segments: within this of the truth, modulo 90 deg

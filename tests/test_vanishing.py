@@ -1,4 +1,4 @@
-"""Up from the vanishing point of the image's vertical lines (stereo_terrain.vanishing)."""
+"""Up from the vanishing point of the image's vertical lines (stereo_terrain.gravity.from_lines)."""
 
 from __future__ import annotations
 
@@ -14,11 +14,16 @@ from hypothesis import strategies as st
 from stereo_terrain.calibration import StereoCalibration
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.frames import rotation_from_rpy
-from stereo_terrain.gravity import GravityEstimate, angle_deg
+from stereo_terrain.gravity import (
+    GravityEstimate,
+    VerticalLinesConfig,
+    angle_deg,
+    combine_with_lines,
+    up_from_vertical_lines,
+)
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import compute_rectification
 from stereo_terrain.synthetic import random_scene_spec, render_scene
-from stereo_terrain.vanishing import VerticalLinesConfig, combine_with_lines, up_from_vertical_lines
 
 #: Up from clean drawn lines (anti-aliased, 2 px wide) must be within this many of its
 #: reported sigmas of the truth. Measured over 150 random attitudes: error median 0.04,

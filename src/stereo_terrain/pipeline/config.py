@@ -12,7 +12,7 @@ from ..checks import check_fields
 from ..cloud import CloudConfig
 from ..drift import DriftConfig
 from ..errors import ConfigError
-from ..gravity import GravityConfig
+from ..gravity import GravityConfig, VerticalLinesConfig
 from ..planes.contour import ContourConfig
 from ..planes.orientation import OrientationConfig
 from ..rectify import RECTIFY_FOVS
@@ -23,7 +23,6 @@ from ..stereo.vertical import VerticalAlignConfig
 from ..swing import SwingConfig
 from ..terrain import TerrainConfig
 from ..tracking import TrackingConfig
-from ..vanishing import VerticalLinesConfig
 
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")
@@ -68,8 +67,8 @@ class PipelineConfig:
         (:mod:`stereo_terrain.stereo.vertical`; ``vertical.enabled``, on by default).
     vanishing : VerticalLinesConfig
         Without a rig, up also from the vanishing point of the image's vertical lines
-        (:mod:`stereo_terrain.vanishing`; ``vanishing.enabled``, on by default), combined
-        with the planes' estimate (:func:`stereo_terrain.vanishing.combine_with_lines`).
+        (:mod:`stereo_terrain.gravity.from_lines`; ``vanishing.enabled``, on by default), combined
+        with the planes' estimate (:func:`stereo_terrain.gravity.from_lines.combine_with_lines`).
     tracking : TrackingConfig
         The staircase tracked over frames by the live loop (``run``, ``replay``; issue
         14, :mod:`stereo_terrain.tracking`); ``tracking: {enabled: false}`` gives single

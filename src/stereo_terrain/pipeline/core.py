@@ -18,7 +18,16 @@ from ..calibration import StereoCalibration
 from ..cloud import GridSample, sample_disparity, transform_sample
 from ..drift import CorrectionUpdate, OnlineRectifier
 from ..frames import Rig, Transform
-from ..gravity import GravityEstimate, estimate_up, levelling, refine_up_from_planes
+from ..gravity import (
+    GravityEstimate,
+    SceneLines,
+    combine_with_lines,
+    estimate_up,
+    horizontal_direction,
+    levelling,
+    refine_up_from_planes,
+    scene_lines,
+)
 from ..planes.auto import combine_plane_sets
 from ..planes.contour import extract_planes_contour
 from ..planes.orientation import PlaneSet, extract_planes_orientation, transform_planes
@@ -29,7 +38,6 @@ from ..stereo.manhattan import fill_manhattan_faces
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
-from ..vanishing import SceneLines, combine_with_lines, horizontal_direction, scene_lines
 from .config import PipelineConfig
 from .gravity_steps import (
     _gravity_report,

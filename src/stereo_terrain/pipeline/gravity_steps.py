@@ -18,16 +18,16 @@ from ..gravity import (
     GravityEstimate,
     GravityReport,
     angle_deg,
+    combine_with_lines,
     estimate_up,
     floor_up,
     levelling,
     refine_up_from_planes,
+    up_from_lines_and_planes,
     yaw_frame_from_up,
 )
-from ..line_frame import up_from_lines_and_planes
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, extract_planes_orientation, transform_planes
 from ..rectify import RectifiedPair
-from ..vanishing import combine_with_lines
 from .config import PipelineConfig
 
 

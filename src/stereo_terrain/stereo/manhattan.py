@@ -9,7 +9,7 @@ the region is left to the matcher, whose values there are noise.
 Built scenes are Manhattan: treads and floors are horizontal, risers and walls vertical,
 and the vertical faces come in two families at right angles, along the staircase and
 across it. Given up and one horizontal direction ``h`` of the scene (from the image's
-lines, :func:`stereo_terrain.vanishing.horizontal_direction`), a face's normal is one of
+lines, :func:`stereo_terrain.gravity.from_lines.horizontal_direction`), a face's normal is one of
 ``up``, ``h`` and ``up x h``, and a plane of known normal ``n`` has a single unknown: its
 disparity is ``d + doffs = s g(u, v)`` with ``g = n . K^-1 (u, v, 1)`` (``s`` = f B over
 the plane's distance from the camera). One support disparity fixes ``s``.

@@ -1,6 +1,6 @@
 """Gravity from all of the image's lines: the scene's Manhattan frame.
 
-The vertical vanishing point (:func:`stereo_terrain.vanishing.up_from_vertical_lines`)
+The vertical vanishing point (:func:`stereo_terrain.gravity.from_lines.up_from_vertical_lines`)
 needs near-vertical segments, and a level camera a metre or two from a staircase often
 sees fewer than four of them (no wall corner, no newel post in view). It sees many
 horizontal ones: nosings and tread edges run along the steps, the treads' side edges and
@@ -42,9 +42,10 @@ import math
 
 import numpy as np
 
-from .gravity import GravityEstimate, _tangent_basis, angle_deg
-from .rectify import Rectification
-from .vanishing import VerticalLinesConfig, normalised_ends, unit_rows
+from ..rectify import Rectification
+from .config import GravityEstimate
+from .from_lines import VerticalLinesConfig, normalised_ends, unit_rows
+from .geometry import _tangent_basis, angle_deg
 
 #: Up in the optical frame of an upright camera (x right, y down, z forward).
 _CAMERA_UP = np.array([0.0, -1.0, 0.0])
@@ -135,7 +136,7 @@ def up_from_line_frame(
     Parameters
     ----------
     segments : (N, 4) array
-        LSD segments of the rectified left image (:func:`stereo_terrain.vanishing.line_segments`).
+        LSD segments of the rectified left image (:func:`stereo_terrain.gravity.from_lines.line_segments`).
     rectification : Rectification
     prior_up : (3,) array
         Up before the lines (the planes' estimate, or the camera's up), rectified camera.

@@ -33,10 +33,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .checks import check_fields, check_min
-from .errors import ConfigError
-from .gravity import GravityEstimate, angle_deg
-from .rectify import Rectification
+from ..checks import check_fields, check_min
+from ..errors import ConfigError
+from ..rectify import Rectification
+from .config import GravityEstimate
+from .geometry import angle_deg
 
 #: Up in the optical frame of an upright camera (x right, y down, z forward).
 _CAMERA_UP = np.array([0.0, -1.0, 0.0])
@@ -80,7 +81,7 @@ class VerticalLinesConfig:
         Where the planes' estimate and the lines' disagree by more than three combined
         sigmas, take the lines' (True, the default) or keep the planes' (False; see
         :func:`combine_with_lines`; the Manhattan frame of all the lines,
-        :func:`~stereo_terrain.line_frame.up_from_lines_and_planes`, follows it too). On
+        :func:`~stereo_terrain.gravity.line_frame.up_from_lines_and_planes`, follows it too). On
         60 realistic rendered scenes overruling puts 75% of
         them within 2 deg (73% without); on the real scenes the lines' up is the one that
         makes their door frames and wall slats vertical (docs/benchmarks.md).
@@ -95,7 +96,7 @@ class VerticalLinesConfig:
     frame : bool
         Without a rig, where the planes do not fix up to ``frame_above_deg`` (or at all),
         fit the scene's Manhattan frame to all the segments, vertical and horizontal, with
-        the planes' up as its prior (:mod:`stereo_terrain.line_frame`): a level camera near
+        the planes' up as its prior (:mod:`stereo_terrain.gravity.line_frame`): a level camera near
         a staircase sees few vertical lines but many step edges. On 60 realistic rendered
         scenes, gravity within 2 deg of the truth in 93% of them instead of 75% (median
         0.88 -> 0.50 deg; 78-80% instead of 62-68% on two fresh sets of 40); the default
