@@ -300,6 +300,14 @@ def _rec_case(label, csv_text: str | bytes, *words, images=True):
     return Case(f"replay-{label}", build, words or ("pairs.csv",))
 
 
+def _replay_without_calib(g, w):
+    """replay of a recording as record writes it: pairs.csv and the images, no calib.yaml."""
+    import shutil
+
+    rec = shutil.copytree(g.rec, w / "rec", ignore=shutil.ignore_patterns("calib.yaml"))
+    return ["replay", rec, "--no-lcm"]
+
+
 def _sim(label, *opts):
     return Case(
         f"simulate-{label}",
@@ -415,7 +423,8 @@ CASES = [
     Case("replay-missing-folder", lambda g, w: ["replay", w / "MISSING", "--no-lcm"], ("MISSING",)),
     Case("replay-folder-is-file", lambda g, w: ["replay", g.calib, "--no-lcm"], ("calib.yaml",)),
     Case("replay-no-pairs", lambda g, w: ["replay", g.dir, "--no-lcm", "--calib", g.calib], ("pairs.csv",)),
-    Case("replay-no-calib", lambda g, w: ["replay", g.mb, "--no-lcm"], ("calib",)),
+    Case("replay-no-calib", _replay_without_calib, ("--calib",)),
+    Case("replay-not-a-recording", lambda g, w: ["replay", g.mb, "--no-lcm"], ("not a recording", "pairs.csv")),
     Case("replay-speed-0", lambda g, w: ["replay", g.rec, "--no-lcm", "--speed", "0"], ("--speed",)),
     Case("replay-summary-missing-dir", lambda g, w: ["replay", g.rec, "--no-lcm", "--summary-json",
                                                     _out(w, "no", "s.json")], ("--summary-json",)),

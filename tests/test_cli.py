@@ -77,6 +77,29 @@ def _assert_one_line_error(code, err, *words):
         assert w in lines[0], lines[0]
 
 
+def test_render_refuses_a_folder_with_earlier_scenes(tmp_path, capsys):
+    """A second render would overwrite scene_000 and keep scene_001: one set of two renders."""
+    out = tmp_path / "scenes"
+    assert run_cli(["render", "--out", out, "--count", 2, "--seed", 3, "--size", "64x48"], capsys)[0] == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    code, stdout, err = run_cli(
+        ["render", "--out", out, "--count", 1, "--seed", 9, "--size", "64x48"], capsys
+    )
+    _assert_one_line_error(code, err, "already holds rendered scenes", "scene_000", "new or empty folder")
+    assert stdout == ""
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+
+def test_render_into_an_empty_or_new_folder(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("not a scene")  # no scene_NNN: nothing to mix
+    for out in (tmp_path / "empty", tmp_path / "new" / "deeper", tmp_path / "other"):
+        code, stdout, err = run_cli(["render", "--out", out, "--size", "64x48"], capsys)
+        assert code == 0, err
+        assert stdout.strip() == str(out / "scene_000") and (out / "scene_000" / "left.png").is_file()
+
+
 def test_missing_image(scene_dir, tmp_path, capsys):
     code, _, err = run_cli(
         ["reconstruct", tmp_path / "nope.png", scene_dir / "right.png", "--calib", scene_dir / "calib.yaml"],

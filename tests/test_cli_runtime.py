@@ -48,8 +48,10 @@ def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
     ("argv", "match"),
     [
         (["replay", "{tmp}/nope", "--no-lcm", "--calib", "{rec}/calib.yaml"], "pairs folder not found"),
-        (["replay", "{tmp}", "--no-lcm"], "no --calib given"),
-        (["replay", "{rec}", "--no-lcm", "--speed", "0"], "--speed must be > 0"),
+        (["replay", "{tmp}", "--no-lcm"], "{tmp} is not a recording: it has no pairs.csv"),
+        (["replay", "{rec}", "--no-lcm", "--speed", "0"], "--speed: expected a finite number > 0, got 0"),
+        (["replay", "{rec}", "--no-lcm", "--speed", "-1"], "--speed: expected a finite number > 0, got -1"),
+        (["replay", "{rec}", "--no-lcm", "--speed", "nan"], "--speed: expected a finite number > 0, got nan"),
         (["replay", "{rec}", "--lcm-url", "bogus://x"], "cannot open LCM"),
         (["run", "--left", "{tmp}/l.avi", "--right", "{tmp}/r.avi", "--calib", "{rec}/calib.yaml",
           "--no-lcm"], "left video not found"),
@@ -66,7 +68,20 @@ def test_mistakes_are_one_line_exit_2(recording, tmp_path, capsys, argv, match):
     argv = [a.format(tmp=tmp_path, rec=recording) for a in argv]
     code, out, err = run_cli(argv, capsys)
     assert code == 2
-    assert match in err and err.count("\n") == 1 and "Traceback" not in err
+    assert match.format(tmp=tmp_path) in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_replay_of_a_recording_without_calib_yaml_asks_for_calib(recording, tmp_path, capsys):
+    """What record writes (pairs.csv and the images, no calib.yaml) is a recording: the
+    message is then about the calibration."""
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    for p in recording.iterdir():
+        if p.name not in ("calib.yaml", "rig.yaml"):
+            (rec / p.name).write_bytes(p.read_bytes())
+    code, _, err = run_cli(["replay", rec, "--no-lcm", "--as-fast"], capsys)
+    assert code == 2 and err.count("\n") == 1
+    assert f"no --calib given and {rec / 'calib.yaml'} does not exist; pass --calib" in err
 
 
 def test_one_camera_and_one_file_is_refused(recording, tmp_path, capsys):

@@ -99,6 +99,8 @@ def test_rig_round_trip(tmp_path):
         ("foo: 1", "T_body_camera"),
         ("T_body_camera: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nbody_rpy: [1, 2]", "body_rpy"),
         ("{[", "YAML"),
+        # a misspelt key would otherwise leave the body level, silently
+        ("T_body_camera: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nbody_rpy_deg: [0, 2, 0]", "body_rpy_deg"),
     ],
 )
 def test_bad_rig_files(tmp_path, text, match):

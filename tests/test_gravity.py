@@ -185,6 +185,21 @@ def test_a_wrong_rig_is_reported():
     assert g["rig_disagreement_deg"] > 10.0 and "check the rig" in g["note"]
 
 
+def test_a_rig_off_by_more_than_the_prior_cone_is_reported_in_the_note():
+    """An identity ``T_body_camera`` (a newcomer's rig file) puts up along the optical axis,
+    about 90 deg from the truth: beyond the rig check's cone around the rig's up, so the
+    scene's own up (camera roughly upright) is the check."""
+    from stereo_terrain.frames import Rig, Transform
+
+    scene = render_scene(default_scene_spec())
+    identity = Rig(Transform(np.eye(4), "body", "camera"))
+    result = Pipeline(scene.calibration, identity, warm_up=False).run(scene.left, scene.right).to_json_dict()
+    assert result["gravity"]["rig_disagreement_deg"] > 80.0
+    assert "check the rig" in result["gravity"]["note"] and "check the rig" in result["note"]
+    good = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right).to_json_dict()
+    assert "check the rig" not in good["note"]
+
+
 @pytest.mark.parametrize(
     ("yaw_deg", "pitch_deg", "roll_deg"), [(0.0, 0.0, 0.0), (20.0, 5.0, 2.0), (-30.0, -3.0, -2.0)]
 )

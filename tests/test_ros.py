@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -487,6 +488,88 @@ def test_mcap_figure_is_drawn_from_the_file(png_mcap, tmp_path):
     T = transform_between(tf, "camera_rect", "yaw") @ transform_between(tf, "yaw", "camera_rect")
     assert np.allclose(T, np.eye(4), atol=1e-9)
     assert np.allclose(transform_between(tf, "world", "yaw")[:3, 3], [0.05, 0.0, 0.0])
+
+
+def _mcap_figure(argv, capsys) -> tuple[int, str, str]:
+    """``python -m stereo_terrain.viz.mcap_figure ARGV`` in this process."""
+    from stereo_terrain.viz.mcap_figure import main as figure_main
+
+    try:
+        code = figure_main([str(a) for a in argv])
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_mcap_figure_command_draws_and_says_so(png_mcap, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    code, out, err = _mcap_figure([png_mcap, tmp_path / "fig.png", 1], capsys)
+    assert code == 0, err
+    assert out.strip() == f"wrote {tmp_path / 'fig.png'}" and (tmp_path / "fig.png").stat().st_size > 20_000
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [
+        (lambda d, good: d / "nope.mcap", "MCAP file not found"),
+        (lambda d, good: d, "is not a file"),
+        (lambda d, good: _write_bytes(d / "empty.mcap", b""), "as an MCAP file (EndOfFile)"),
+        (lambda d, good: _write_bytes(d / "cut.mcap", good.read_bytes()[:5000]), "not an empty or cut-off"),
+        (lambda d, good: _write_bytes(d / "junk.mcap", b"not an mcap file at all" * 10), "as an MCAP file"),
+    ],
+)  # fmt: skip
+def test_mcap_figure_bad_file_is_one_line_exit_2(png_mcap, tmp_path, capsys, make, match):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "keep.png"
+    out.write_bytes(b"earlier figure")
+    code, _, err = _mcap_figure([make(tmp_path, png_mcap), out], capsys)
+    assert code == 2 and match in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert out.read_bytes() == b"earlier figure"  # not clobbered
+    assert sorted(p.name for p in tmp_path.glob(".keep*")) == []  # no temporary left
+
+
+def test_mcap_figure_of_a_bag_without_our_topics_is_one_line_exit_2(rec, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    _, scene = rec
+    ts, msgs = bag_messages(scene, 1)
+    write_mcap_ros2(tmp_path / "other.mcap", ts, msgs)
+    code, _, err = _mcap_figure([tmp_path / "other.mcap", tmp_path / "fig.png"], capsys)
+    assert code == 2 and "has no /stereo_terrain/" in err and "--mcap" in err and err.count("\n") == 1
+    assert not (tmp_path / "fig.png").exists()
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        ([], "required: mcap, out"),
+        (["in.mcap", "fig.txt"], "a figure must end in"),
+        (["in.mcap", "fig.png", "-1"], "expected an integer >= 0"),
+        (["in.mcap", "fig.png", "two"], "invalid int value"),
+        (["in.mcap", "{tmp}/missing/fig.png"], "does not exist; create it first"),
+    ],
+)
+def test_mcap_figure_bad_arguments_are_one_line_exit_2(tmp_path, capsys, argv, match):
+    pytest.importorskip("matplotlib")
+    (tmp_path / "in.mcap").write_bytes(b"")
+    argv = [a.replace("in.mcap", str(tmp_path / "in.mcap")).format(tmp=tmp_path) for a in argv]
+    code, _, err = _mcap_figure(argv, capsys)
+    assert code == 2 and match in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
+@pytest.mark.parametrize("module, extra", [("mcap", "ros"), ("mcap_ros2", "ros"), ("matplotlib", "viz")])
+def test_mcap_figure_names_a_missing_extra(png_mcap, tmp_path, capsys, monkeypatch, module, extra):
+    monkeypatch.setitem(sys.modules, module, None)  # import fails as when not installed
+    code, _, err = _mcap_figure([png_mcap, tmp_path / "fig.png"], capsys)
+    assert code == 2 and f"pip install 'stereo-terrain[{extra}]'" in err and err.count("\n") == 1
+    assert not (tmp_path / "fig.png").exists()
+
+
+def _write_bytes(path: Path, data: bytes) -> Path:
+    path.write_bytes(data)
+    return path
 
 
 def test_a_field_added_to_terrain_t_follows_into_the_ros_message(monkeypatch):

@@ -227,12 +227,17 @@ class Rig:
 MAX_RIG_TRANSLATION_M = 5.0
 
 
+#: The keys of a rig file (CONVENTIONS.md): the mounting and the body's attitude.
+RIG_KEYS = ("T_body_camera", "body_rpy")
+
+
 def load_rig(path: str | Path) -> Rig:
     """Read a rig YAML file (``T_body_camera`` 4x4 nested list, metres; optional ``body_rpy``).
 
     Raises :class:`InputError` for a file that is missing, not UTF-8 YAML, not a mapping
-    with ``T_body_camera``, not rigid, or whose translation is longer than
-    :data:`MAX_RIG_TRANSLATION_M` (millimetres instead of metres).
+    with ``T_body_camera``, has a key other than :data:`RIG_KEYS`, is not rigid, or whose
+    translation is longer than :data:`MAX_RIG_TRANSLATION_M` (millimetres instead of
+    metres).
     """
     from .checks import load_yaml_file
 
@@ -240,6 +245,11 @@ def load_rig(path: str | Path) -> Rig:
     data = load_yaml_file(path, "rig file")
     if not isinstance(data, dict) or "T_body_camera" not in data:
         raise InputError(f"rig file {path} must be a mapping with key 'T_body_camera' (4x4 list)")
+    unknown = sorted(str(k) for k in data if k not in RIG_KEYS)
+    if unknown:  # a misspelt body_rpy would otherwise be a level body, silently
+        raise InputError(
+            f"rig file {path}: unknown key(s) {', '.join(unknown)}; the keys are {', '.join(RIG_KEYS)}"
+        )
     try:
         m = np.array(data["T_body_camera"], dtype=np.float64)
     except (TypeError, ValueError, OverflowError):

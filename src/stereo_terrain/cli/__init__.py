@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 
+from .. import __version__
 from ..errors import EXIT_INTERNAL, EXIT_USAGE, exit_code
 from . import bench, calib, live, scene
 from .options import Parser
@@ -35,10 +37,26 @@ def build_parser() -> argparse.ArgumentParser:
         description="Stairs and boxes ahead of a legged robot from a calibrated stereo pair.",
     )
     p.add_argument("-v", "--verbose", action="store_true", help="log what each stage does")
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     for family in _FAMILIES:
         family.add_parsers(sub)
+    for command in sub.choices.values():  # -v after the command too (the error line says "run with -v")
+        command.add_argument(
+            "-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="log what each stage does"
+        )
     return p
+
+
+def _stdout_closed() -> None:
+    """The reader of stdout went away (``... --json - | head -1``): what it read, it asked
+    for. Point stdout at the null device so that the interpreter's last flush does not fail
+    again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 def _error_line(command: str, exc: BaseException) -> str:
@@ -72,7 +90,13 @@ def main(argv: list[str] | None = None) -> int:
     CREATED.clear()
     end_progress()
     try:
-        return COMMANDS[args.command](args)
+        code = COMMANDS[args.command](args)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        end_progress()
+        _stdout_closed()
+        return 0
     except (Exception, KeyboardInterrupt) as exc:
         code = exit_code(exc)
         end_progress()

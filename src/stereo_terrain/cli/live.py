@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import EXIT_OK, InputError
-from .options import nonneg_float, positive_int, size_arg
+from .options import nonneg_float, positive_float, positive_int, size_arg
 from .outputs import (
     check_output_dir,
     check_output_file,
@@ -72,7 +72,7 @@ def add_parsers(sub: Any) -> None:
     rp.add_argument("--calib", type=Path, help="default: FOLDER/calib.yaml, or a bag's CameraInfo topics")
     rp.add_argument("--rig", type=Path, help="default: FOLDER/rig.yaml if present")
     rp.add_argument("--as-fast", action="store_true", help="every pair, as fast as it goes (no pacing)")
-    rp.add_argument("--speed", type=nonneg_float, default=1.0, help="playback speed (real time = 1)")
+    rp.add_argument("--speed", type=positive_float, default=1.0, help="playback speed (real time = 1)")
     rp.add_argument("--loop", action="store_true", help="repeat the recording until stopped")
     add_bag_options(rp)
     loop_options(rp)
@@ -231,7 +231,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from ..runtime.capture import FolderPairs, Paced
+    from ..runtime.capture import PAIRS_FILE, FolderPairs, Paced
 
     folder: Path = args.folder
     if not folder.exists():
@@ -242,14 +242,19 @@ def cmd_replay(args: argparse.Namespace) -> int:
             f"{folder} is not a folder of recorded pairs (pairs.csv and the images), a rosbag2 folder "
             "or an MCAP file"
         )
+    # What record and simulate --record write first; a folder without it is no recording,
+    # whatever else (calib.yaml, rig.yaml) it lacks.
+    if not bag and not (folder / PAIRS_FILE).is_file():
+        raise InputError(
+            f"{folder} is not a recording: it has no {PAIRS_FILE}; record one with 'stereo-terrain record' "
+            "or 'simulate --record', or give a ROS 2 bag / MCAP file"
+        )
     check_output_file(args.summary_json, "--summary-json")
     check_outputs(args)
     check_bag_options(args, bag)
     _check_jsonl(args)
     if not args.no_lcm:
         require_lcm("publishing terrain messages", "--no-lcm")
-    if args.speed <= 0:
-        raise InputError("--speed must be > 0")
     if bag:
         from ..ros.bag import BagPairs
         from .sinks import bag_calibration
@@ -265,7 +270,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return _run_loop(args, Paced(pairs, realtime=not args.as_fast, speed=args.speed), pipeline)
     calib = args.calib or folder / "calib.yaml"
     if args.calib is None and not calib.is_file():
-        raise InputError(f"no --calib given and {calib} does not exist")
+        raise InputError(
+            f"no --calib given and {calib} does not exist; pass --calib with the cameras' calibration"
+        )
     rig = args.rig or (folder / "rig.yaml" if (folder / "rig.yaml").is_file() else None)
     pipeline = _pipeline(calib, rig, args.config)
     source = Paced(FolderPairs(folder, loop=args.loop), realtime=not args.as_fast, speed=args.speed)

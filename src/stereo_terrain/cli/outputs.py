@@ -44,6 +44,16 @@ def check_output_file(path: Path | None, option: str) -> None:
         raise InputError(f"cannot write {option} {path}: permission denied")
 
 
+def check_not_an_input(path: Path | None, option: str, inputs: list[Path | None]) -> None:
+    """Refuse, before any work, an output file that is one of the command's inputs (it
+    would be overwritten by what was made from it)."""
+    if path is None or str(path) == "-" or not path.exists():
+        return
+    for source in inputs:
+        if source is not None and source.exists() and os.path.samefile(path, source):
+            raise InputError(f"{option} {path} is one of the inputs; give another file name")
+
+
 def check_output_dir(path: Path, option: str) -> None:
     """Refuse, before any work, an output folder that cannot be created or written."""
     if path.exists() and not path.is_dir():
@@ -91,17 +101,33 @@ def remove_created() -> None:
 
 def replace_from_temp(target: Path, write: Any) -> None:
     """``write(tmp_path)`` then rename onto ``target``: an existing file is replaced only by a
-    whole new one, and a failed write leaves nothing behind."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent or ".")
+    whole new one, and a failed write leaves nothing behind. The new file has the mode of
+    the one it replaces, or what the umask gives a new file (``mkstemp`` makes it 0600)."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent or ".")
+    except OSError as exc:
+        raise InputError(f"cannot write {target}: {exc.strerror}") from None
     os.close(fd)
     try:
         write(Path(tmp))
+        os.chmod(tmp, _mode_for(target))
         os.replace(tmp, target)
-    except OSError as exc:
+    except OSError as exc:  # named by the file asked for, not the temporary one
         raise InputError(f"cannot write {target}: {exc.strerror}") from None
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _mode_for(target: Path) -> int:
+    """The permission bits ``target`` should get: its own when it exists, else those of a
+    new file under the process's umask."""
+    try:
+        return target.stat().st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 def require(module: str, extra: str, what: str, skip: str = "") -> None:

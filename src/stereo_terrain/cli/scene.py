@@ -11,6 +11,7 @@ from typing import Any
 from ..errors import EXIT_OK, InputError
 from .options import METHODS, figure_path, positive_int, seed_arg, size_arg
 from .outputs import (
+    check_not_an_input,
     check_output_dir,
     check_output_file,
     make_dir,
@@ -173,6 +174,9 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 
     check_output_file(args.json, "--json")
     check_output_file(args.plot, "--plot")
+    inputs = [args.left, args.right, args.calib, args.rig, args.config]
+    check_not_an_input(args.json, "--json", inputs)
+    check_not_an_input(args.plot, "--plot", inputs)
     if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
         raise InputError(f"--json and --plot name the same file {args.json}")
     if args.plot is not None:
@@ -211,11 +215,19 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     from ..synthetic import render_scenes
 
-    make_dir(args.out, "--out")
+    out: Path = args.out
+    check_output_dir(out, "--out")
+    # A second render into the same folder would overwrite scene_000... and keep the scenes
+    # past its count: one data set of two renders. Refused, as record refuses a recording.
+    earlier = sorted(p.name for p in out.glob("scene_[0-9][0-9][0-9]*")) if out.is_dir() else []
+    if earlier:
+        names = ", ".join(earlier[:3]) + (", ..." if len(earlier) > 3 else "")
+        raise InputError(f"--out {out} already holds rendered scenes ({names}); use a new or empty folder")
+    make_dir(out, "--out")
     kw: dict[str, Any] = {"image_size": args.size}
     if args.kind:
         kw["kind"] = args.kind
-    paths = render_scenes(args.out, args.count, args.seed, profile=args.profile, **kw)
+    paths = render_scenes(out, args.count, args.seed, profile=args.profile, **kw)
     for p in paths:
         print(p)
     return EXIT_OK
@@ -248,6 +260,7 @@ def cmd_disparity(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() not in (".pfm", ".npy", ".png"):
         raise InputError(f"--out: unknown disparity file type '{args.out.suffix}'; use .pfm, .npy or .png")
     check_output_file(args.out, "--out")
+    check_not_an_input(args.out, "--out", [args.left, args.right, args.calib])
     calib = read_calibration(args.calib)
     left, right = read_pair(args.left, args.right, calib, args.calib)
     dm, ms = _pair_disparity(args.method, calib, left, right, args.max_disparity)

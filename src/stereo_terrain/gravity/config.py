@@ -167,6 +167,9 @@ class GravityReport:
     note : str
     rig_check_sigma_deg : float or None
         1-sigma of the scene estimate behind ``rig_disagreement_deg``.
+    rig_warning : bool
+        The scene disagrees with the rig by more than ``rig_tolerance_deg``: ``note`` says
+        so, and the result's top-level note repeats it.
     """
 
     source: str
@@ -175,6 +178,7 @@ class GravityReport:
     rig_disagreement_deg: float | None
     note: str
     rig_check_sigma_deg: float | None = None
+    rig_warning: bool = False
 
     def to_json_dict(self) -> dict:
         def r(x: float | None) -> float | None:

@@ -30,6 +30,9 @@ from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, extract_planes_
 from ..rectify import RectifiedPair
 from .config import PipelineConfig
 
+#: Up in the optical frame of an upright camera (x right, y down, z forward).
+_CAMERA_UP = np.array([0.0, -1.0, 0.0])
+
 
 def _level_from_scene(
     cam_sample: GridSample, coarse: GravityEstimate, config: PipelineConfig
@@ -100,13 +103,26 @@ def _rig_check(
     than the orientation tolerance away (on renders with their true rig, 13 of 120 such
     reports were false alarms of the coarse estimate). Otherwise a coarse estimate, with
     ``rig_check_hypotheses`` scored on half the points (it only has to catch a rig off by
-    more than the orientation tolerance)."""
+    more than the orientation tolerance).
+
+    That estimate looks for up within ``prior_cone_deg`` of the rig's, so it cannot see a
+    rig off by more than that (an identity ``T_body_camera`` puts up along the optical
+    axis: 90 deg off for a level camera, and the check said 8). Where the rig itself puts
+    up further than ``prior_cone_deg`` from the camera's upright, the scene's up is also
+    estimated as without a rig (the camera roughly upright), and the estimate that
+    disagrees more with the rig is the check."""
     if fine.ok and angle_deg(fine.up, [0.0, 0.0, 1.0]) <= min(config.rig_tolerance_deg, orientation_tol_deg):
         return GravityEstimate(np.full(3, np.nan), "camera_rect", math.inf, False, reason="the planes agree")
     cheap = dataclasses.replace(
         config, hypotheses=config.rig_check_hypotheses, score_points=max(1, config.score_points // 2)
     )
-    return estimate_up(cam_sample, cheap, prior_up=rig_up)
+    checked = estimate_up(cam_sample, cheap, prior_up=rig_up)
+    if rig_up is None or angle_deg(rig_up, _CAMERA_UP) <= config.prior_cone_deg:
+        return checked
+    upright = estimate_up(cam_sample, cheap)  # the prior of a frame without a rig
+    if upright.ok and (not checked.ok or angle_deg(upright.up, rig_up) > angle_deg(checked.up, rig_up)):
+        return upright
+    return checked
 
 
 def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform, bool]:
@@ -215,11 +231,12 @@ def _gravity_report(
             angle, sigma = angle_deg(coarse.up, up_cam), coarse.sigma_deg
         else:
             return GravityReport(source, up_cam, None, None, "the scene does not fix up: rig not checked")
-        if angle > config.rig_tolerance_deg:
+        warning = angle > config.rig_tolerance_deg
+        if warning:
             note = f"the scene's up is {angle:.1f} deg from the rig's (check the rig file or the IMU)"
         else:
             note = f"the scene agrees with the rig within {config.rig_tolerance_deg:g} deg"
-        return GravityReport(source, up_cam, None, angle, note, sigma)
+        return GravityReport(source, up_cam, None, angle, note, sigma, warning)
     if source == "scene":
         best = fine if fine.ok else coarse
         return GravityReport(source, up_cam, best.sigma_deg, None, best.reason)

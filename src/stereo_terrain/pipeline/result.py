@@ -112,7 +112,7 @@ class TerrainResult:
             "timing_ms": {k: round(v, 2) for k, v in self.timing_ms.items()},
             "gravity_source": self.gravity_source,
             "gravity": None if self.gravity is None else self.gravity.to_json_dict(),
-            "note": t.note,
+            "note": self._note(),
             "plane_stage": {
                 "method_requested": self.method_requested,
                 "method_used": self.planes.method,
@@ -121,6 +121,13 @@ class TerrainResult:
                 "parameters": self.planes.parameters,
             },
         }
+
+    def _note(self) -> str:
+        """The terrain's note, and a rig the scene contradicts (why the result may be
+        wrong: said up front, not only in ``gravity.note``)."""
+        if self.gravity is None or not self.gravity.rig_warning:
+            return self.terrain.note
+        return f"{self.terrain.note}; {self.gravity.note}"
 
 
 def _sigma(x: float | None, nd: int = 4) -> float | None:

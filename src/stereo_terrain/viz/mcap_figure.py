@@ -12,7 +12,9 @@ any ROS 2 tool would read it, not with this package's writer), and one pair is d
    seen from the side, in the ``yaw`` frame.
 
 Needs the ``ros`` and ``viz`` extras. ``python -m stereo_terrain.viz.mcap_figure IN.mcap
-OUT.png [PAIR]``.
+OUT.png [PAIR]``, with the exit codes of every command: 0 drawn, 2 a missing, empty or
+damaged file, a file without these topics, bad arguments or a missing extra (one line on
+stderr), 1 an internal error.
 """
 
 from __future__ import annotations
@@ -24,20 +26,52 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import EXIT_OK, EXIT_USAGE, InputError, exit_code
+from ..ros import (
+    TOPIC_CAMERA_INFO,
+    TOPIC_CLOUD,
+    TOPIC_DISPARITY,
+    TOPIC_IMAGE,
+    TOPIC_STAIRS,
+    TOPIC_TERRAIN,
+    TOPIC_TF,
+)
 from ..ros.messages import PALETTE
+
+PROG = "python -m stereo_terrain.viz.mcap_figure"
+#: What the figure draws: the topics every pair of ``--mcap`` has.
+TOPICS = (TOPIC_IMAGE, TOPIC_DISPARITY, TOPIC_CLOUD, TOPIC_TF, TOPIC_CAMERA_INFO, TOPIC_TERRAIN, TOPIC_STAIRS)
 
 
 def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
-    """The decoded messages of the ``pair``-th processed pair: topic -> message."""
+    """The decoded messages of the ``pair``-th processed pair: topic -> message.
+
+    :class:`InputError` when ``path`` is missing, not a file, or not a whole MCAP file
+    (empty, truncated, damaged)."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"MCAP file not found: {path}")
+    if not path.is_file():
+        raise InputError(f"{path} is not a file; give an MCAP file written by --mcap")
     seen: dict[str, list[Any]] = defaultdict(list)
-    with Path(path).open("rb") as fh:
-        for _, channel, _, decoded in make_reader(
-            fh, decoder_factories=[DecoderFactory()]
-        ).iter_decoded_messages():
-            seen[channel.topic].append(decoded)
+    try:
+        with path.open("rb") as fh:
+            for _, channel, _, decoded in make_reader(
+                fh, decoder_factories=[DecoderFactory()]
+            ).iter_decoded_messages():
+                seen[channel.topic].append(decoded)
+    except OSError as exc:
+        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except Exception as exc:  # mcap and its decoders raise many kinds for a damaged file
+        text = " ".join(str(exc).split())
+        why = f"{type(exc).__name__}: {text[:200]}" if text else type(exc).__name__
+        raise InputError(
+            f"cannot read {path} as an MCAP file ({why}); give a whole file written by --mcap, "
+            "not an empty or cut-off one"
+        ) from None
     return {topic: msgs[min(pair, len(msgs) - 1)] for topic, msgs in seen.items()}
 
 
@@ -98,6 +132,12 @@ def save_mcap_figure(path: str | Path, out: str | Path, pair: int = 0) -> None:
     import matplotlib.pyplot as plt
 
     msgs = read_pair(path, pair)
+    missing = [t for t in TOPICS if t not in msgs]
+    if missing:
+        raise InputError(
+            f"{path} has no {missing[0]} messages ({len(missing)} of the {len(TOPICS)} topics missing); "
+            "give an MCAP file written by reconstruct or replay --mcap"
+        )
     img_msg, disp_msg = msgs["/stereo_terrain/left/image_rect"], msgs["/stereo_terrain/disparity"]
     image = np.frombuffer(bytes(img_msg.data), dtype=np.uint8).reshape(img_msg.height, img_msg.step)
     disp = np.frombuffer(bytes(disp_msg.data), dtype="<f4").reshape(disp_msg.height, disp_msg.width)
@@ -152,5 +192,45 @@ def save_mcap_figure(path: str | Path, out: str | Path, pair: int = 0) -> None:
     plt.close(fig)
 
 
-if __name__ == "__main__":  # pragma: no cover - a documentation helper
-    save_mcap_figure(sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 0)
+def main(argv: list[str] | None = None) -> int:
+    """``python -m stereo_terrain.viz.mcap_figure IN.mcap OUT.png [PAIR]``; the exit code.
+
+    The optional packages and the output are checked before the file is read; the figure is
+    written to a temporary name and renamed, so a failure leaves no half-written figure.
+    """
+    from ..cli.options import Parser, figure_path
+    from ..cli.outputs import check_output_file, replace_from_temp, require, require_viz
+
+    parser = Parser(prog=PROG, description="A figure of what an MCAP file written by --mcap holds.")
+    parser.add_argument("mcap", type=Path, help="IN.mcap, written by reconstruct or replay --mcap")
+    parser.add_argument("out", type=figure_path, help="OUT.png (or .pdf, .svg, .jpg)")
+    parser.add_argument("pair", type=int, nargs="?", default=0, help="which processed pair (default 0)")
+    args = parser.parse_args(argv)
+    if args.pair < 0:
+        parser.error(f"argument pair: expected an integer >= 0, got {args.pair}")
+    try:
+        for module in ("mcap", "mcap_ros2"):
+            require(module, "ros", "reading the MCAP file")
+        require_viz("the figure")
+        check_output_file(args.out, "OUT")
+        replace_from_temp(args.out, lambda tmp: save_mcap_figure(args.mcap, tmp, args.pair))
+    except (Exception, KeyboardInterrupt) as exc:
+        code = exit_code(exc)
+        if isinstance(exc, KeyboardInterrupt):
+            line = "interrupted"
+        elif code == EXIT_USAGE and isinstance(exc, OSError):
+            line = f"error: cannot use {exc.filename}: {exc.strerror or exc}"
+        elif code == EXIT_USAGE:
+            line = "error: " + " ".join(str(exc).split())
+        else:
+            line = (
+                f"internal error: {type(exc).__name__}: {' '.join(str(exc).split())[:500]} (please report it)"
+            )
+        sys.stderr.write(f"{PROG}: {line}\n")
+        return code
+    print(f"wrote {args.out}")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,92 @@
+"""What the command line leaves behind and how it ends: file modes, a closed stdout,
+``-v`` after the command, ``--version``."""
+
+import io
+import os
+import stat
+
+import pytest
+
+from stereo_terrain import __version__
+from stereo_terrain.cli import main
+from stereo_terrain.cli.outputs import replace_from_temp
+from stereo_terrain.synthetic import default_scene_spec, render_scene, write_scene
+
+from .cli_run import run_cli
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory):
+    return write_scene(render_scene(default_scene_spec()), tmp_path_factory.mktemp("scene") / "s")
+
+
+def _reconstruct_args(d, *extra):
+    return ["reconstruct", d / "left.png", d / "right.png", "--calib", d / "calib.yaml", *extra]
+
+
+def _mode(path):
+    return stat.S_IMODE(path.stat().st_mode)
+
+
+def test_a_new_output_file_gets_the_umask_mode_and_a_replaced_one_keeps_its_own(tmp_path):
+    old = os.umask(0o022)
+    try:
+        new = tmp_path / "new.json"
+        replace_from_temp(new, lambda tmp: tmp.write_text("{}"))
+        assert _mode(new) == 0o644  # not mkstemp's 0600
+        kept = tmp_path / "kept.json"
+        kept.write_text("old")
+        kept.chmod(0o640)
+        replace_from_temp(kept, lambda tmp: tmp.write_text("new"))
+        assert kept.read_text() == "new" and _mode(kept) == 0o640
+    finally:
+        os.umask(old)
+
+
+def test_reconstruct_json_is_readable_by_others_under_the_usual_umask(scene_dir, tmp_path, capsys):
+    old = os.umask(0o022)
+    try:
+        code, _, err = run_cli(_reconstruct_args(scene_dir, "--json", tmp_path / "r.json"), capsys)
+    finally:
+        os.umask(old)
+    assert code == 0, err
+    assert _mode(tmp_path / "r.json") == 0o644
+
+
+class _ClosedPipe(io.StringIO):
+    """A stdout whose reader went away (``... | head -1``)."""
+
+    def write(self, s):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    def fileno(self):
+        raise io.UnsupportedOperation("no file descriptor")
+
+
+def test_a_closed_stdout_is_not_an_internal_error(scene_dir, monkeypatch, capsys):
+    monkeypatch.setattr("sys.stdout", _ClosedPipe())
+    code = main([str(a) for a in _reconstruct_args(scene_dir, "--json", "-")])
+    assert code == 0
+    assert "internal error" not in capsys.readouterr().err
+
+
+def test_verbose_after_the_command_and_version(scene_dir, capsys):
+    code, out, err = run_cli(_reconstruct_args(scene_dir, "-v"), capsys)
+    assert code == 0, err
+    assert "obstacle:" in out
+    code, out, _ = run_cli(["--version"], capsys)
+    assert code == 0 and __version__ in out
+
+
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(scene_dir, tmp_path, capsys):
+    left = tmp_path / "left.png"
+    left.write_bytes((scene_dir / "left.png").read_bytes())
+    before = left.read_bytes()
+    args = ["reconstruct", left, scene_dir / "right.png", "--calib", scene_dir / "calib.yaml", "--json", left]
+    code, _, err = run_cli(args, capsys)
+    assert code == 2 and "one of the inputs" in err and len(err.strip().splitlines()) == 1
+    assert left.read_bytes() == before
+    out = ["disparity", left, scene_dir / "right.png", "--calib", scene_dir / "calib.yaml", "--out", left]
+    code, _, err = run_cli(out, capsys)
+    assert code == 2 and "one of the inputs" in err
+    assert left.read_bytes() == before
