@@ -494,12 +494,9 @@ def _mcap_figure(argv, capsys) -> tuple[int, str, str]:
     """``python -m stereo_terrain.viz.mcap_figure ARGV`` in this process."""
     from stereo_terrain.viz.mcap_figure import main as figure_main
 
-    try:
-        code = figure_main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
+    from .cli_run import run_cli
+
+    return run_cli(argv, capsys, figure_main)
 
 
 def test_mcap_figure_command_draws_and_says_so(png_mcap, tmp_path, capsys):
