@@ -63,11 +63,15 @@ class _ClosedPipe(io.StringIO):
         raise io.UnsupportedOperation("no file descriptor")
 
 
-def test_a_closed_stdout_is_not_an_internal_error(scene_dir, monkeypatch, capsys):
+def test_a_closed_stdout_is_not_an_internal_error_and_the_files_are_still_written(
+    scene_dir, tmp_path, monkeypatch, capsys
+):
     monkeypatch.setattr("sys.stdout", _ClosedPipe())
-    code = main([str(a) for a in _reconstruct_args(scene_dir, "--json", "-")])
+    plot = tmp_path / "r.png"
+    code = main([str(a) for a in _reconstruct_args(scene_dir, "--json", "-", "--plot", plot)])
     assert code == 0
     assert "internal error" not in capsys.readouterr().err
+    assert plot.stat().st_size > 10_000  # drawn after the JSON the reader did not take
 
 
 def test_verbose_after_the_command_and_version(scene_dir, capsys):
@@ -90,3 +94,18 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(scene_dir, tmp
     code, _, err = run_cli(out, capsys)
     assert code == 2 and "one of the inputs" in err
     assert left.read_bytes() == before
+    # every output option, of every command, against every input (here the rig file)
+    rig = tmp_path / "rig.yaml"
+    rig.write_text((scene_dir / "rig.yaml").read_text())
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--rig", rig, "--json", rig), capsys)
+    assert code == 2 and "one of the inputs" in err
+    assert rig.read_text() == (scene_dir / "rig.yaml").read_text()
+
+
+def test_verbose_before_and_after_the_command_is_parsed():
+    from stereo_terrain.cli import build_parser
+
+    argv = ["reconstruct", "l.png", "r.png", "--calib", "c.yaml"]
+    assert build_parser().parse_args(["-v", *argv]).verbose
+    assert build_parser().parse_args([*argv, "-v"]).verbose
+    assert not build_parser().parse_args(argv).verbose

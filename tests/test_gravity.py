@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -14,6 +15,7 @@ from stereo_terrain.errors import ConfigError
 from stereo_terrain.frames import rotation_from_rpy
 from stereo_terrain.gravity import (
     GravityConfig,
+    GravityEstimate,
     angle_deg,
     estimate_up,
     rotation_between,
@@ -198,6 +200,26 @@ def test_a_rig_off_by_more_than_the_prior_cone_is_reported_in_the_note():
     assert "check the rig" in result["gravity"]["note"] and "check the rig" in result["note"]
     good = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right).to_json_dict()
     assert "check the rig" not in good["note"]
+
+
+def test_a_correct_rig_pitched_beyond_the_prior_cone_is_not_flagged(monkeypatch):
+    """A camera pitched 50 deg down with its true rig, on a frame whose planes do not fix
+    up (forced): the upright estimate, which takes the risers' normals for up there, is
+    the worse fixed one, so the rig's own check stands."""
+    import stereo_terrain.pipeline.core as core
+
+    spec = default_scene_spec()
+    spec = dataclasses.replace(
+        spec,
+        pitch_down_rad=math.radians(50.0),
+        camera_height_m=0.9,
+        obstacle=dataclasses.replace(spec.obstacle, distance_m=0.8),
+    )
+    scene = render_scene(spec)
+    unsure = GravityEstimate(np.full(3, np.nan), "yaw", math.inf, False, reason="forced: planes unsure")
+    monkeypatch.setattr(core, "refine_up_from_planes", lambda planes, config: unsure)
+    g = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right).gravity
+    assert g.rig_disagreement_deg is not None and g.rig_disagreement_deg < 5.0 and not g.rig_warning
 
 
 @pytest.mark.parametrize(

@@ -110,6 +110,12 @@ def test_one_step_continues_where_ordinary_stairs_put_the_next_riser():
     assert len(three.steps) == 3
     assert three.steps[1].run_m == pytest.approx(run, abs=0.005)
     assert three.steps[2].distance_m == pytest.approx(distance + 2 * run, abs=0.005)
+    # ... and only there: the third riser's samples 12 cm further (41 cm behind the second,
+    # inside the ordinary 20-45 cm but 41% off the 29 cm spacing) are no step.
+    planes = _unplaned(3, rise, run, distance, last=2)
+    third = np.abs(planes.samples.points[:, 0] - (distance + 2 * run)) < 0.01
+    moved = _moved_samples(planes, third, np.array([0.12, 0.0, 0.0]))
+    assert len(build_terrain(moved).steps) == 2
 
 
 def test_a_lone_riser_whose_top_formed_no_plane_is_not_continued():
@@ -122,6 +128,36 @@ def test_a_lone_riser_whose_top_formed_no_plane_is_not_continued():
     lone = dataclasses.replace(planes, segments=tuple(s for s in planes.segments if s is not tread[0]))
     model = build_terrain(lone)
     assert len(model.steps) == 1 and model.steps[0].tread is None
+
+
+def _with_unplaned_face(planes: PlaneSet, s: float, z0: float, z1: float, half_width=0.5) -> PlaneSet:
+    """``planes`` with a face across the axis at ``s`` from ``z0`` to ``z1`` whose samples
+    formed no plane."""
+    lat, z = np.meshgrid(np.arange(-half_width, half_width, 0.02), np.arange(z0, z1, 0.02), indexing="xy")
+    face = np.stack([np.full(lat.size, s), lat.ravel(), z.ravel()], axis=1)
+    samples, _ = _add_samples(planes, face, np.array([-1.0, 0.0, 0.0]))
+    return dataclasses.replace(planes, samples=samples)
+
+
+@pytest.mark.parametrize(
+    "scene",
+    [
+        # a cabinet's front standing on the floor 10 cm behind a 25 cm deep box
+        lambda: _with_unplaned_face(_stairs(n_steps=1, rise=0.2, box_depth=0.25), 1.3 + 0.35, 0.01, 0.9),
+        # a door on the landing of a single step, from the landing up to 2 m
+        lambda: _with_unplaned_face(_stairs(n_steps=1, rise=0.17, landing=1.0), 1.3 + 0.35, 0.18, 2.0),
+        # a 12 cm object on a 60 cm deep box's top, 30 cm behind its front
+        lambda: _with_unplaned_face(_stairs(n_steps=1, rise=0.2, box_depth=0.6), 1.3 + 0.30, 0.21, 0.33, 0.2),
+    ],
+    ids=["cabinet-behind-a-box", "door-on-a-landing", "object-on-a-box"],
+)
+def test_a_face_that_is_no_riser_does_not_continue_a_single_step(scene):
+    """Found in review: each of these became a two-step staircase. A riser stops at the
+    tread it stands on and where the next tread starts (the cabinet and the door go on
+    below or above), and stands where its tread ends (the object stands on the top)."""
+    planes = scene()
+    before, model = build_terrain(planes, OFF), build_terrain(planes)
+    assert len(model.steps) == 1 and model.obstacle == before.obstacle
 
 
 def test_one_step_with_a_band_beyond_ordinary_runs_stays_one_step():

@@ -18,12 +18,14 @@ import argparse
 import logging
 import os
 import sys
+from pathlib import Path
+from typing import Any
 
 from .. import __version__
 from ..errors import EXIT_INTERNAL, EXIT_USAGE, exit_code
 from . import bench, calib, live, scene
 from .options import Parser
-from .outputs import CREATED, end_progress, remove_created
+from .outputs import CREATED, INPUTS, end_progress, remove_created
 
 log = logging.getLogger("stereo_terrain")
 
@@ -48,15 +50,56 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _stdout_closed() -> None:
-    """The reader of stdout went away (``... --json - | head -1``): what it read, it asked
-    for. Point stdout at the null device so that the interpreter's last flush does not fail
-    again."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):
-        pass
+#: Arguments that name files a command reads.
+_INPUT_ARGS = ("left", "right", "calib", "rig", "config")
+#: Files a recording folder (``replay FOLDER``) is read from, besides its images.
+_RECORDING_FILES = ("pairs.csv", "calib.yaml", "rig.yaml")
+
+
+def _input_files(args: argparse.Namespace) -> list[Path]:
+    """The files the command's arguments name as inputs (for :data:`.outputs.INPUTS`)."""
+    files = [getattr(args, name, None) for name in _INPUT_ARGS]
+    folder = getattr(args, "folder", None)
+    if isinstance(folder, Path) and folder.is_dir():
+        files += [folder / name for name in _RECORDING_FILES]
+    return [f for f in files if isinstance(f, Path)]
+
+
+class _StdoutReaderMayLeave:
+    """``sys.stdout`` while a command runs. When the reader of stdout goes away (``...
+    --json - | head -1``), what the command prints after that is dropped and the command
+    goes on: its files are still written and its exit code stands. Stdout is pointed at the
+    null device then, so that the interpreter's last flush does not fail again."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+        self.reader_gone = False
+
+    def write(self, text: str) -> int:
+        if not self.reader_gone:
+            try:
+                return int(self._stream.write(text))
+            except BrokenPipeError:
+                self._reader_left()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.reader_gone:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._reader_left()
+
+    def _reader_left(self) -> None:
+        self.reader_gone = True
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._stream.fileno())
+        except (OSError, ValueError):
+            pass
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def _error_line(command: str, exc: BaseException) -> str:
@@ -88,15 +131,14 @@ def main(argv: list[str] | None = None) -> int:
 
     silence_opencv_logging()
     CREATED.clear()
+    INPUTS[:] = _input_files(args)
     end_progress()
+    stdout = sys.stdout
+    sys.stdout = _StdoutReaderMayLeave(stdout)  # type: ignore[assignment]
     try:
         code = COMMANDS[args.command](args)
         sys.stdout.flush()
         return code
-    except BrokenPipeError:
-        end_progress()
-        _stdout_closed()
-        return 0
     except (Exception, KeyboardInterrupt) as exc:
         code = exit_code(exc)
         end_progress()
@@ -110,4 +152,6 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         return code
     finally:
+        sys.stdout = stdout
         CREATED.clear()
+        INPUTS.clear()

@@ -20,6 +20,9 @@ from ..errors import InputError
 
 # Folders this command created (removed again, when still empty, if it fails).
 CREATED: list[Path] = []
+# Files this command reads (set from its arguments by the command line's main): no output
+# may name one (it would be overwritten by what was made from it).
+INPUTS: list[Path] = []
 # The progress bar now drawn, if any (an error must close it and start on a fresh line).
 _BAR: list[Any] = []
 
@@ -42,11 +45,13 @@ def check_output_file(path: Path | None, option: str) -> None:
         raise InputError(f"cannot write {option} {path}: the folder {parent} does not exist; create it first")
     if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise InputError(f"cannot write {option} {path}: permission denied")
+    check_not_an_input(path, option, list(INPUTS))
 
 
 def check_not_an_input(path: Path | None, option: str, inputs: list[Path | None]) -> None:
-    """Refuse, before any work, an output file that is one of the command's inputs (it
-    would be overwritten by what was made from it)."""
+    """Refuse, before any work, an output file that is one of ``inputs`` (it would be
+    overwritten by what was made from it); :func:`check_output_file` checks against
+    :data:`INPUTS`."""
     if path is None or str(path) == "-" or not path.exists():
         return
     for source in inputs:
@@ -125,9 +130,21 @@ def _mode_for(target: Path) -> int:
     try:
         return target.stat().st_mode & 0o7777
     except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        return 0o666 & ~umask
+        return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    """The process's umask: read from /proc where it can be (Linux), else set and set back
+    (which leaves it 0 for an instant, for every thread)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
 
 
 def require(module: str, extra: str, what: str, skip: str = "") -> None:

@@ -11,7 +11,6 @@ from typing import Any
 from ..errors import EXIT_OK, InputError
 from .options import METHODS, figure_path, positive_int, seed_arg, size_arg
 from .outputs import (
-    check_not_an_input,
     check_output_dir,
     check_output_file,
     make_dir,
@@ -174,9 +173,6 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 
     check_output_file(args.json, "--json")
     check_output_file(args.plot, "--plot")
-    inputs = [args.left, args.right, args.calib, args.rig, args.config]
-    check_not_an_input(args.json, "--json", inputs)
-    check_not_an_input(args.plot, "--plot", inputs)
     if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
         raise InputError(f"--json and --plot name the same file {args.json}")
     if args.plot is not None:
@@ -260,7 +256,6 @@ def cmd_disparity(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() not in (".pfm", ".npy", ".png"):
         raise InputError(f"--out: unknown disparity file type '{args.out.suffix}'; use .pfm, .npy or .png")
     check_output_file(args.out, "--out")
-    check_not_an_input(args.out, "--out", [args.left, args.right, args.calib])
     calib = read_calibration(args.calib)
     left, right = read_pair(args.left, args.right, calib, args.calib)
     dm, ms = _pair_disparity(args.method, calib, left, right, args.max_disparity)

@@ -109,8 +109,9 @@ def _rig_check(
     rig off by more than that (an identity ``T_body_camera`` puts up along the optical
     axis: 90 deg off for a level camera, and the check said 8). Where the rig itself puts
     up further than ``prior_cone_deg`` from the camera's upright, the scene's up is also
-    estimated as without a rig (the camera roughly upright), and the estimate that
-    disagrees more with the rig is the check."""
+    estimated as without a rig (the camera roughly upright), and the better fixed of the
+    two (the smaller sigma) is the check: for a correct rig pitched 50-60 deg the upright
+    estimate takes the risers' normals for up (2.5 deg sigma against 1.0)."""
     if fine.ok and angle_deg(fine.up, [0.0, 0.0, 1.0]) <= min(config.rig_tolerance_deg, orientation_tol_deg):
         return GravityEstimate(np.full(3, np.nan), "camera_rect", math.inf, False, reason="the planes agree")
     cheap = dataclasses.replace(
@@ -120,7 +121,7 @@ def _rig_check(
     if rig_up is None or angle_deg(rig_up, _CAMERA_UP) <= config.prior_cone_deg:
         return checked
     upright = estimate_up(cam_sample, cheap)  # the prior of a frame without a rig
-    if upright.ok and (not checked.ok or angle_deg(upright.up, rig_up) > angle_deg(checked.up, rig_up)):
+    if upright.ok and (not checked.ok or upright.sigma_deg < checked.sigma_deg):
         return upright
     return checked
 

@@ -13,10 +13,13 @@ once one riser is found so, its spacing is the run). It is sought among the samp
 no plane took, within the staircase's width and between the last tread's height and one
 rise above it: a band of samples at one position along the stair axis (the most samples
 within their inlier threshold), connected in the image and spanning at least half a rise
-and ``min_riser_width_m``. Its position gives the last
-step's run and the new step's distance; its rise is not measured (its top and foot are
-where the noise is worst) but taken as the median of the measured ones, and said so
-(``rise_inferred``), as for a first step whose foot is out of view.
+and ``min_riser_width_m``. It must also stop where a riser does (not many samples at its
+position below the last tread or above one rise over it: a cabinet, a door, the ground
+beyond a box go on) and stand where the last tread plane ends (not on it: an object on a
+box's top). Its position gives the last step's run and the new step's distance; its rise
+is not measured (its top and foot are where the noise is worst) but taken as the median of
+the measured ones, and said so (``rise_inferred``), as for a first step whose foot is out
+of view.
 """
 
 from __future__ import annotations
@@ -120,6 +123,10 @@ def continue_steps(
         a0 = float(median(s_all[patch]))
         if wall_s.size and float(np.min(np.abs(wall_s - a0))) < config.merge_distance_m:
             break
+        if not _a_riser_there(a0, (v_lo, v_hi), top, rise, len(patch), s_all, v_all, z_all, thr, config):
+            break
+        if _tread_goes_on(last, a0, planes, s_all, v_all, lateral):
+            break  # on the tread, not where it ends: an object on it (a box's top)
         plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
         out[-1] = dataclasses.replace(last, run_m=a0 - s0)
         out.append(
@@ -140,6 +147,51 @@ def continue_steps(
         if run is None:
             run = a0 - s0
     return out, added
+
+
+def _a_riser_there(
+    a0: float,
+    lateral: tuple[float, float],
+    top: float,
+    rise: float,
+    n_patch: int,
+    s_all: np.ndarray,
+    v_all: np.ndarray,
+    z_all: np.ndarray,
+    thr: np.ndarray,
+    config: TerrainConfig,
+) -> bool:
+    """Whether the face at ``a0`` (across ``lateral``) stops where a riser does: at most half
+    as many samples as its patch (any samples, in a plane or not) at that position below
+    the last tread or above one rise over it. A riser's foot is the tread it stands on
+    and the next tread starts at its top; a cabinet front, a door or the ground beyond a
+    box go on below or above (as a riser plane that does so is no riser to the chain)."""
+    at = (np.abs(s_all - a0) < thr) & (v_all > lateral[0]) & (v_all < lateral[1])
+    outside = (z_all < top - config.edge_margin_m) | (z_all > top + rise + config.edge_margin_m)
+    return int(np.count_nonzero(at & outside)) <= 0.5 * n_patch
+
+
+def _tread_goes_on(
+    step: Step,
+    a0: float,
+    planes: PlaneSet,
+    s_all: np.ndarray,
+    v_all: np.ndarray,
+    lateral: tuple[float, float],
+) -> bool:
+    """Whether ``step``'s tread plane goes on past ``a0``: more than a quarter of its samples
+    within the staircase's width lie beyond it by more than the largest inlier threshold
+    (a tread ends at the next riser; the noise of a far tread's samples spills a few
+    centimetres past it, a box's top with an object on it goes on). False without a tread
+    plane."""
+    if step.tread is None:
+        return False
+    for seg in planes.segments:
+        if seg.plane is step.tread:
+            s, v = s_all[seg.indices], v_all[seg.indices]
+            s = s[(v > lateral[0]) & (v < lateral[1]) & np.isfinite(s)]
+            return len(s) > 0 and float(np.mean(s > a0 + _INLIERS.max_threshold_m)) > 0.25
+    return False
 
 
 def _walls_across(planes: PlaneSet, P: np.ndarray, u: np.ndarray, config: TerrainConfig) -> list[float]:
