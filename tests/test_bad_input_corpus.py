@@ -433,7 +433,6 @@ CASES = [
     _rec_case("nan-time", CSV_HEAD + "0,nan,0,l0.png,r0.png\n"),
     _rec_case("inf-time", CSV_HEAD + "0,inf,inf,l0.png,r0.png\n"),
     _rec_case("huge-time", CSV_HEAD + "0,1e300,1e300,l0.png,r0.png\n"),
-    _rec_case("decreasing", CSV_HEAD + "0,1,1,l0.png,r0.png\n1,0.5,0.5,l1.png,r1.png\n"),
     _rec_case("not-utf8", CSV_HEAD.encode() + b"0,0,0,l\xff\xfe.png,r0.png\n"),
     _rec_case("empty", ""),
     _rec_case("header-only", CSV_HEAD),

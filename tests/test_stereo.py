@@ -37,6 +37,16 @@ def test_opencv_backend_recovers_known_disparity():
     assert not (dm.disparity == 0).any()
 
 
+def test_a_blank_pair_has_no_density():
+    """A covered lens or a dead camera: OpenCV's SGBM says disparity 0 (at infinity) almost
+    everywhere; the density (published in every terrain message) must not read as a good
+    frame's."""
+    blank = _shifted_pair(12.5)
+    blank = RectifiedPair(np.zeros_like(blank.left), np.zeros_like(blank.right), blank.rectification)
+    assert make_backend("opencv").compute(blank, 64).density < 0.05
+    assert make_backend("opencv").compute(_shifted_pair(12.5), 64).density > 0.8
+
+
 def test_bad_backend_arguments():
     pair = _shifted_pair()
     backend = make_backend("opencv")

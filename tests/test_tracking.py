@@ -332,3 +332,57 @@ def test_single_frames_publish_the_floor_check_and_the_trigger_is_unchanged():
     checked = track_and_trigger(None, SwingTrigger(), seen, odo, 0.0, floor_z_m=FLOOR)
     assert plain[0] == seen and checked[0] == single_frame_model(seen, FLOOR) != seen
     assert plain[2] == checked[2]
+
+
+def _raise_point(tracker, trigger, odometry_at, rng, *, d_first=2.0, step_m=0.05, frames=30):
+    """Walk toward stairs ``d_first`` ahead through ``track_and_trigger``, the frame ``k``'s
+    odometry being ``odometry_at(k, x)``; then odometry alone until the swing is raised.
+    Returns the body x where it was (None: never) and the published first distances."""
+    published = []
+    for k in range(frames):
+        x = step_m * k
+        m = frame_model(rng, d_first - x, skip=1 if d_first - x < 0.6 else 0)
+        model, _, trig = track_and_trigger(tracker, trigger, m, odometry_at(k, x), k / 10)
+        published.append((x, model.steps[0].distance_m if model.steps else None))
+        if trig.raise_swing:
+            return x, published
+    x = step_m * (frames - 1)
+    while x < d_first:
+        x += 0.001
+        if trigger.update(Odometry((x, 0.0, 0.0), 0.0)).raise_swing:
+            return x, published
+    return None, published
+
+
+@pytest.mark.parametrize(
+    "gap",
+    [
+        lambda k, x: None,  # the state estimator sent nothing
+        lambda k, x: Odometry((math.nan, 0.0, 0.0), 0.0),  # or a NaN position
+        lambda k, x: Odometry((x, 0.0, 0.0), math.nan),  # or a NaN heading
+    ],
+    ids=["none", "nan-position", "nan-yaw"],
+)
+@pytest.mark.parametrize("tracking", [True, False])
+def test_frames_without_a_pose_in_an_approach_with_poses_do_not_move_the_trigger(gap, tracking):
+    """Found in review: two frames without odometry mid-approach put the body at the world
+    origin, so the tracker published distances 0.5 m short and the swing was raised 0.45 m
+    early; a NaN pose never raised it at all."""
+    d_first, buffer_m = 2.0, SwingTrigger().swing.buffer_m
+
+    def odometry_at(k, x):
+        return gap(k, x) if k in (9, 10) else Odometry((x, 0.0, 0.0), 0.0)
+
+    tracker = StairTracker() if tracking else None
+    rng = np.random.default_rng(5)
+    x, published = _raise_point(tracker, SwingTrigger(), odometry_at, rng, d_first=d_first)
+    assert x is not None and abs(x - (d_first - buffer_m)) < 0.03
+    for xk, d in published:
+        assert d is None or abs(d - (d_first - xk)) < 0.1 or d_first - xk < 0.6  # (the second riser later)
+
+
+def test_odometry_must_be_a_3d_position():
+    from stereo_terrain.errors import InputError
+
+    with pytest.raises(InputError, match="x, y, z"):
+        Odometry((1.0, 2.0), 0.0)

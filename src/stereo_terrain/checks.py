@@ -76,12 +76,22 @@ def check_fields(config: Any) -> None:
     """Type-check a config dataclass against the types of its defaults.
 
     A field whose default is an ``int`` must be an integer (not a bool), a ``float`` field a
-    finite real number, a ``bool`` field a bool, a ``str`` field a string. Fields whose
-    default is None or another type are left to the config's own checks.
+    finite real number, a ``bool`` field a bool, a ``str`` field a string; a field whose
+    default comes from a dataclass (a nested config) must be an instance of it (a mapping
+    there is a mistake: ``from_dict`` builds the nested configs). Fields whose default is
+    None or another type are left to the config's own checks.
     """
     owner = type(config).__name__
     for f in dataclasses.fields(config):
         if f.default is dataclasses.MISSING:
+            nested = f.default_factory
+            if isinstance(nested, type) and dataclasses.is_dataclass(nested):
+                value = getattr(config, f.name)
+                if not isinstance(value, nested):
+                    raise ConfigError(
+                        f"{owner}.{f.name} must be a {nested.__name__}, got {type(value).__name__} "
+                        f"(from a mapping, build the config with {owner}.from_dict)"
+                    )
             continue
         default, value = f.default, getattr(config, f.name)
         if isinstance(default, bool):

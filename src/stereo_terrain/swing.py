@@ -12,7 +12,7 @@ import math
 from dataclasses import dataclass
 
 from .checks import check_fields
-from .errors import ConfigError
+from .errors import ConfigError, InputError
 from .terrain import NONE, StairModel
 
 
@@ -149,6 +149,24 @@ class Odometry:
     position_m: tuple[float, float, float]
     yaw_rad: float = 0.0
 
+    def __post_init__(self) -> None:
+        try:
+            n = len(self.position_m)
+        except TypeError:
+            n = -1
+        if n != 3:
+            raise InputError(f"Odometry.position_m must be (x, y, z) in metres, got {self.position_m!r}")
+
+    @property
+    def finite(self) -> bool:
+        """Whether the pose is a pose: a state estimator may send NaN when it has none."""
+        return all(math.isfinite(float(v)) for v in self.position_m) and math.isfinite(float(self.yaw_rad))
+
+
+def usable_odometry(odometry: Odometry | None) -> Odometry | None:
+    """``odometry`` when it holds a finite pose, else None (no pose this frame)."""
+    return odometry if odometry is not None and odometry.finite else None
+
 
 @dataclass(frozen=True)
 class TriggerState:
@@ -205,6 +223,7 @@ class SwingTrigger:
     def __init__(self, swing: SwingConfig | None = None, config: TriggerConfig | None = None) -> None:
         self.swing = swing or SwingConfig()
         self.config = config or TriggerConfig()
+        self._last_odometry: Odometry | None = None  # the last finite pose (kept over resets)
         self.reset()
 
     def reset(self) -> None:
@@ -259,7 +278,9 @@ class SwingTrigger:
         ----------
         odometry : Odometry or None
             Body pose now; None when there is no odometry (travel then counts as zero, so
-            only the measurements themselves bring the trigger closer).
+            only the measurements themselves bring the trigger closer). A pose with a NaN
+            is none. Where earlier frames had poses, a frame without one counts the travel
+            to the last pose and its terrain is not used (it cannot be placed).
         model : StairModel, optional
             The terrain (yaw frame) when a frame was processed.
         camera_z_m : float, optional
@@ -269,6 +290,13 @@ class SwingTrigger:
         """
         cfg = self.config
         self._camera_z = camera_z_m
+        odometry = usable_odometry(odometry)
+        if odometry is None and self._last_odometry is not None:
+            # No pose this frame (dropped, or NaN) where there were poses: the travel is
+            # counted to the last pose, and a terrain cannot be set against the origin.
+            odometry, model = self._last_odometry, None
+        elif odometry is not None:
+            self._last_odometry = odometry
         if model is not None:
             seen = model.obstacle != NONE and bool(model.steps)
             if self._phase == PHASE_IDLE:

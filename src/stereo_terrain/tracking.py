@@ -37,9 +37,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .checks import check_fields
-from .errors import ConfigError
+from .errors import ConfigError, InputError
 from .msac import Plane
-from .swing import Odometry
+from .swing import Odometry, usable_odometry
 from .terrain import NONE, STAIRS, Polytope, StairModel, Step
 
 TRACK_NONE, TRACK_TENTATIVE, TRACK_CONFIRMED, TRACK_COASTING = "none", "tentative", "confirmed", "coasting"
@@ -719,6 +719,7 @@ class StairTracker:
         self._candidate: _Track | None = None
         self._ids = 0
         self._last = TrackedStaircase(TRACK_NONE)
+        self._had_odometry = False
 
     @property
     def state(self) -> TrackedStaircase:
@@ -733,7 +734,21 @@ class StairTracker:
 
     def update(self, model: StairModel | None, odometry: Odometry | None, t_s: float) -> TrackedStaircase:
         """Advance by one frame; returns the tracked staircase (``model`` in the body's yaw
-        frame now)."""
+        frame now).
+
+        A pose with a NaN is none. Where earlier frames had poses, a frame without one
+        cannot be placed in the world: the track is left as it was and the result is the
+        last one without its ``model`` (the frame's own terrain is what there is to use).
+        """
+        if model is not None and not isinstance(model, StairModel):
+            raise InputError(
+                f"StairTracker.update takes a StairModel (a result's .terrain), got {type(model).__name__}"
+            )
+        odometry = usable_odometry(odometry)
+        if odometry is None and self._had_odometry:
+            self._last = dataclasses.replace(self._last, model=None)
+            return self._last
+        self._had_odometry = self._had_odometry or odometry is not None
         cfg = self.config
         xy, _, _ = _pose(odometry)
         have_odo = odometry is not None

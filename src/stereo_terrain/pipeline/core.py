@@ -17,6 +17,7 @@ import numpy as np
 from ..calibration import StereoCalibration
 from ..cloud import GridSample, sample_disparity, transform_sample
 from ..drift import CorrectionUpdate, OnlineRectifier
+from ..errors import ConfigError, InputError
 from ..frames import Rig, Transform
 from ..gravity import (
     GravityEstimate,
@@ -86,6 +87,7 @@ class Pipeline:
         backend: DisparityBackend | None = None,
         warm_up: bool = True,
     ) -> None:
+        _check_arguments(calibration, rig, config)
         self.config = config or PipelineConfig()
         self.calibration = calibration
         self.rig = rig
@@ -124,10 +126,12 @@ class Pipeline:
             self.rectification = self.rectifier.current
         self.last_correction = None
 
-    def set_rig(self, rig: Rig) -> None:
-        """Use ``rig`` from the next frame on (e.g. the body attitude from the state estimator)."""
+    def set_rig(self, rig: Rig | None) -> None:
+        """Use ``rig`` from the next frame on (e.g. the body attitude from the state
+        estimator); None: gravity from the scene from then on."""
+        _check_arguments(self.calibration, rig, self.config)
         self.rig = rig
-        self.T_yaw_camera_rect = rig.T_yaw_camera @ self.rectification.T_camera_rect
+        self.T_yaw_camera_rect = None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
 
     def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
@@ -361,6 +365,24 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
+    """A Pipeline's arguments are what it takes (a path or a mapping is a common slip: say
+    how to make the object instead of failing on an attribute deep inside)."""
+    if not isinstance(calibration, StereoCalibration):
+        raise InputError(
+            f"the calibration must be a StereoCalibration (read_calibration(path) reads one), "
+            f"got {type(calibration).__name__}"
+        )
+    if rig is not None and not isinstance(rig, Rig):
+        got = type(rig).__name__
+        raise InputError(f"the rig must be a Rig or None (load_rig(path) reads one), got {got}")
+    if config is not None and not isinstance(config, PipelineConfig):
+        raise ConfigError(
+            "the config must be a PipelineConfig (PipelineConfig.from_dict or from_yaml builds one), "
+            f"got {type(config).__name__}"
+        )
 
 
 @functools.cache

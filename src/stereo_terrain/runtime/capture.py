@@ -395,7 +395,14 @@ MAX_REPLAY_GAP_S = 2.0
 
 
 def read_pairs_index(folder: str | Path) -> list[_Row]:
-    """Rows of ``folder/pairs.csv`` (see the module docstring); :class:`InputError` if bad."""
+    """Rows of ``folder/pairs.csv`` (see the module docstring).
+
+    :class:`InputError` when the folder or the file is missing, unreadable, without the
+    columns, or holds no usable row. A bad row among good ones (times that are not
+    finite seconds, or earlier than the row before; image names missing) is a bad frame of
+    the recording, not a bad recording: it is left out and one warning names how many and
+    the first. A pose that is not finite leaves the row without a pose (the live loop
+    flags the frame)."""
     import io
 
     from ..checks import read_text_file
@@ -410,6 +417,7 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
         raise InputError(f"{folder} has no {PAIRS_FILE}; record one with 'stereo-terrain record' or simulate")
     text = read_text_file(index, "pairs index")
     rows: list[_Row] = []
+    bad: list[str] = []  # why each left-out row was left out
     try:
         reader = csv.DictReader(io.StringIO(text, newline=""))
         need = {"t_left", "t_right", "left", "right"}
@@ -417,32 +425,43 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
             raise InputError(f"{index} must have the columns {sorted(need)}, got {reader.fieldnames}")
         has_pose = set(_POSE_KEYS) <= set(reader.fieldnames)
         for rec in reader:
-            n = reader.line_num
-            try:
-                pose = tuple(float(rec[k]) for k in _POSE_KEYS) if has_pose else None
-                left, right = rec["left"], rec["right"]
-                if not left or not right or "\x00" in left + right:
-                    raise ValueError("image names")
-                t_left, t_right = float(rec["t_left"]), float(rec["t_right"])
-                rows.append(_Row(t_left, t_right, folder / left, folder / right, pose))
-            except (TypeError, ValueError, OverflowError):
-                raise InputError(
-                    f"{index} line {n}: times and pose must be numbers, left and right image file names"
-                ) from None
-            last = rows[-1]
-            if not all(math.isfinite(v) for v in (last.t_left, last.t_right, *(last.pose or ()))):
-                raise InputError(f"{index} line {n}: times and pose must be finite numbers")
-            if max(abs(last.t_left), abs(last.t_right)) > MAX_ABS_TIME_S:
-                raise InputError(f"{index} line {n}: times must be seconds (|t| <= {MAX_ABS_TIME_S:g})")
+            why = _bad_row(rec, rows[-1] if rows else None, has_pose)
+            if why:
+                bad.append(f"line {reader.line_num}: {why}")
+                continue
+            pose = tuple(float(rec[k]) for k in _POSE_KEYS) if has_pose else None
+            if pose is not None and not all(math.isfinite(v) for v in pose):
+                pose = None
+            t_left, t_right = float(rec["t_left"]), float(rec["t_right"])
+            rows.append(_Row(t_left, t_right, folder / rec["left"], folder / rec["right"], pose))
     except csv.Error as exc:
         raise InputError(f"{index} is not a readable CSV file: {exc}") from None
     if not rows:
-        raise InputError(f"{index} lists no pairs")
-    times = [max(r.t_left, r.t_right) for r in rows]
-    for n, (a, b) in enumerate(zip(times, times[1:], strict=False), start=3):
-        if b < a:
-            raise InputError(f"{index} line {n}: pair times must not decrease ({b} after {a})")
+        first = f" ({bad[0]})" if bad else ""
+        raise InputError(f"{index} lists no pairs{first}")
+    if bad:
+        log.warning("%s: %d bad row(s) left out (the first, %s)", index, len(bad), bad[0])
     return rows
+
+
+def _bad_row(rec: dict, previous: _Row | None, has_pose: bool) -> str:
+    """Why a ``pairs.csv`` row cannot be replayed, or "" when it can."""
+    try:
+        t_left, t_right = float(rec["t_left"]), float(rec["t_right"])
+        if has_pose:
+            tuple(float(rec[k]) for k in _POSE_KEYS)
+    except (TypeError, ValueError, OverflowError):
+        return "times and pose must be numbers"
+    left, right = rec["left"], rec["right"]
+    if not left or not right or "\x00" in left + right:
+        return "left and right must be image file names"
+    if not (math.isfinite(t_left) and math.isfinite(t_right)):
+        return "times must be finite numbers"
+    if max(abs(t_left), abs(t_right)) > MAX_ABS_TIME_S:
+        return f"times must be seconds (|t| <= {MAX_ABS_TIME_S:g})"
+    if previous is not None and max(t_left, t_right) < max(previous.t_left, previous.t_right):
+        return "pair times must not decrease"
+    return ""
 
 
 def _capped_gaps(rows: list[_Row], index: Path) -> list[_Row]:

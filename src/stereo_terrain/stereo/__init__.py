@@ -54,7 +54,11 @@ class DisparityMap:
 
     @property
     def density(self) -> float:
-        return float(np.mean(self.valid))
+        """Share of the pixels with a depth: a finite disparity above zero. OpenCV's SGBM
+        gives a blank or uniform pair (a covered lens, a dead camera) disparity 0, at
+        infinity, nearly everywhere; counted, it read as healthy as a good frame."""
+        d = self.disparity
+        return float(np.mean(np.isfinite(d) & (d > 0)))
 
 
 class DisparityBackend(Protocol):
