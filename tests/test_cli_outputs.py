@@ -109,3 +109,28 @@ def test_verbose_before_and_after_the_command_is_parsed():
     assert build_parser().parse_args(["-v", *argv]).verbose
     assert build_parser().parse_args([*argv, "-v"]).verbose
     assert not build_parser().parse_args(argv).verbose
+
+
+def test_a_figure_that_cannot_be_written_leaves_no_json(scene_dir, tmp_path, monkeypatch, capsys):
+    """The JSON (the result) is written last: a figure or a recording that fails leaves
+    no JSON that looks like success (found in review)."""
+    import stereo_terrain.cli.scene as scene_cli
+    from stereo_terrain.errors import InputError
+
+    def fail(result, path):
+        raise InputError(f"cannot write {path}: No such file or directory")
+
+    monkeypatch.setattr(scene_cli, "_plot", fail)
+    out = tmp_path / "r.json"
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--json", out, "--plot", tmp_path / "r.png"), capsys)
+    assert code == 2 and "cannot write" in err
+    assert not out.exists()
+
+
+def test_python_dash_m_runs_the_command_line():
+    import subprocess
+    import sys
+
+    argv = [sys.executable, "-m", "stereo_terrain", "--version"]
+    proc = subprocess.run(argv, capture_output=True, text=True)
+    assert proc.returncode == 0 and __version__ in proc.stdout

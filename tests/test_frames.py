@@ -101,6 +101,8 @@ def test_rig_round_trip(tmp_path):
         ("{[", "YAML"),
         # a misspelt key would otherwise leave the body level, silently
         ("T_body_camera: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nbody_rpy_deg: [0, 2, 0]", "body_rpy_deg"),
+        # a key given twice: YAML keeps the last silently
+        ("T_body_camera: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]\nbody_rpy: []\nbody_rpy: []", "twice"),
     ],
 )
 def test_bad_rig_files(tmp_path, text, match):

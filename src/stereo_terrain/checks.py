@@ -56,20 +56,41 @@ def nesting_depth(text: str) -> int:
 
 
 def load_yaml_file(path: str | Path, what: str) -> Any:
-    """Parse a small YAML file (``yaml.safe_load``); :class:`InputError` for a file that is
-    missing, not UTF-8, nested deeper than :data:`MAX_NESTING` or not YAML."""
+    """Parse a small YAML file (``yaml.safe_load``, keys unique); :class:`InputError` for a
+    file that is missing, not UTF-8, nested deeper than :data:`MAX_NESTING`, not YAML, or
+    with a key given twice in one mapping (YAML would keep the last silently: a setting
+    changed twice in a long config is a mistake to show)."""
     import yaml
 
     text = read_text_file(path, what)
     if nesting_depth(text) > MAX_NESTING:
         raise InputError(f"{what} {path} nests brackets deeper than {MAX_NESTING} levels")
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=_unique_key_loader())  # noqa: S506 - a SafeLoader
     except yaml.YAMLError as exc:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"{what} {path} is not valid YAML: {first}") from None
     except (RecursionError, ValueError, OverflowError, TypeError) as exc:
         raise InputError(f"{what} {path} is not valid YAML: {type(exc).__name__}") from None
+
+
+def _unique_key_loader() -> Any:
+    """``yaml.SafeLoader`` that refuses a key given twice in one mapping."""
+    import yaml
+
+    class UniqueKeyLoader(yaml.SafeLoader):
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            seen = set()
+            for key_node, _value in node.value:
+                key = self.construct_object(key_node, deep=deep)
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"key {key!r} given twice (line {key_node.start_mark.line + 1})", None
+                    )
+                seen.add(key)
+            return super().construct_mapping(node, deep)
+
+    return UniqueKeyLoader
 
 
 def check_fields(config: Any) -> None:

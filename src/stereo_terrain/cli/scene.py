@@ -189,6 +189,12 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     pipeline = Pipeline(calib, rig, config)
     result = pipeline.run(left, right)
     data = result.to_json_dict()
+    # The figure and the message files first, the JSON (the result itself) last: a figure
+    # or a recording that cannot be written leaves no JSON behind that looks like success.
+    if args.plot is not None:
+        _plot(result, args.plot)
+    # Stamped with the left image's modification time, the nearest thing to a capture time.
+    write_single(args, pipeline, result, left, right, args.left.stat().st_mtime)
     if args.json is not None:
         write_json(data, args.json)
     if str(args.json) != "-":
@@ -201,10 +207,6 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
             f"swing: height {sw['height']:.3f} m, trigger {sw['trigger_distance']}, "
             f"traversable {sw['traversable']}; total {data['timing_ms']['total']:.1f} ms"
         )
-    if args.plot is not None:
-        _plot(result, args.plot)
-    # Stamped with the left image's modification time, the nearest thing to a capture time.
-    write_single(args, pipeline, result, left, right, args.left.stat().st_mtime)
     return EXIT_OK
 
 
