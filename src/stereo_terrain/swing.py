@@ -168,43 +168,6 @@ def usable_odometry(odometry: Odometry | None) -> Odometry | None:
     return odometry if odometry is not None and odometry.finite else None
 
 
-#: Between two updates (frames or controller ticks) a legged robot moves far less than
-#: this; a longer step of its odometry is a relocalisation or a glitch of the state
-#: estimator, not travel.
-MAX_ODOMETRY_JUMP_M = 0.5
-
-
-class OdometryJumps:
-    """Keeps a stream of poses continuous across jumps. A horizontal step between two
-    consecutive poses longer than :data:`MAX_ODOMETRY_JUMP_M` is taken for a shift of the
-    odometry's frame, not for travel: it is taken out of this pose and every later one (a
-    one-frame glitch shifts back on the next pose, a relocalisation stays shifted). Before,
-    a +2 m glitch on one frame latched the raised swing 0.9 m early, and a relocalisation 1 m
-    back put the trigger 1 m late."""
-
-    def __init__(self) -> None:
-        self._shift = (0.0, 0.0, 0.0)
-        self._last: tuple[float, float, float] | None = None
-        self.jumps = 0
-
-    def __call__(self, odometry: Odometry | None) -> Odometry | None:
-        if odometry is None:
-            return None
-        x, y, z = (float(v) - d for v, d in zip(odometry.position_m, self._shift, strict=True))
-        last = self._last
-        if last is not None and math.hypot(x - last[0], y - last[1]) > MAX_ODOMETRY_JUMP_M:
-            # No travel is counted for the update the jump hides (at most one frame's step:
-            # the next measurements of the first riser take it up).
-            sx, sy, sz = self._shift
-            self._shift = (sx + x - last[0], sy + y - last[1], sz + z - last[2])
-            x, y, z = last
-            self.jumps += 1
-        self._last = (x, y, z)
-        if self._shift == (0.0, 0.0, 0.0):
-            return odometry
-        return Odometry((x, y, z), odometry.yaw_rad)
-
-
 @dataclass(frozen=True)
 class TriggerState:
     """The decision of :class:`SwingTrigger` and what the controller needs to apply it.
@@ -261,7 +224,6 @@ class SwingTrigger:
         self.swing = swing or SwingConfig()
         self.config = config or TriggerConfig()
         self._last_odometry: Odometry | None = None  # the last finite pose (kept over resets)
-        self._jumps = OdometryJumps()
         self.reset()
 
     def reset(self) -> None:
@@ -318,8 +280,7 @@ class SwingTrigger:
             Body pose now; None when there is no odometry (travel then counts as zero, so
             only the measurements themselves bring the trigger closer). A pose with a NaN
             is none. Where earlier frames had poses, a frame without one counts the travel
-            to the last pose and its terrain is not used (it cannot be placed). A jump of
-            the odometry is not travel (:class:`OdometryJumps`).
+            to the last pose and its terrain is not used (it cannot be placed).
         model : StairModel, optional
             The terrain (yaw frame) when a frame was processed.
         camera_z_m : float, optional
@@ -329,7 +290,7 @@ class SwingTrigger:
         """
         cfg = self.config
         self._camera_z = camera_z_m
-        odometry = self._jumps(usable_odometry(odometry))
+        odometry = usable_odometry(odometry)
         if odometry is None and self._last_odometry is not None:
             # No pose this frame (dropped, or NaN) where there were poses: the travel is
             # counted to the last pose, and a terrain cannot be set against the origin.

@@ -39,7 +39,7 @@ import numpy as np
 from .checks import check_fields
 from .errors import ConfigError, InputError
 from .msac import Plane
-from .swing import Odometry, OdometryJumps, usable_odometry
+from .swing import Odometry, usable_odometry
 from .terrain import NONE, STAIRS, Polytope, StairModel, Step
 
 TRACK_NONE, TRACK_TENTATIVE, TRACK_CONFIRMED, TRACK_COASTING = "none", "tentative", "confirmed", "coasting"
@@ -711,7 +711,6 @@ class StairTracker:
 
     def __init__(self, config: TrackingConfig | None = None) -> None:
         self.config = config or TrackingConfig()
-        self._jumps = OdometryJumps()  # the odometry's frame is kept continuous over resets
         self.reset()
 
     def reset(self) -> None:
@@ -740,14 +739,12 @@ class StairTracker:
         A pose with a NaN is none. Where earlier frames had poses, a frame without one
         cannot be placed in the world: the track is left as it was and the result is the
         last one without its ``model`` (the frame's own terrain is what there is to use).
-        A jump of the odometry is a shift of its frame, not travel
-        (:class:`~stereo_terrain.swing.OdometryJumps`).
         """
         if model is not None and not isinstance(model, StairModel):
             raise InputError(
                 f"StairTracker.update takes a StairModel (a result's .terrain), got {type(model).__name__}"
             )
-        odometry = self._jumps(usable_odometry(odometry))
+        odometry = usable_odometry(odometry)
         if odometry is None and self._had_odometry:
             self._last = dataclasses.replace(self._last, model=None)
             return self._last
