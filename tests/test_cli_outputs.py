@@ -71,7 +71,16 @@ def test_a_closed_stdout_is_not_an_internal_error_and_the_files_are_still_writte
     code = main([str(a) for a in _reconstruct_args(scene_dir, "--json", "-", "--plot", plot)])
     assert code == 0
     assert "internal error" not in capsys.readouterr().err
-    assert plot.stat().st_size > 10_000  # drawn after the JSON the reader did not take
+    assert plot.stat().st_size > 10_000
+
+
+def test_printing_after_the_reader_left_is_dropped_and_the_command_goes_on():
+    from stereo_terrain.cli import _StdoutReaderMayLeave
+
+    out = _StdoutReaderMayLeave(_ClosedPipe())
+    assert out.write("first") == 5 and out.reader_gone
+    assert out.write("more") == 4  # dropped, no error
+    out.flush()
 
 
 def test_verbose_after_the_command_and_version(scene_dir, capsys):

@@ -267,6 +267,27 @@ def test_bad_rows_among_good_ones_are_left_out_and_said(tmp_path, caplog):
     assert "1 bad row(s) left out" in caplog.text and "line 3: pair times must not decrease" in caplog.text
 
 
+def test_one_row_far_ahead_in_time_is_the_one_left_out(tmp_path, caplog):
+    """Found in review: a row 1e6 s ahead made every later row "earlier than the row
+    before" and left out the rest of the recording; it is that row that is wrong."""
+    folder = _small_recording(tmp_path, n=10)
+    lines = (folder / "pairs.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    glitch = lines[3].split(",")
+    glitch[head.index("t_left")] = glitch[head.index("t_right")] = "1e6"
+    lines[3] = ",".join(glitch)
+    (folder / "pairs.csv").write_text("\n".join(lines) + "\n")
+    with caplog.at_level("WARNING"):
+        rows = read_pairs_index(folder)
+    assert len(rows) == 9 and "line 4" in caplog.text
+    # a file mostly of bad rows is no recording to replay
+    t_col = head.index("t_left")
+    garbled = [",".join(c if k != t_col else "x" for k, c in enumerate(r.split(","))) for r in lines[2:]]
+    (folder / "pairs.csv").write_text("\n".join([lines[0], lines[1], *garbled]) + "\n")
+    with pytest.raises(InputError, match="most rows are bad"):
+        read_pairs_index(folder)
+
+
 def test_looped_replay_of_equal_times_goes_forward(tmp_path):
     import csv
 

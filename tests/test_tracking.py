@@ -386,3 +386,44 @@ def test_odometry_must_be_a_3d_position():
 
     with pytest.raises(InputError, match="x, y, z"):
         Odometry((1.0, 2.0), 0.0)
+
+
+@pytest.mark.parametrize("tracking", [True, False])
+def test_poses_that_start_mid_approach_count_from_their_first(tracking):
+    """Found in review (so before this session too): frames without poses, then poses
+    whose origin is 1.3 m behind where the walk started; the swing was latched at x = 0.5
+    instead of 1.9. The travel counts from the first pose."""
+    d_first, offset = 2.0, 1.3
+    rng = np.random.default_rng(7)
+    tracker, trigger = (StairTracker() if tracking else None), SwingTrigger()
+    raised_at = None
+    for k in range(400):
+        x = 0.005 * k  # a controller tick every 5 mm, a frame every 10th
+        odo = None if k < 60 else Odometry((x + offset, 0.0, 0.0), 0.0)
+        if k % 10 == 0:
+            m = frame_model(rng, d_first - x, skip=1 if d_first - x < 0.6 else 0)
+            _, _, trig = track_and_trigger(tracker, trigger, m, odo, k / 100)
+        else:
+            trig = trigger.update(odo)
+        if trig.raise_swing:
+            raised_at = x
+            break
+    assert raised_at is not None and abs(raised_at - (d_first - trigger.swing.buffer_m)) < 0.05
+
+
+def test_a_frame_without_a_pose_publishes_the_frame_coasting_not_the_confirmed_track():
+    rng = np.random.default_rng(8)
+    tracker, trigger = StairTracker(), SwingTrigger()
+    for k in range(6):
+        x = 0.05 * k
+        track_and_trigger(tracker, trigger, frame_model(rng, 2.0 - x), Odometry((x, 0.0, 0.0), 0.0), k / 10)
+    assert tracker.state.state == TRACK_CONFIRMED
+    frame = frame_model(rng, 1.7)
+    model, state, _ = track_and_trigger(tracker, trigger, frame, None, 0.6)
+    assert state == TRACK_COASTING
+    assert model.steps[0].distance_m == pytest.approx(frame.steps[0].distance_m)
+    # published as a single frame: its own sigmas, not the fused track's
+    assert model.steps[0].distance_sigma_m >= frame.steps[0].distance_sigma_m
+    # and a long outage drops the track, as one without support always did
+    far = tracker.update(frame, None, 0.6 + tracker.config.drop_after_s + 1.0)
+    assert far.state == "none"

@@ -82,8 +82,14 @@ def _unique_key_loader() -> Any:
         def construct_mapping(self, node: Any, deep: bool = False) -> Any:
             seen = set()
             for key_node, _value in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue  # "<<: *base": the base's keys, which this mapping may override
                 key = self.construct_object(key_node, deep=deep)
-                if key in seen:
+                try:
+                    twice = key in seen
+                except TypeError:
+                    continue  # an unhashable key: the base loader says so, with its line
+                if twice:
                     raise yaml.constructor.ConstructorError(
                         None, None, f"key {key!r} given twice (line {key_node.start_mark.line + 1})", None
                     )

@@ -151,11 +151,15 @@ class Odometry:
 
     def __post_init__(self) -> None:
         try:
-            n = len(self.position_m)
-        except TypeError:
-            n = -1
-        if n != 3:
-            raise InputError(f"Odometry.position_m must be (x, y, z) in metres, got {self.position_m!r}")
+            ok = len(self.position_m) == 3
+            [float(v) for v in (*self.position_m, self.yaw_rad)]
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise InputError(
+                f"Odometry needs position_m (x, y, z) in metres and yaw_rad as numbers, "
+                f"got {self.position_m!r}, {self.yaw_rad!r}"
+            )
 
     @property
     def finite(self) -> bool:
@@ -296,6 +300,9 @@ class SwingTrigger:
             # counted to the last pose, and a terrain cannot be set against the origin.
             odometry, model = self._last_odometry, None
         elif odometry is not None:
+            if self._last_odometry is None and self._d0 is not None:
+                # The first pose: the travel so far counted none, so it counts from here.
+                self._set_origin(odometry)
             self._last_odometry = odometry
         if model is not None:
             seen = model.obstacle != NONE and bool(model.steps)

@@ -737,19 +737,31 @@ class StairTracker:
         frame now).
 
         A pose with a NaN is none. Where earlier frames had poses, a frame without one
-        cannot be placed in the world: the track is left as it was and the result is the
-        last one without its ``model`` (the frame's own terrain is what there is to use).
+        cannot be placed in the world: the track is left as it was (dropped after
+        ``drop_after_s`` without support, as always) and the result is the last one,
+        coasting, without its ``model`` (the frame's own terrain is what there is to use).
+        A track built on frames without poses starts again at the first pose.
         """
         if model is not None and not isinstance(model, StairModel):
             raise InputError(
                 f"StairTracker.update takes a StairModel (a result's .terrain), got {type(model).__name__}"
             )
         odometry = usable_odometry(odometry)
-        if odometry is None and self._had_odometry:
-            self._last = dataclasses.replace(self._last, model=None)
-            return self._last
-        self._had_odometry = self._had_odometry or odometry is not None
         cfg = self.config
+        if odometry is None and self._had_odometry:
+            track = self._track
+            if track is not None and t_s - track.last_support_s > cfg.drop_after_s:
+                self._track = self._candidate = None  # out of touch too long, as below
+                self._last = TrackedStaircase(TRACK_NONE)
+                return self._last
+            state = TRACK_COASTING if self._last.established else self._last.state
+            self._last = dataclasses.replace(self._last, state=state, model=None)
+            return self._last
+        if odometry is not None and not self._had_odometry and self._track is not None:
+            # Poses from now on: the track was kept where the frames stood (the world
+            # origin), which the poses' frame does not share. It starts again.
+            self._track = self._candidate = None
+        self._had_odometry = self._had_odometry or odometry is not None
         xy, _, _ = _pose(odometry)
         have_odo = odometry is not None
         seen = model is not None and model.obstacle != NONE and bool(model.steps)

@@ -424,11 +424,19 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
         if reader.fieldnames is None or not need <= set(reader.fieldnames):
             raise InputError(f"{index} must have the columns {sorted(need)}, got {reader.fieldnames}")
         has_pose = set(_POSE_KEYS) <= set(reader.fieldnames)
+        lines: list[int] = []  # the file line of each kept row
         for rec in reader:
             why = _bad_row(rec, rows[-1] if rows else None, has_pose)
+            if why == _EARLIER and len(rows) >= 2 and _bad_row(rec, rows[-2], has_pose) == "":
+                # Earlier than the row before, not than the one before that: that row's
+                # time was the glitch (one row 1e6 s ahead would leave out all the rest).
+                rows.pop()
+                bad.append(f"line {lines.pop()}: {_EARLIER} (after it, line {reader.line_num} is earlier)")
+                why = ""
             if why:
                 bad.append(f"line {reader.line_num}: {why}")
                 continue
+            lines.append(reader.line_num)
             pose = tuple(float(rec[k]) for k in _POSE_KEYS) if has_pose else None
             if pose is not None and not all(math.isfinite(v) for v in pose):
                 pose = None
@@ -439,6 +447,9 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
     if not rows:
         first = f" ({bad[0]})" if bad else ""
         raise InputError(f"{index} lists no pairs{first}")
+    if len(bad) > len(rows):
+        total = len(bad) + len(rows)
+        raise InputError(f"{index}: most rows are bad ({len(bad)} of {total}; the first, {bad[0]})")
     if bad:
         log.warning("%s: %d bad row(s) left out (the first, %s)", index, len(bad), bad[0])
     return rows
@@ -460,8 +471,11 @@ def _bad_row(rec: dict, previous: _Row | None, has_pose: bool) -> str:
     if max(abs(t_left), abs(t_right)) > MAX_ABS_TIME_S:
         return f"times must be seconds (|t| <= {MAX_ABS_TIME_S:g})"
     if previous is not None and max(t_left, t_right) < max(previous.t_left, previous.t_right):
-        return "pair times must not decrease"
+        return _EARLIER
     return ""
+
+
+_EARLIER = "pair times must not decrease"
 
 
 def _capped_gaps(rows: list[_Row], index: Path) -> list[_Row]:

@@ -185,7 +185,9 @@ def track_and_trigger(
         published = single_frame_model(terrain, floor_z_m)
         return published, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m)
     tracked = tracker.update(terrain, odometry, t_s)
-    model = terrain if tracked.model is None else tracked.model
+    # No tracked model (no track, or a frame without a pose): the frame itself, with the
+    # single-frame sigmas and floor check, not as if it were the fused track.
+    model = single_frame_model(terrain, floor_z_m) if tracked.model is None else tracked.model
     ahead = model
     if not tracked.established:  # nothing confirmed ahead yet: the trigger waits for the track
         ahead = dataclasses.replace(terrain, obstacle=NO_OBSTACLE, steps=())
