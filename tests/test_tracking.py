@@ -427,3 +427,61 @@ def test_a_frame_without_a_pose_publishes_the_frame_coasting_not_the_confirmed_t
     # and a long outage drops the track, as one without support always did
     far = tracker.update(frame, None, 0.6 + tracker.config.drop_after_s + 1.0)
     assert far.state == "none"
+
+
+def _approach_with(odometry_at, *, tracking, frames=30, step_m=0.05, skip_frames=()):
+    """Frames 0.1 s apart walking toward stairs 2 m ahead (frames ``skip_frames`` never
+    arrive: a camera stall), through ``track_and_trigger`` with the frames' times; then
+    controller ticks (no time) in the last frame's odometry frame. Returns the true x where
+    the swing was raised, or None."""
+    rng = np.random.default_rng(9)
+    tracker, trigger = (StairTracker() if tracking else None), SwingTrigger()
+    d_first, last_odo_shift = 2.0, 0.0
+    for k in range(frames):
+        x = step_m * k
+        if k in skip_frames:
+            continue
+        odo = odometry_at(k, x)
+        last_odo_shift = odo.position_m[0] - x
+        m = frame_model(rng, d_first - x, skip=1 if d_first - x < 0.6 else 0)
+        _, _, trig = track_and_trigger(tracker, trigger, m, odo, k / 10)
+        if trig.raise_swing:
+            return x
+    x = step_m * (frames - 1)
+    while x < d_first + 1.0:
+        x += 0.001
+        if trigger.update(Odometry((x + last_odo_shift, 0.0, 0.0), 0.0)).raise_swing:
+            return x
+    return None
+
+
+@pytest.mark.parametrize(
+    ("odometry_at", "skip_frames"),
+    [
+        (lambda k, x: Odometry((x + (2.0 if k == 12 else 0.0), 0.0, 0.0), 0.0), ()),  # a glitch
+        (lambda k, x: Odometry((x - (1.0 if k >= 25 else 0.0), 0.0, 0.0), 0.0), ()),  # relocalised near
+        (lambda k, x: Odometry((x, 0.0, 0.0), 0.0), tuple(range(18, 29))),  # a 1.1 s camera stall
+    ],
+    ids=["glitch", "relocalisation", "stall"],
+)
+@pytest.mark.parametrize("tracking", [True, False])
+def test_odometry_jumps_are_not_travel_but_a_stall_keeps_its_travel(odometry_at, skip_frames, tracking):
+    """Found in review: a +2 m glitch on one frame latched the raised swing 0.9 m early, a
+    relocalisation 1 m back put the trigger 1 m late; the first jump rule (0.5 m a step,
+    without the time) then lost the 0.55 m walked during a camera stall. A jump is a step
+    longer than the body can travel in the time between the poses."""
+    x = _approach_with(odometry_at, tracking=tracking, skip_frames=skip_frames)
+    assert x is not None and abs(x - (2.0 - SwingTrigger().swing.buffer_m)) < 0.03
+
+
+def test_the_trigger_publishes_its_origin_in_the_odometrys_own_frame():
+    """The controller compares its own odometry with ``p0_m``: after a relocalisation the
+    origin is given in the relocalised frame."""
+    rng = np.random.default_rng(10)
+    trigger = SwingTrigger()
+    for k in range(20):
+        x = 0.05 * k
+        pose = Odometry((x - (1.0 if k >= 12 else 0.0), 0.0, 0.0), 0.0)
+        trig = trigger.update(pose, frame_model(rng, 2.0 - x), t_s=k / 10)
+    remaining = trig.trigger_distance_m - (pose.position_m[0] - trig.p0_m[0])
+    assert remaining == pytest.approx(2.0 - trigger.swing.buffer_m - 0.95, abs=0.03)
