@@ -172,57 +172,6 @@ def usable_odometry(odometry: Odometry | None) -> Odometry | None:
     return odometry if odometry is not None and odometry.finite else None
 
 
-#: Faster than a legged robot walks or trots (the MIT Cheetah 3 reaches about 3 m/s), m/s.
-MAX_BODY_SPEED_M_S = 4.0
-#: What odometry may move between two updates on top of that speed, metres.
-ODOMETRY_JUMP_MARGIN_M = 0.3
-
-
-class OdometryJumps:
-    """Keeps a stream of poses continuous across jumps of the odometry's frame.
-
-    A horizontal step between two consecutive poses longer than the body can travel in the
-    time between them (:data:`MAX_BODY_SPEED_M_S` times the time, plus
-    :data:`ODOMETRY_JUMP_MARGIN_M`) is a glitch or a relocalisation of the state estimator,
-    not travel: it is taken out of this pose and every later one (a one-frame glitch
-    shifts back on the next pose; a relocalisation stays shifted); the travel of that
-    update is taken at the body's last speed. Without the times nothing is taken for a
-    jump: a long gap between poses (a camera stall) can hold real travel of any length.
-    """
-
-    def __init__(self) -> None:
-        self.shift = (0.0, 0.0, 0.0)  # taken out of the poses, world frame
-        self._last: tuple[float, float, float] | None = None
-        self._last_t: float | None = None
-        self._velocity = (0.0, 0.0)  # horizontal, m/s, between the last two timed poses
-        self.jumps = 0
-
-    def __call__(self, odometry: Odometry | None, t_s: float | None) -> Odometry | None:
-        if odometry is None:
-            return None
-        x, y, z = (float(v) - d for v, d in zip(odometry.position_m, self.shift, strict=True))
-        last, last_t = self._last, self._last_t
-        timed = t_s is not None and math.isfinite(t_s)
-        if last is not None and timed and last_t is not None:
-            assert t_s is not None
-            dt = max(t_s - last_t, 0.0)
-            if math.hypot(x - last[0], y - last[1]) > MAX_BODY_SPEED_M_S * dt + ODOMETRY_JUMP_MARGIN_M:
-                # The travel the jump hides: the body went on at its last speed.
-                want = (last[0] + self._velocity[0] * dt, last[1] + self._velocity[1] * dt, last[2])
-                sx, sy, sz = self.shift
-                self.shift = (sx + x - want[0], sy + y - want[1], sz + z - want[2])
-                x, y, z = want
-                self.jumps += 1
-            elif dt > 0:
-                self._velocity = ((x - last[0]) / dt, (y - last[1]) / dt)
-        self._last = (x, y, z)
-        if timed:
-            self._last_t = t_s
-        if self.shift == (0.0, 0.0, 0.0):
-            return odometry
-        return Odometry((x, y, z), odometry.yaw_rad)
-
-
 @dataclass(frozen=True)
 class TriggerState:
     """The decision of :class:`SwingTrigger` and what the controller needs to apply it.
@@ -279,7 +228,6 @@ class SwingTrigger:
         self.swing = swing or SwingConfig()
         self.config = config or TriggerConfig()
         self._last_odometry: Odometry | None = None  # the last finite pose (kept over resets)
-        self._jumps = OdometryJumps()  # over resets too: the odometry's frame goes on
         self.reset()
 
     def reset(self) -> None:
@@ -326,12 +274,7 @@ class SwingTrigger:
         return last.distance_m - model.steps[0].distance_m + (last.run_m or 0.0)
 
     def update(
-        self,
-        odometry: Odometry | None,
-        model: StairModel | None = None,
-        *,
-        camera_z_m: float | None = None,
-        t_s: float | None = None,
+        self, odometry: Odometry | None, model: StairModel | None = None, *, camera_z_m: float | None = None
     ) -> TriggerState:
         """Advance with new odometry and, when a frame was processed, its terrain and plan.
 
@@ -344,10 +287,6 @@ class SwingTrigger:
             to the last pose and its terrain is not used (it cannot be placed).
         model : StairModel, optional
             The terrain (yaw frame) when a frame was processed.
-        t_s : float, optional
-            Time of the pose, seconds: with it, a jump of the odometry (a glitch, a
-            relocalisation) is told from travel (:class:`OdometryJumps`); without it every
-            step counts as travel.
         camera_z_m : float, optional
             Height of the camera in the model's frame. A tread above the camera cannot be
             seen, so the rise of such a step (beyond the first) is a guess and does not set
@@ -355,7 +294,7 @@ class SwingTrigger:
         """
         cfg = self.config
         self._camera_z = camera_z_m
-        odometry = self._jumps(usable_odometry(odometry), t_s)
+        odometry = usable_odometry(odometry)
         if odometry is None and self._last_odometry is not None:
             # No pose this frame (dropped, or NaN) where there were poses: the travel is
             # counted to the last pose, and a terrain cannot be set against the origin.
@@ -454,8 +393,7 @@ class SwingTrigger:
             swing_height_m=float(height),
             trigger_distance_m=trigger,
             remaining_m=remaining,
-            # in the odometry's own frame, which the controller reads (jumps put back)
-            p0_m=tuple(p + d for p, d in zip(self._p0, self._jumps.shift, strict=True)),  # type: ignore[arg-type]
+            p0_m=self._p0,
             heading_rad=self._heading,
             traversable=self._phase != PHASE_BLOCKED,
         )

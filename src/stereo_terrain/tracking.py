@@ -39,7 +39,7 @@ import numpy as np
 from .checks import check_fields
 from .errors import ConfigError, InputError
 from .msac import Plane
-from .swing import Odometry, OdometryJumps, usable_odometry
+from .swing import Odometry, usable_odometry
 from .terrain import NONE, STAIRS, Polytope, StairModel, Step
 
 TRACK_NONE, TRACK_TENTATIVE, TRACK_CONFIRMED, TRACK_COASTING = "none", "tentative", "confirmed", "coasting"
@@ -711,7 +711,6 @@ class StairTracker:
 
     def __init__(self, config: TrackingConfig | None = None) -> None:
         self.config = config or TrackingConfig()
-        self._jumps = OdometryJumps()  # over resets too: the odometry's frame goes on
         self.reset()
 
     def reset(self) -> None:
@@ -747,7 +746,7 @@ class StairTracker:
             raise InputError(
                 f"StairTracker.update takes a StairModel (a result's .terrain), got {type(model).__name__}"
             )
-        odometry = self._jumps(usable_odometry(odometry), t_s)
+        odometry = usable_odometry(odometry)
         cfg = self.config
         if odometry is None and self._had_odometry:
             track = self._track

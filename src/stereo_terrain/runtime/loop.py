@@ -183,7 +183,7 @@ def track_and_trigger(
     """
     if tracker is None:
         published = single_frame_model(terrain, floor_z_m)
-        return published, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m, t_s=t_s)
+        return published, TRACK_NONE, trigger.update(odometry, terrain, camera_z_m=camera_z_m)
     tracked = tracker.update(terrain, odometry, t_s)
     # No tracked model (no track, or a frame without a pose): the frame itself, with the
     # single-frame sigmas and floor check, not as if it were the fused track.
@@ -191,7 +191,7 @@ def track_and_trigger(
     ahead = model
     if not tracked.established:  # nothing confirmed ahead yet: the trigger waits for the track
         ahead = dataclasses.replace(terrain, obstacle=NO_OBSTACLE, steps=())
-    return model, tracked.state, trigger.update(odometry, ahead, camera_z_m=camera_z_m, t_s=t_s)
+    return model, tracked.state, trigger.update(odometry, ahead, camera_z_m=camera_z_m)
 
 
 class LiveLoop:
