@@ -61,10 +61,11 @@ from .from_lines import (
 )
 from .from_normals import estimate_up, floor_up, load_gravity_kernels
 from .from_planes import refine_up_from_planes
-from .geometry import angle_deg, levelling, rotation_between, yaw_frame_from_up
+from .geometry import CAMERA_UP, angle_deg, levelling, rotation_between, yaw_frame_from_up
 from .line_frame import up_from_line_frame, up_from_lines_and_planes
 
 __all__ = [
+    "CAMERA_UP",
     "GravityConfig",
     "GravityEstimate",
     "GravityReport",

@@ -37,10 +37,7 @@ from ..checks import check_fields, check_min
 from ..errors import ConfigError
 from ..rectify import Rectification
 from .config import GravityEstimate
-from .geometry import angle_deg
-
-#: Up in the optical frame of an upright camera (x right, y down, z forward).
-_CAMERA_UP = np.array([0.0, -1.0, 0.0])
+from .geometry import CAMERA_UP, angle_deg
 
 
 @dataclass(frozen=True)
@@ -318,13 +315,13 @@ def up_from_vertical_lines(
             f"{count} vertical line segment(s) agree on a vanishing point (need {config.min_inliers})",
             fraction,
         )
-    up = v if v @ _CAMERA_UP >= 0 else -v
+    up = v if v @ CAMERA_UP >= 0 else -v
     idx = np.flatnonzero(inliers)
     spread = [math.radians(angle_deg(fit(rng.choice(idx, len(idx))), up)) for _ in range(config.bootstrap)]
     # A resample's null vector may come out with either sign: angle_deg is unsigned, fold it.
     spread = [min(a, math.pi - a) for a in spread]
     sigma = max(math.degrees(math.sqrt(float(np.mean(np.square(spread))))), config.structure_sigma_deg)
-    tilt_from_upright = angle_deg(up, _CAMERA_UP)
+    tilt_from_upright = angle_deg(up, CAMERA_UP)
     if tilt_from_upright > prior_cone_deg:
         return failed(f"the lines' up is {tilt_from_upright:.0f} deg from the camera's up", fraction)
     if sigma > config.max_sigma_deg:

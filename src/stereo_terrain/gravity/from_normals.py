@@ -12,7 +12,7 @@ from ..msac import Plane, planes_from_triplets
 from ..planes.orientation import grid_lookup, local_triplets
 from ._kernels import floor_inlier_counts, truncated_family_error_sums
 from .config import GravityConfig, GravityEstimate, _failed
-from .geometry import _tangent_basis, _unit
+from .geometry import CAMERA_UP, _tangent_basis, _unit
 
 #: Fewest samples that make a plane family (a floor, or a second wall direction).
 _MIN_FAMILY_SAMPLES = 50
@@ -59,7 +59,7 @@ def estimate_up(
     """
     config = config or GravityConfig()
     rng = np.random.default_rng(config.seed if rng is None else rng)
-    prior = _unit(np.asarray((0.0, -1.0, 0.0) if prior_up is None else prior_up, dtype=np.float64))
+    prior = _unit(np.asarray(CAMERA_UP if prior_up is None else prior_up, dtype=np.float64))
     frame = samples.frame
     n = len(samples)
     if n < 100:
@@ -180,7 +180,7 @@ def floor_up(
     if len(samples) < 50:
         return None
     rng = np.random.default_rng(rng)
-    prior = _unit(np.asarray((0.0, -1.0, 0.0) if prior_up is None else prior_up, dtype=np.float64))
+    prior = _unit(np.asarray(CAMERA_UP if prior_up is None else prior_up, dtype=np.float64))
     lut, gr, gc = grid_lookup(samples)
     everyone = np.ones(len(samples), dtype=bool)
     trip = local_triplets(lut, gr, gc, np.arange(len(samples)), everyone, 5, hypotheses, rng)

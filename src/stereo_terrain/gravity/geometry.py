@@ -11,6 +11,11 @@ from numpy.typing import ArrayLike
 from .._numeric import cross3
 from ..frames import Transform
 
+#: Up in the optical frame of an upright camera (x right, y down, z forward): the weak
+#: prior of every estimate without a rig.
+CAMERA_UP = np.array([0.0, -1.0, 0.0])
+CAMERA_UP.setflags(write=False)
+
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)

@@ -45,10 +45,7 @@ import numpy as np
 from ..rectify import Rectification
 from .config import GravityEstimate
 from .from_lines import VerticalLinesConfig, normalised_ends, unit_rows
-from .geometry import _tangent_basis, angle_deg
-
-#: Up in the optical frame of an upright camera (x right, y down, z forward).
-_CAMERA_UP = np.array([0.0, -1.0, 0.0])
+from .geometry import CAMERA_UP, _tangent_basis, angle_deg
 
 #: Where the frame near the planes' up and the upright one disagree, the upright one
 #: is taken when its up's vanishing point gathers at least this many times the vertical
@@ -197,7 +194,7 @@ def up_from_line_frame(
     scale = max(1.0, best.chi2 / dof) if dof > 0 else 1.0
     var = float(np.linalg.eigvalsh(cov)[-1]) * scale
     sigma_deg = max(math.degrees(math.sqrt(max(var, 0.0))), config.structure_sigma_deg)
-    tilt = angle_deg(up, _CAMERA_UP)
+    tilt = angle_deg(up, CAMERA_UP)
     if tilt > prior_cone_deg:
         return failed(f"the lines' frame puts up {tilt:.0f} deg from the camera's up", fraction)
     if sigma_deg > (config.max_sigma_deg if max_sigma_deg is None else max_sigma_deg):
@@ -433,7 +430,7 @@ def up_from_lines_and_planes(
         return up_from_line_frame(
             segments,
             rectification,
-            _CAMERA_UP,
+            CAMERA_UP,
             config.upright_sigma_deg,
             config,
             prior_cone_deg=prior_cone_deg,
@@ -446,7 +443,7 @@ def up_from_lines_and_planes(
     sharp = min(max(config.max_sigma_deg, planes_sigma_deg), unsure_max_sigma_deg)
     upright = config.upright_sigma_deg
     alone = up_from_line_frame(
-        segments, rectification, _CAMERA_UP, upright, config, prior_cone_deg=cone, max_sigma_deg=sharp
+        segments, rectification, CAMERA_UP, upright, config, prior_cone_deg=cone, max_sigma_deg=sharp
     )
     if not alone.ok:
         return near

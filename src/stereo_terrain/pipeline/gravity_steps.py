@@ -14,6 +14,7 @@ import numpy as np
 from ..cloud import GridSample, transform_sample
 from ..frames import R_BODY_OPTICAL, Transform
 from ..gravity import (
+    CAMERA_UP,
     GravityConfig,
     GravityEstimate,
     GravityReport,
@@ -29,9 +30,6 @@ from ..gravity import (
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, extract_planes_orientation, transform_planes
 from ..rectify import RectifiedPair
 from .config import PipelineConfig
-
-#: Up in the optical frame of an upright camera (x right, y down, z forward).
-_CAMERA_UP = np.array([0.0, -1.0, 0.0])
 
 
 def _level_from_scene(
@@ -118,7 +116,7 @@ def _rig_check(
         config, hypotheses=config.rig_check_hypotheses, score_points=max(1, config.score_points // 2)
     )
     checked = estimate_up(cam_sample, cheap, prior_up=rig_up)
-    if rig_up is None or angle_deg(rig_up, _CAMERA_UP) <= config.prior_cone_deg:
+    if rig_up is None or angle_deg(rig_up, CAMERA_UP) <= config.prior_cone_deg:
         return checked
     upright = estimate_up(cam_sample, cheap)  # the prior of a frame without a rig
     if upright.ok and (not checked.ok or upright.sigma_deg < checked.sigma_deg):
