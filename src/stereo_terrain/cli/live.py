@@ -231,7 +231,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from ..runtime.capture import PAIRS_FILE, FolderPairs, Paced
+    from ..runtime.capture import FolderPairs, Paced
 
     folder: Path = args.folder
     if not folder.exists():
@@ -242,13 +242,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             f"{folder} is not a folder of recorded pairs (pairs.csv and the images), a rosbag2 folder "
             "or an MCAP file"
         )
-    # What record and simulate --record write first; a folder without it is no recording,
-    # whatever else (calib.yaml, rig.yaml) it lacks.
-    if not bag and not (folder / PAIRS_FILE).is_file():
-        raise InputError(
-            f"{folder} is not a recording: it has no {PAIRS_FILE}; record one with 'stereo-terrain record' "
-            "or 'simulate --record', or give a ROS 2 bag / MCAP file"
-        )
+    # The index first: a folder without one is no recording, whatever else (calib.yaml,
+    # rig.yaml) it lacks.
+    recorded = None if bag else FolderPairs(folder, loop=args.loop)
     check_output_file(args.summary_json, "--summary-json")
     check_outputs(args)
     check_bag_options(args, bag)
@@ -275,8 +271,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         )
     rig = args.rig or (folder / "rig.yaml" if (folder / "rig.yaml").is_file() else None)
     pipeline = _pipeline(calib, rig, args.config)
-    source = Paced(FolderPairs(folder, loop=args.loop), realtime=not args.as_fast, speed=args.speed)
-    return _run_loop(args, source, pipeline)
+    assert recorded is not None
+    return _run_loop(args, Paced(recorded, realtime=not args.as_fast, speed=args.speed), pipeline)
 
 
 # The simulate options behind the configuration fields that check them, so that an error

@@ -45,18 +45,9 @@ def check_output_file(path: Path | None, option: str) -> None:
         raise InputError(f"cannot write {option} {path}: the folder {parent} does not exist; create it first")
     if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise InputError(f"cannot write {option} {path}: permission denied")
-    check_not_an_input(path, option, list(INPUTS))
-
-
-def check_not_an_input(path: Path | None, option: str, inputs: list[Path | None]) -> None:
-    """Refuse, before any work, an output file that is one of ``inputs`` (it would be
-    overwritten by what was made from it); :func:`check_output_file` checks against
-    :data:`INPUTS`."""
-    if path is None or str(path) == "-" or not path.exists():
-        return
-    for source in inputs:
-        if source is not None and source.exists() and os.path.samefile(path, source):
-            raise InputError(f"{option} {path} is one of the inputs; give another file name")
+    if path.exists() and any(source.exists() and os.path.samefile(path, source) for source in INPUTS):
+        # it would be overwritten by what was made from it
+        raise InputError(f"{option} {path} is one of the inputs; give another file name")
 
 
 def check_output_dir(path: Path, option: str) -> None:

@@ -214,7 +214,6 @@ def cmd_render(args: argparse.Namespace) -> int:
     from ..synthetic import render_scenes
 
     out: Path = args.out
-    check_output_dir(out, "--out")
     # A second render into the same folder would overwrite scene_000... and keep the scenes
     # past its count: one data set of two renders. Refused, as record refuses a recording.
     earlier = sorted(p.name for p in out.glob("scene_[0-9][0-9][0-9]*")) if out.is_dir() else []

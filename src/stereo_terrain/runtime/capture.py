@@ -414,7 +414,10 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
     if not folder.is_dir():
         raise InputError(f"{folder} is not a folder of recorded pairs (it holds {PAIRS_FILE} and the images)")
     if not index.is_file():
-        raise InputError(f"{folder} has no {PAIRS_FILE}; record one with 'stereo-terrain record' or simulate")
+        raise InputError(
+            f"{folder} is not a recording: it has no {PAIRS_FILE}; record one with 'stereo-terrain record' "
+            "or 'simulate --record' (replay also takes a ROS 2 bag or an MCAP file)"
+        )
     text = read_text_file(index, "pairs index")
     rows: list[_Row] = []
     bad: list[str] = []  # why each left-out row was left out
