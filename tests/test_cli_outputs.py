@@ -136,6 +136,40 @@ def test_a_figure_that_cannot_be_written_leaves_no_json(scene_dir, tmp_path, mon
     assert not out.exists()
 
 
+def test_a_recording_that_cannot_be_written_leaves_no_figure_and_loses_nothing(
+    scene_dir, tmp_path, monkeypatch, capsys
+):
+    """Found in review: ``reconstruct --plot FIG --mcap OUT`` whose MCAP failed left the
+    figure written before it. Every output or none: a late failure (a full disk) leaves
+    none new and every older file as it was, and no temporary file."""
+    pytest.importorskip("mcap")
+    pytest.importorskip("matplotlib")
+    from stereo_terrain.errors import InputError
+    from stereo_terrain.ros.mcap_out import McapSink
+
+    def fail(self):
+        self.abort()
+        raise InputError(f"cannot write {self.target}: No space left on device")
+
+    monkeypatch.setattr(McapSink, "close", fail)
+    fig, mcap, out = tmp_path / "r.png", tmp_path / "r.mcap", tmp_path / "r.json"
+    argv = _reconstruct_args(scene_dir, "--plot", fig, "--mcap", mcap, "--json", out)
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2 and "No space left" in err and err.count("\n") == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    fig.write_bytes(b"older figure")
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2 and sorted(p.name for p in tmp_path.iterdir()) == ["r.png"]
+    assert fig.read_bytes() == b"older figure"
+    # the extra that writes the MCAP (its compression) is checked before any work
+    monkeypatch.undo()
+    monkeypatch.setitem(__import__("sys").modules, "zstandard", None)
+    fig.unlink()
+    code, _, err = run_cli(argv, capsys)
+    assert code == 2 and "zstandard" in err and "stereo-terrain[ros]" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
 def test_python_dash_m_runs_the_command_line():
     import subprocess
     import sys

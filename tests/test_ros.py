@@ -527,6 +527,19 @@ def test_mcap_figure_bad_file_is_one_line_exit_2(png_mcap, tmp_path, capsys, mak
     assert sorted(p.name for p in tmp_path.glob(".keep*")) == []  # no temporary left
 
 
+def test_mcap_figure_of_a_pair_past_the_last_is_one_line_exit_2(png_mcap, tmp_path, capsys):
+    """Found in review: PAIR past the file's last pair drew the last pair, silently."""
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "fig.png"
+    for pair in (N_PAIRS, N_PAIRS + 5):
+        code, _, err = _mcap_figure([png_mcap, out, pair], capsys)
+        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+        assert f"holds {N_PAIRS} pairs" in err and f"PAIR 0 to {N_PAIRS - 1}" in err, err
+        assert not out.exists() and list(tmp_path.iterdir()) == []
+    code, _, err = _mcap_figure([png_mcap, out, N_PAIRS - 1], capsys)
+    assert code == 0 and out.exists(), err
+
+
 def test_mcap_figure_of_a_bag_without_our_topics_is_one_line_exit_2(rec, tmp_path, capsys):
     pytest.importorskip("matplotlib")
     _, scene = rec

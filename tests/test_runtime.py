@@ -288,6 +288,33 @@ def test_one_row_far_ahead_in_time_is_the_one_left_out(tmp_path, caplog):
         read_pairs_index(folder)
 
 
+def test_a_repeated_row_is_left_out_and_said(tmp_path, caplog):
+    """Found in review: a row of ``pairs.csv`` given twice (or two rows with the same
+    times and the same images, the pose aside) replayed that frame twice. The repeat is a
+    bad row: left out, with the warning; a file mostly of repeats is still refused."""
+    folder = _small_recording(tmp_path, n=4)
+    lines = (folder / "pairs.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    other_pose = lines[2].split(",")
+    other_pose[head.index("x")] = "7"
+    written_otherwise = lines[3].split(",")
+    written_otherwise[head.index("index")] = "99"
+    written_otherwise[head.index("t_left")] += "0"
+    written_otherwise[head.index("left")] = "./" + written_otherwise[head.index("left")]
+    repeats = [lines[2], ",".join(other_pose), lines[3], ",".join(written_otherwise)]
+    rows_in = [lines[1], lines[2], *repeats, lines[4]]
+    (folder / "pairs.csv").write_text("\n".join([lines[0], *rows_in]) + "\n")
+    with caplog.at_level("WARNING"):
+        rows = read_pairs_index(folder)
+    assert [r.left.name for r in rows] == [f"left_{i:06d}.png" for i in range(4)]
+    assert rows[1].pose[0] == pytest.approx(0.01)  # the first of the repeats is kept
+    assert "3 bad row(s) left out" in caplog.text and "line 4: a repeat of line 3" in caplog.text
+    assert len(FolderPairs(folder)) == 4
+    (folder / "pairs.csv").write_text("\n".join([lines[0], lines[1], lines[1], lines[1]]) + "\n")
+    with pytest.raises(InputError, match="most rows are bad"):
+        read_pairs_index(folder)
+
+
 def test_looped_replay_of_equal_times_goes_forward(tmp_path):
     import csv
 
@@ -326,6 +353,43 @@ def test_a_bad_body_pose_is_ignored_counted_and_the_loop_goes_on(scene, pipeline
         and fresh[2].quality & terrain_t.QUALITY_POSE_MISSING
     )
     assert fresh[3].quality & terrain_t.QUALITY_POSE_MISSING == 0
+
+
+def test_heartbeats_carry_the_pose_flag_of_the_terrain_they_re_send(scene, pipeline):
+    """Found in review: in a replay with poses every stale heartbeat said the pose was
+    missing (a recording's poses come with its pairs, none between them). A heartbeat
+    re-sends the last pair's terrain and says what that pair had; a live pose source
+    (the state estimator) between pairs counts as a pose."""
+    clock = FakeClock()
+    t0 = clock()
+    no_pose = StereoFrame(scene.left, scene.right, t0 + 1.0, t0 + 1.0, 1)
+    script = [(t0, _frame(scene, t0, 0)), (t0 + 1.0, no_pose), (t0 + 2.0, _frame(scene, t0 + 2.0, 2))]
+    msgs = []
+    config = LoopConfig(poll_s=0.01, stall_timeout_s=0.5, heartbeat_s=0.1)
+    camera = Capture(ScriptedCamera(clock, script))
+    s = LiveLoop(camera, pipeline, msgs.append, config=config, clock=clock, sleep=clock.sleep).run()
+    assert s.processed == 3 and s.heartbeats > 4
+    missing = {m.frame_index: [] for m in msgs}
+    for m in msgs:
+        missing[m.frame_index].append(bool(m.quality & terrain_t.QUALITY_POSE_MISSING))
+    assert missing[0] == [False] * len(missing[0]) and len(missing[0]) > 2  # the pair, its heartbeats
+    assert missing[1] == [True] * len(missing[1]) and len(missing[1]) > 2
+    assert missing[2] == [False]
+    # a live pose between pairs: the heartbeats after a pair without one have a pose
+    clock = FakeClock()
+    t0 = clock()
+    script = [(t0, StereoFrame(scene.left, scene.right, t0, t0, 0)), (t0 + 1.0, _frame(scene, t0 + 1.0, 1))]
+    msgs = []
+
+    def live(frame):
+        return (None, None) if frame is not None else (Odometry((0.1, 0.0, 0.0)), None)
+
+    LiveLoop(
+        Capture(ScriptedCamera(clock, script)), pipeline, msgs.append, pose=live, config=config, clock=clock,
+        sleep=clock.sleep,
+    ).run()  # fmt: skip
+    flags = [(m.stale, bool(m.quality & terrain_t.QUALITY_POSE_MISSING)) for m in msgs]
+    assert flags[0] == (False, True) and len(flags) > 3 and all(f == (True, False) for f in flags[1:-1])
 
 
 def test_missing_folder_and_existing_recording(tmp_path):

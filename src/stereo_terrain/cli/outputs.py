@@ -1,18 +1,21 @@
 """What a command writes, checked before any work, and what it draws on the terminal.
 
 Files are written to a temporary name and renamed, so an existing file is replaced only by
-a whole new one; folders a command created are removed again when it fails; optional
+a whole new one, and a command's outputs can be renamed together at its end
+(:func:`all_or_none`); folders a command created are removed again when it fails; optional
 packages are checked before any work, naming the extra that installs them; progress bars
 (tqdm) are drawn only on a terminal.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import os
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +26,8 @@ CREATED: list[Path] = []
 # Files this command reads (set from its arguments by the command line's main): no output
 # may name one (it would be overwritten by what was made from it).
 INPUTS: list[Path] = []
+# While all_or_none() runs: the files written in it, (temporary, target), renamed at its end.
+_STAGED: list[list[tuple[Path, Path]]] = []
 # The progress bar now drawn, if any (an error must close it and start on a fresh line).
 _BAR: list[Any] = []
 
@@ -98,21 +103,63 @@ def remove_created() -> None:
 def replace_from_temp(target: Path, write: Any) -> None:
     """``write(tmp_path)`` then rename onto ``target``: an existing file is replaced only by a
     whole new one, and a failed write leaves nothing behind. The new file has the mode of
-    the one it replaces, or what the umask gives a new file (``mkstemp`` makes it 0600)."""
+    the one it replaces, or what the umask gives a new file (``mkstemp`` makes it 0600).
+    Inside :func:`all_or_none` the rename waits for the end of that block."""
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent or ".")
     except OSError as exc:
         raise InputError(f"cannot write {target}: {exc.strerror}") from None
     os.close(fd)
+    staged = False
     try:
         write(Path(tmp))
-        os.chmod(tmp, _mode_for(target))
-        os.replace(tmp, target)
+        if _STAGED:
+            _STAGED[-1].append((Path(tmp), target))
+            staged = True
+        else:
+            _rename_onto(Path(tmp), target)
     except OSError as exc:  # named by the file asked for, not the temporary one
         raise InputError(f"cannot write {target}: {exc.strerror}") from None
     finally:
-        if os.path.exists(tmp):
+        if not staged and os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _rename_onto(tmp: Path, target: Path) -> None:
+    os.chmod(tmp, _mode_for(target))
+    os.replace(tmp, target)
+
+
+@contextlib.contextmanager
+def all_or_none() -> Iterator[None]:
+    """The files written with :func:`replace_from_temp` inside this block are renamed onto
+    their names only when the block ends without an error (or Ctrl-C): a command whose
+    last output fails leaves none of the earlier ones new, and every file it would have
+    replaced as it was. Only a rename failing at the end (beside a file just written in
+    the same folder) could leave some renamed. What closes inside the block (the message
+    files of :func:`~stereo_terrain.cli.sinks.single_sinks`) closes before these renames,
+    so the outputs that may fail while closing go there."""
+    pending: list[tuple[Path, Path]] = []
+    _STAGED.append(pending)
+    try:
+        yield
+    except BaseException:
+        _drop(pending)
+        raise
+    finally:
+        _STAGED.remove(pending)
+    for k, (tmp, target) in enumerate(pending):
+        try:
+            _rename_onto(tmp, target)
+        except OSError as exc:
+            _drop(pending[k:])
+            raise InputError(f"cannot write {target}: {exc.strerror}") from None
+
+
+def _drop(pending: list[tuple[Path, Path]]) -> None:
+    for tmp, _ in pending:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
 
 
 def _mode_for(target: Path) -> int:

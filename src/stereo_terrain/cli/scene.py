@@ -11,6 +11,7 @@ from typing import Any
 from ..errors import EXIT_OK, InputError
 from .options import METHODS, figure_path, positive_int, seed_arg, size_arg
 from .outputs import (
+    all_or_none,
     check_output_dir,
     check_output_file,
     make_dir,
@@ -19,7 +20,7 @@ from .outputs import (
     require_viz,
     write_json,
 )
-from .sinks import add_output_options, check_outputs, write_single
+from .sinks import add_output_options, check_outputs, single_sinks
 
 
 def add_parsers(sub: Any) -> None:
@@ -189,13 +190,18 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     pipeline = Pipeline(calib, rig, config)
     result = pipeline.run(left, right)
     data = result.to_json_dict()
-    # The figure and the message files first, the JSON (the result itself) last: a figure
-    # or a recording that cannot be written leaves no JSON behind that looks like success.
-    if args.plot is not None:
-        _plot(result, args.plot)
+    # Every output or none (found in review: a recording that could not be written left
+    # the figure written before it): the message files are written first and closed whole
+    # when the block ends, then the figure and the JSON, written to temporary names inside,
+    # are renamed onto theirs. The JSON (the result itself) comes last on stdout too.
     # Stamped with the left image's modification time, the nearest thing to a capture time.
-    write_single(args, pipeline, result, left, right, args.left.stat().st_mtime)
-    if args.json is not None:
+    stamp_s = args.left.stat().st_mtime
+    with all_or_none(), single_sinks(args, pipeline, result, left, right, stamp_s):
+        if args.plot is not None:
+            _plot(result, args.plot)
+        if args.json is not None and str(args.json) != "-":
+            write_json(data, args.json)
+    if str(args.json) == "-":
         write_json(data, args.json)
     if str(args.json) != "-":
         print(f"obstacle: {data['obstacle']} ({data['note']}); gravity from {data['gravity_source']}")

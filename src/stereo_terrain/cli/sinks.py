@@ -41,6 +41,7 @@ def check_outputs(args: argparse.Namespace) -> None:
         if str(args.mcap) == "-":
             raise InputError("--mcap needs a file name (an MCAP file cannot go to stdout)")
         require_ros("--mcap")
+        require("zstandard", "ros", "--mcap (its zstd compression)")  # mcap imports it only to write
     if args.view and args.view_save is not None:
         raise InputError("give --view (a viewer) or --view-save (a recording), not both")
     if args.view or args.view_save is not None:
@@ -144,10 +145,16 @@ def stop_on_sigterm() -> Iterator[None]:
 
 @contextlib.contextmanager
 def open_sinks(
-    args: argparse.Namespace, pipeline: Any, epoch_offset_s: float = 0.0, pose: Any = None
+    args: argparse.Namespace,
+    pipeline: Any,
+    epoch_offset_s: float = 0.0,
+    pose: Any = None,
+    *,
+    keep_on_interrupt: bool = True,
 ) -> Iterator[list[Any]]:
     """The MCAP writer and the Rerun view the options ask for (each with ``publish``,
-    ``on_result``, ``close`` and ``abort``): closed whole at the end or after Ctrl-C,
+    ``on_result``, ``close`` and ``abort``): closed whole at the end or after Ctrl-C (a
+    stopped loop keeps what it wrote; ``keep_on_interrupt=False``: dropped then too),
     dropped when the command fails."""
     sinks: list[Any] = []
 
@@ -173,7 +180,7 @@ def open_sinks(
         yield sinks
     except BaseException as exc:
         for sink in sinks:
-            if isinstance(exc, KeyboardInterrupt):
+            if isinstance(exc, KeyboardInterrupt) and keep_on_interrupt:
                 sink.close()
             else:
                 sink.abort()
@@ -209,12 +216,19 @@ def wants_sinks(args: argparse.Namespace) -> bool:
     return args.mcap is not None or args.view or args.view_save is not None
 
 
-def write_single(
+@contextlib.contextmanager
+def single_sinks(
     args: argparse.Namespace, pipeline: Any, result: Any, left: Any, right: Any, stamp_s: float
-) -> None:
+) -> Iterator[None]:
     """``reconstruct --mcap/--view``: the messages of one pair, stamped ``stamp_s`` (epoch s),
-    with the terrain message a first frame of the live loop would give."""
+    with the terrain message a first frame of the live loop would give.
+
+    Written on entering; the files are closed whole (renamed onto their names) when the
+    block ends without an error, and dropped when it fails or is interrupted: the command
+    writes its other outputs inside, in :func:`~stereo_terrain.cli.outputs.all_or_none`,
+    so that one failing output leaves none new."""
     if not wants_sinks(args):
+        yield
         return
     from ..runtime.capture import StereoFrame
     from ..runtime.messages import terrain_message, terrain_t
@@ -238,7 +252,8 @@ def write_single(
         stale=False,
     )
     frame = StereoFrame(left, right, stamp_s, stamp_s, 0, stamp_s=stamp_s)
-    with open_sinks(args, pipeline) as sinks:
+    with open_sinks(args, pipeline, keep_on_interrupt=False) as sinks:
         for sink in sinks:
             sink.publish(msg)
             sink.on_result(frame, result)
+        yield

@@ -401,8 +401,9 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
     columns, or holds no usable row. A bad row among good ones (times that are not
     finite seconds, or earlier than the row before; image names missing) is a bad frame of
     the recording, not a bad recording: it is left out and one warning names how many and
-    the first. A pose that is not finite leaves the row without a pose (the live loop
-    flags the frame)."""
+    the first. A row repeating a kept one (the same times and images) is left out the same
+    way. A pose that is not finite leaves the row without a pose (the live loop flags the
+    frame)."""
     import io
 
     from ..checks import read_text_file
@@ -439,12 +440,17 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
             if why:
                 bad.append(f"line {reader.line_num}: {why}")
                 continue
+            t_left, t_right = float(rec["t_left"]), float(rec["t_right"])
+            left, right = folder / rec["left"], folder / rec["right"]
+            same = _repeat_of(rows, t_left, t_right, left, right)
+            if same is not None:
+                bad.append(f"line {reader.line_num}: a repeat of line {lines[same]}")
+                continue
             lines.append(reader.line_num)
             pose = tuple(float(rec[k]) for k in _POSE_KEYS) if has_pose else None
             if pose is not None and not all(math.isfinite(v) for v in pose):
                 pose = None
-            t_left, t_right = float(rec["t_left"]), float(rec["t_right"])
-            rows.append(_Row(t_left, t_right, folder / rec["left"], folder / rec["right"], pose))
+            rows.append(_Row(t_left, t_right, left, right, pose))
     except csv.Error as exc:
         raise InputError(f"{index} is not a readable CSV file: {exc}") from None
     if not rows:
@@ -456,6 +462,22 @@ def read_pairs_index(folder: str | Path) -> list[_Row]:
     if bad:
         log.warning("%s: %d bad row(s) left out (the first, %s)", index, len(bad), bad[0])
     return rows
+
+
+def _repeat_of(rows: list[_Row], t_left: float, t_right: float, left: Path, right: Path) -> int | None:
+    """Index in ``rows`` of the row with these times and images (the pose aside), or None.
+
+    A recording that lists a pair twice (a row copied, a writer that retried) would replay
+    that frame twice. Times never decrease in ``rows``, so only the last rows of the same
+    time need a look."""
+    t = max(t_left, t_right)
+    for k in range(len(rows) - 1, -1, -1):
+        r = rows[k]
+        if max(r.t_left, r.t_right) < t:
+            return None
+        if (r.t_left, r.t_right, r.left, r.right) == (t_left, t_right, left, right):
+            return k
+    return None
 
 
 def _bad_row(rec: dict, previous: _Row | None, has_pose: bool) -> str:

@@ -143,6 +143,11 @@ class LoopSummary:
         )
 
 
+#: Quality bits that describe how a terrain was made (kept by the heartbeats that re-send
+#: it), as opposed to the events since the previous message.
+_CONDITIONS = terrain_t.QUALITY_GRAVITY_FROM_FLOOR | terrain_t.QUALITY_POSE_MISSING
+
+
 def _finite_pose(odo: Odometry | None, rpy: tuple[float, float, float] | None) -> bool:
     """Whether the odometry and attitude that are given hold only finite numbers."""
     values = list(rpy or ())
@@ -256,6 +261,9 @@ class LiveLoop:
         self.summary = LoopSummary()
         self.epoch_offset_s = time.time() - time.monotonic() if clock is time.monotonic else 0.0
         self._quality = 0
+        # The conditions (not events) of the last fresh message: a heartbeat re-sends that
+        # terrain, so it says what that terrain was made with.
+        self._last_conditions = terrain_t.QUALITY_POSE_MISSING  # nothing yet: no pose either
         self._last_result: TerrainResult | None = None
         self._last_capture: float | None = None
         self._last_index = -1
@@ -413,6 +421,7 @@ class LiveLoop:
         )
         self.publish(msg)
         self._last_model, self._last_track_state = model, track_state
+        self._last_conditions = quality & _CONDITIONS
         self._quality = 0
         self._unusable_run, self._unusable_detail = 0, ""
         s = self.summary
@@ -441,8 +450,18 @@ class LiveLoop:
         self.sleep(cfg.poll_s)
 
     def _heartbeat(self, now: float) -> None:
+        # A live pose source (the state estimator) has a pose between pairs: the trigger
+        # moves on with it. A recording's poses come with its pairs, so a replay has none
+        # here: the trigger and the terrain re-sent are those of the last pair, and so is
+        # its pose flag (missing only if that pair had no pose; found in review: every
+        # heartbeat of a replay with poses said the pose was missing).
         odo, _ = self.pose(None)
+        if not _finite_pose(odo, None):
+            odo = None  # as for a pair (a NaN is no pose)
         trig = self.trigger.update(odo) if odo is not None else self.trigger.state
+        conditions = self._last_conditions
+        if odo is not None:
+            conditions &= ~terrain_t.QUALITY_POSE_MISSING
         result = self._last_result
         capture = self._last_capture if self._last_capture is not None else self._last_fresh
         assert capture is not None
@@ -454,7 +473,7 @@ class LiveLoop:
             frame_index=self._last_index,
             latency_s=self._last_latency,
             density=0.0 if result is None else result.disparity.density,
-            quality=self._quality | (terrain_t.QUALITY_POSE_MISSING if odo is None else 0),
+            quality=self._quality | conditions,
             stale=True,
             epoch_offset_s=self.epoch_offset_s,
             track_state=self._last_track_state,

@@ -13,8 +13,8 @@ any ROS 2 tool would read it, not with this package's writer), and one pair is d
 
 Needs the ``ros`` and ``viz`` extras. ``python -m stereo_terrain.viz.mcap_figure IN.mcap
 OUT.png [PAIR]``, with the exit codes of every command: 0 drawn, 2 a missing, empty or
-damaged file, a file without these topics, bad arguments or a missing extra (one line on
-stderr), 1 an internal error.
+damaged file, a file without these topics, a PAIR past its last pair, bad arguments or a
+missing extra (one line on stderr), 1 an internal error.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
     """The decoded messages of the ``pair``-th processed pair: topic -> message.
 
     :class:`InputError` when ``path`` is missing, not a file, or not a whole MCAP file
-    (empty, truncated, damaged)."""
+    (empty, truncated, damaged), or holds no pair ``pair`` (it holds fewer)."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
@@ -72,6 +72,14 @@ def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
             f"cannot read {path} as an MCAP file ({why}); give a whole file written by --mcap, "
             "not an empty or cut-off one"
         ) from None
+    # Every processed pair writes one message on each of these; heartbeats add terrain
+    # messages only, so the terrain topic does not count the pairs.
+    counts = [len(seen[t]) for t in TOPICS if t != TOPIC_TERRAIN and seen.get(t)]
+    if counts and pair >= min(counts):
+        n = min(counts)
+        valid = "PAIR 0" if n == 1 else f"PAIR 0 to {n - 1}"
+        pairs = "1 pair" if n == 1 else f"{n} pairs"
+        raise InputError(f"{path} holds {pairs}, so there is no pair {pair}; give {valid}")
     return {topic: msgs[min(pair, len(msgs) - 1)] for topic, msgs in seen.items()}
 
 
