@@ -12,8 +12,9 @@ not, and then the height comes from the riser's top edge.
 Package layout (data flows one way, each module imports only those before it):
 ``model`` (:class:`TerrainConfig`, :class:`StairModel`, :class:`Step`, :class:`Polytope`) ->
 ``_kernels`` (compiled inner loop of the riser edges, Numba) -> ``risers`` (riser
-candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices) ->
-``assemble`` (stair-axis families, the ground, the chain of steps and the first-step rules)
+candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices),
+``continuation`` (steps beyond the last riser plane), ``uniform`` (the staircase's common
+rise) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the first-step rules)
 -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
 ``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
 """

@@ -23,6 +23,7 @@ from .risers import (
     _tread_front,
     riser_distance,
 )
+from .uniform import common_rise
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
 #: orientation method's tolerance) was two different faces.
@@ -225,8 +226,8 @@ def _assemble_along(
         for s_pos, top, cand, riser_plane, tread_plane in cands_all:
             if top < level + config.min_rise_m or top - level > config.max_rise_m + config.edge_margin_m:
                 continue
-            if s_pos < last_s + config.merge_distance_m:
-                continue
+            if s_pos < last_s + config.min_run_m:
+                continue  # too near the step before it for a run of a staircase
             if cand is None:
                 if not chain and not virtual_first:
                     continue
@@ -312,6 +313,7 @@ def _assemble_along(
     # Before a single step is classified: a riser found beyond it makes it a staircase,
     # though the ground may be seen beyond its top elsewhere (which would make it a box).
     steps, continued = continue_steps(steps, planes, P, u, v, lateral, config)
+    steps, pooled = common_rise(steps, ground_z, config)
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
@@ -322,6 +324,8 @@ def _assemble_along(
             f"; {continued} more beyond the last riser plane, from their samples' positions"
             " (rise: the median of the others)"
         )
+    if pooled:
+        note += f"; {pooled} measured rises agree: each step reports their median, the staircase's rise"
     if len(steps) == 1:
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)

@@ -41,6 +41,11 @@ class TerrainConfig:
         Grid samples a riser needs.
     merge_distance_m : float
         Risers closer than this along the stair axis are one.
+    min_run_m : float
+        A step's run is at least this: a riser standing nearer than this beyond the one
+        before it is not the next step of a staircase (ordinary stairs have runs of 22 cm
+        or more; the default leaves room for steep stairs and measurement noise). A face
+        that close behind a riser is an object's, e.g. the next leaf of a plant.
     max_facing_angle_deg : float
         A riser must face the robot: its normal within this of the direction to the camera.
     axis_spread_deg : float
@@ -93,6 +98,17 @@ class TerrainConfig:
         this far beyond it: the runs of ordinary building stairs (codes ask for 22-36
         cm) with a margin for the position's noise. A single step so continued is a
         staircase, not a box.
+    common_rise_tolerance_m : float
+        A staircase's rises are equal (building codes allow a few millimetres between
+        them); what differs between measured rises is mostly the measurement, worst on the
+        far steps. With ``common_rise_min_steps`` or more steps, every step whose measured
+        rise is within this of the median of the measured rises reports that median, the
+        staircase's common rise (its own stays in ``Step.measured_rise_m``); a step
+        further off keeps its own (a different step, or a measurement gone wrong: either
+        way not averaged away). 0 = off. See :mod:`.uniform`.
+    common_rise_min_steps : int
+        Steps with a measured rise a staircase needs for a common rise (with two, neither
+        can be told to be the odd one).
     max_continued_steps : int
         At most this many steps are added so.
     face_bias_correlation : float
@@ -109,6 +125,7 @@ class TerrainConfig:
     min_riser_width_m: float = 0.15
     min_riser_points: int = 25
     merge_distance_m: float = 0.06
+    min_run_m: float = 0.15
     max_facing_angle_deg: float = 70.0
     axis_spread_deg: float = 20.0
     tread_height_tolerance_m: float = 0.06
@@ -126,11 +143,14 @@ class TerrainConfig:
     continue_min_run_m: float = 0.20
     continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
+    common_rise_tolerance_m: float = 0.03
+    common_rise_min_steps: int = 3
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "min_riser_points", "min_tread_points")
-        check_min(self, 0, "max_continued_steps")
+        check_min(self, 0, "max_continued_steps", "common_rise_tolerance_m")
+        check_min(self, 2, "common_rise_min_steps")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:
             raise ConfigError(
                 "need 0 < continue_min_run_m < continue_max_run_m, got "
@@ -153,6 +173,7 @@ class TerrainConfig:
             "edge_margin_m",
             "min_riser_width_m",
             "merge_distance_m",
+            "min_run_m",
             "tread_height_tolerance_m",
             "edge_band_m",
             "chain_tolerance_m",
@@ -195,6 +216,9 @@ class Step:
     rise_sigma_m, run_sigma_m, distance_sigma_m, width_sigma_m : float or None
         1-sigma of ``rise_m``, ``run_m``, ``distance_m`` and ``width_m`` (issue 14,
         :func:`estimate_step_sigmas`); NaN until estimated, None where the value is None.
+    measured_rise_m : float or None
+        The rise measured for this step where ``rise_m`` is the staircase's common rise
+        (:mod:`.uniform`); None where ``rise_m`` is its own (or inferred).
     """
 
     rise_m: float
@@ -210,6 +234,7 @@ class Step:
     run_sigma_m: float | None = math.nan
     distance_sigma_m: float = math.nan
     width_sigma_m: float | None = math.nan
+    measured_rise_m: float | None = None
 
 
 @dataclass(frozen=True)

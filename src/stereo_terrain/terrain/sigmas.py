@@ -20,6 +20,10 @@ def _wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
+#: How much the rises of one staircase may differ (1-sigma): building codes allow about a
+#: centimetre between the tallest and the lowest.
+_RISE_VARIATION_M = 0.004
+
 #: A sample is on a face when its local normal is within about 30 deg of the face's.
 _FACE_COS = 0.85
 
@@ -234,17 +238,29 @@ def estimate_step_sigmas(
         var_bias = a * a + b * b - 2.0 * rho * a * b
         return math.sqrt(va + vb + max(var_bias, 0.0))
 
-    rises = np.array([s.rise_m for s in steps])
+    # Each step's own measured rise (a step reporting the staircase's common rise keeps
+    # its own in measured_rise_m: terrain/uniform.py).
+    rises = np.array([s.rise_m if s.measured_rise_m is None else s.measured_rise_m for s in steps])
+    measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
+    own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
+    common = [k for k in measured if steps[k].measured_rise_m is not None]
+    common_sigma = math.nan
+    if common:
+        # The median of n measured rises: about 1.25 sigma / sqrt(n) (the larger of their
+        # own sigmas and their spread), and the few millimetres real rises may differ by.
+        own_sq = float(np.nanmean([own_each[measured.index(k)] ** 2 for k in common]))
+        spread_sq = float(np.var(rises[common]))
+        common_sigma = math.sqrt(1.57 * max(own_sq, spread_sq) / len(common) + _RISE_VARIATION_M**2)
     out: list[Step] = []
     for i, st in enumerate(steps):
         sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
-        if st.rise_inferred:
+        if st.measured_rise_m is not None:
+            sig_rise = common_sigma
+        elif st.rise_inferred:
             # the median of the measured rises (a first step whose foot is out of view, a
             # step found beyond the last riser plane: terrain/continuation.py)
-            measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
             others = rises[measured]
             spread = float(np.std(others)) if len(others) > 1 else 0.0
-            own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
             own = float(np.nanmean(own_each)) if own_each else math.nan
             # the median of n values: its own error, and how far a rise may differ from it
             sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
