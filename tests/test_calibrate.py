@@ -319,3 +319,32 @@ def test_calibrate_refuses_an_output_it_could_not_read_back(board_dir, tmp_path,
         ["calibrate", *args, "--pattern", "9x6", "--square", "0.025", "--out", str(tmp_path / "c.json")]
     )
     assert code == 2 and ".yaml, .yml or .xml" in capsys.readouterr().err
+
+
+def test_a_figure_that_cannot_be_written_leaves_no_calibration(
+    rendered_boards, tmp_path, capsys, monkeypatch
+):
+    """Found in review: ``calibrate --out C --figure F`` whose figure failed (a full disk)
+    left C written, a half-done command. Both or neither: nothing new, an older C as it
+    was, no temporary file."""
+    pytest.importorskip("matplotlib")
+    import errno
+
+    import stereo_terrain.viz.calibration as viz_calibration
+
+    def fail(result, path):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(viz_calibration, "save_calibration_figure", fail)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    out, fig = out_dir / "calib.yaml", out_dir / "c.png"
+    left, right = rendered_boards / "left_*.png", rendered_boards / "right_*.png"
+    code, last = _calibrate(capsys, left, right, "--figure", fig, square=str(bv.SQUARE_M), out=out)
+    _one_line(code, last, "cannot write", str(fig), "No space left")
+    assert sorted(p.name for p in out_dir.iterdir()) == []
+    out.write_text("previous calibration\n")
+    code, last = _calibrate(capsys, left, right, "--figure", fig, square=str(bv.SQUARE_M), out=out)
+    _one_line(code, last, "cannot write", str(fig))
+    assert sorted(p.name for p in out_dir.iterdir()) == ["calib.yaml"]
+    assert out.read_text() == "previous calibration\n"

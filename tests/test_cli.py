@@ -208,6 +208,32 @@ def test_demo_runs(tmp_path, capsys):
     assert (tmp_path / "demo" / "demo.png").is_file() and (tmp_path / "demo" / "result.json").is_file()
 
 
+def test_demo_figure_that_cannot_be_written_leaves_no_json(tmp_path, capsys, monkeypatch):
+    """Found in review: ``demo`` whose figure failed (a full disk) left the JSON written
+    before it. Every output or none: a new --out folder is removed again, an older JSON in
+    an existing one is kept as it was, and no temporary file is left."""
+    pytest.importorskip("matplotlib")
+    import errno
+
+    import stereo_terrain.viz.figure as viz_figure
+
+    def fail(result, path, truth=None):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(viz_figure, "save_result_figure", fail)
+    out = tmp_path / "demo"
+    code, _, err = run_cli(["demo", "--out", out], capsys)
+    assert code == 2 and "cannot write" in err and "demo.png" in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+    out.mkdir()
+    (out / "result.json").write_text("older result\n")
+    code, _, err = run_cli(["demo", "--out", out], capsys)
+    assert code == 2 and "No space left" in err, err
+    assert sorted(p.name for p in out.iterdir()) == ["result.json"]
+    assert (out / "result.json").read_text() == "older result\n"
+
+
 def _calib_text(scene_dir):
     return (scene_dir / "calib.yaml").read_text()
 

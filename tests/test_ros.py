@@ -540,6 +540,49 @@ def test_mcap_figure_of_a_pair_past_the_last_is_one_line_exit_2(png_mcap, tmp_pa
     assert code == 0 and out.exists(), err
 
 
+def test_mcap_figure_takes_the_pairs_own_terrain_among_heartbeats(rec, tmp_path, capsys):
+    """Found in review: the figure took the PAIR-th message of the terrain topic, but the
+    live loop's stale heartbeats go there too, so the title's steps and yaw could be a
+    heartbeat's of an earlier pair. Pairs with two heartbeats after each; pair 1 sees no
+    stairs; pair 2 is slow, so its own message is stale too."""
+    from stereo_terrain.ros.mcap_out import McapSink
+    from stereo_terrain.runtime.capture import StereoFrame
+    from stereo_terrain.runtime.messages import terrain_message
+    from stereo_terrain.swing import SwingTrigger
+    from stereo_terrain.viz.mcap_figure import read_pair
+
+    folder, _ = rec
+    pipeline = Pipeline(read_calibration(folder / "calib.yaml"), load_rig(folder / "rig.yaml"))
+    left, right = read_image(folder / "left_000000.png"), read_image(folder / "right_000000.png")
+    result = pipeline.run(left, right)
+    trig = SwingTrigger(pipeline.config.swing).update(None, result.terrain)
+    assert result.terrain.steps  # pair 1 (no model: no steps) differs from the others
+
+    def msg(k, model, capture_s, age_s, stale):
+        return terrain_message(
+            model, trig, capture_s=capture_s, publish_s=capture_s + age_s, frame_index=k, latency_s=age_s,
+            density=0.9, quality=0, stale=stale, epoch_offset_s=T0_S,
+        )  # fmt: skip
+
+    out = tmp_path / "hb.mcap"
+    with McapSink(out, epoch_offset_s=T0_S) as sink:
+        for k, (model, age_s) in enumerate([(result.terrain, 0.05), (None, 0.05), (result.terrain, 0.8)]):
+            t = 10.0 + k
+            sink.publish(msg(k, model, t, age_s, stale=age_s > 0.5))
+            sink.on_result(StereoFrame(left, right, t, t, k), result)
+            for heartbeat_age_s in (0.9, 0.95):  # no fresh pair: the last terrain re-sent
+                sink.publish(msg(k, model, t, heartbeat_age_s, stale=True))
+    assert len(read_mcap(out)["/stereo_terrain/terrain"]) == 9
+    for k, (steps, age_s, stale) in enumerate([(len(result.terrain.steps), 0.05, False), (0, 0.05, False),
+                                               (len(result.terrain.steps), 0.8, True)]):  # fmt: skip
+        terrain = read_pair(out, k)["/stereo_terrain/terrain"]
+        assert (terrain.frame_index, terrain.num_steps, terrain.stale) == (k, steps, stale), k
+        assert terrain.age_s == pytest.approx(age_s), k
+    pytest.importorskip("matplotlib")
+    code, _, err = _mcap_figure([out, tmp_path / "fig.png", 1], capsys)
+    assert code == 0 and (tmp_path / "fig.png").stat().st_size > 20_000, err
+
+
 def test_mcap_figure_of_a_bag_without_our_topics_is_one_line_exit_2(rec, tmp_path, capsys):
     pytest.importorskip("matplotlib")
     _, scene = rec

@@ -8,7 +8,7 @@ from typing import Any
 
 from ..errors import EXIT_OK, InputError
 from .options import figure_path
-from .outputs import check_output_file, progress, replace_from_temp, require_viz
+from .outputs import all_or_none, check_output_file, progress, replace_from_temp, require_viz
 from .scene import read_pair
 
 
@@ -73,16 +73,21 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             f"so {args.out} was not written; "
             "use distinct views of the board moved around the image, paired left/right in the same order"
         )
-    replace_from_temp(args.out, lambda tmp: write_opencv_yaml(result.calibration, tmp))
+    # Both outputs or neither (found in review: a figure that could not be written left the
+    # calibration written before it, a half-done command): each is written to a temporary
+    # name, and both are renamed onto theirs when the block ends without an error.
+    with all_or_none():
+        replace_from_temp(args.out, lambda tmp: write_opencv_yaml(result.calibration, tmp))
+        if args.figure is not None:
+            try:
+                from ..viz.calibration import save_calibration_figure
+            except ImportError as exc:
+                raise InputError(
+                    f"--figure needs matplotlib ({exc}); install with pip install 'stereo-terrain[viz]'"
+                ) from None
+            replace_from_temp(args.figure, lambda tmp: save_calibration_figure(result, tmp))
     print(f"wrote {args.out}")
     if args.figure is not None:
-        try:
-            from ..viz.calibration import save_calibration_figure
-        except ImportError as exc:
-            raise InputError(
-                f"--figure needs matplotlib ({exc}); install with pip install 'stereo-terrain[viz]'"
-            ) from None
-        replace_from_temp(args.figure, lambda tmp: save_calibration_figure(result, tmp))
         print(f"wrote {args.figure}")
     return EXIT_OK
 

@@ -136,7 +136,6 @@ def cmd_demo(args: argparse.Namespace) -> int:
     make_dir(out, "--out")
     spec = default_scene_spec()
     scene = render_scene(spec)
-    write_scene(scene, out / "scene")
     pipeline = Pipeline(scene.calibration, scene.rig)
     pipeline.run(scene.left, scene.right)  # warm-up: first-call allocations
     result = pipeline.run(scene.left, scene.right)
@@ -159,10 +158,17 @@ def cmd_demo(args: argparse.Namespace) -> int:
         f"traversable: {sw['traversable']}"
     )
     print("timing (ms): " + ", ".join(f"{k} {v:.1f}" for k, v in data["timing_ms"].items()))
-    write_json(data, out / "result.json")
+    # Every output or none (found in review: a figure that could not be written left the
+    # JSON written before it): the figure and the JSON go to temporary names and are renamed
+    # onto theirs when the block ends without an error; the scene, written in place, comes
+    # last, so a failed figure or JSON leaves no scene either.
+    with all_or_none():
+        if not args.no_plot:
+            _plot(result, out / "demo.png", truth=truth)
+        write_json(data, out / "result.json")
+        write_scene(scene, out / "scene")
     print(f"wrote {out / 'result.json'} and the scene in {out / 'scene'}")
     if not args.no_plot:
-        _plot(result, out / "demo.png", truth=truth)
         print(f"wrote {out / 'demo.png'}")
     return EXIT_OK
 

@@ -44,10 +44,12 @@ TOPICS = (TOPIC_IMAGE, TOPIC_DISPARITY, TOPIC_CLOUD, TOPIC_TF, TOPIC_CAMERA_INFO
 
 
 def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
-    """The decoded messages of the ``pair``-th processed pair: topic -> message.
+    """The decoded messages of the ``pair``-th processed pair: topic -> message (the
+    terrain message the one stamped like the pair, see :func:`pair_terrain`).
 
     :class:`InputError` when ``path`` is missing, not a file, or not a whole MCAP file
-    (empty, truncated, damaged), or holds no pair ``pair`` (it holds fewer)."""
+    (empty, truncated, damaged), holds no pair ``pair`` (it holds fewer), or has terrain
+    messages but none of that pair."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
@@ -57,12 +59,15 @@ def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
     if not path.is_file():
         raise InputError(f"{path} is not a file; give an MCAP file written by --mcap")
     seen: dict[str, list[Any]] = defaultdict(list)
+    terrain_log_ns: list[int] = []  # the log time of each message in seen[TOPIC_TERRAIN]
     try:
         with path.open("rb") as fh:
-            for _, channel, _, decoded in make_reader(
+            for _, channel, message, decoded in make_reader(
                 fh, decoder_factories=[DecoderFactory()]
             ).iter_decoded_messages():
                 seen[channel.topic].append(decoded)
+                if channel.topic == TOPIC_TERRAIN:
+                    terrain_log_ns.append(message.log_time)
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
     except Exception as exc:  # mcap and its decoders raise many kinds for a damaged file
@@ -73,14 +78,58 @@ def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
             "not an empty or cut-off one"
         ) from None
     # Every processed pair writes one message on each of these; heartbeats add terrain
-    # messages only, so the terrain topic does not count the pairs.
+    # messages only, so the terrain topic does not count the pairs (its message of the pair
+    # is found by the pair's stamp, below).
     counts = [len(seen[t]) for t in TOPICS if t != TOPIC_TERRAIN and seen.get(t)]
     if counts and pair >= min(counts):
         n = min(counts)
         valid = "PAIR 0" if n == 1 else f"PAIR 0 to {n - 1}"
         pairs = "1 pair" if n == 1 else f"{n} pairs"
         raise InputError(f"{path} holds {pairs}, so there is no pair {pair}; give {valid}")
-    return {topic: msgs[min(pair, len(msgs) - 1)] for topic, msgs in seen.items()}
+    chosen = {topic: msgs[min(pair, len(msgs) - 1)] for topic, msgs in seen.items()}
+    stamp_ns = next(
+        (_stamp_ns(getattr(chosen[t], "header", None)) for t in PAIR_STAMPED if len(seen.get(t, ())) > pair),
+        None,
+    )
+    if stamp_ns is not None and seen.get(TOPIC_TERRAIN):
+        terrain = pair_terrain(seen[TOPIC_TERRAIN], terrain_log_ns, stamp_ns)
+        if terrain is None:
+            sec, nsec = divmod(stamp_ns, 1_000_000_000)
+            raise InputError(
+                f"{path} has no {TOPIC_TERRAIN} message for pair {pair} (stamped {sec}.{nsec:09d} s); "
+                "give an MCAP file written by reconstruct or replay --mcap"
+            )
+        chosen[TOPIC_TERRAIN] = terrain
+    return chosen
+
+
+#: Topics whose messages carry the pair's stamp in their header (one message per pair).
+PAIR_STAMPED = (TOPIC_IMAGE, TOPIC_DISPARITY, TOPIC_CLOUD, TOPIC_CAMERA_INFO)
+
+
+def _stamp_ns(header: Any) -> int | None:
+    """A header's stamp in epoch ns (None for a message without one: not written by us)."""
+    stamp = getattr(header, "stamp", None)
+    if stamp is None:
+        return None
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def pair_terrain(terrains: list[Any], log_ns: list[int], stamp_ns: int) -> Any:
+    """The terrain message of the pair stamped ``stamp_ns`` (epoch ns), or None.
+
+    The terrain topic does not count the pairs: the live loop's stale heartbeats re-send the
+    last terrain between pairs, stamped (header) like the pair they re-send, logged later by
+    their age (:class:`~stereo_terrain.ros.mcap_out.McapSink`). So the pair's own message
+    is one stamped like the pair's images, preferring the one logged at that stamp (written
+    with the pair; a heartbeat is logged ``age_s`` later), then one not marked stale (a slow
+    pair's own message is stale too), then the first in the file."""
+    own = [
+        (log != stamp_ns, bool(getattr(msg, "stale", False)), k)
+        for k, (msg, log) in enumerate(zip(terrains, log_ns, strict=True))
+        if _stamp_ns(getattr(msg, "header", None)) == stamp_ns
+    ]
+    return terrains[min(own)[2]] if own else None
 
 
 def _quat_matrix(q: Any) -> np.ndarray:
