@@ -8,10 +8,11 @@ renderer draws (`synthetic.sensor`: blur, exposure difference, noise with a shot
 JPEG), one at a time and together, with several noise seeds, and runs the pipeline (no
 rig) on each. A run *passes* when it meets the issue's check on the scene: a staircase of
 4 or more steps, rises within 1.5 cm of each other and 14-21 cm, every run seen 24-34 cm.
-The check is made twice: on the rises as measured (``Step.measured_rise_m`` where a step
-reports the staircase's common rise) and on the rises reported (the common rise where
-the measured ones agree within 3 cm, ``terrain/uniform.py``: the spread is then zero by
-construction, so only the count, the common rise's range and the runs are checked).
+The check is made twice: on the rises and runs as measured (``Step.measured_rise_m``,
+``measured_run_m`` where a step reports the staircase's common one) and on those reported
+(the common rise where the measured ones agree within 3 cm, ``terrain/uniform.py``: the
+spread is then zero by construction, so only the count, the common rise's range and the
+runs are checked).
 
     .venv/bin/python benchmarks/bench_staircase_webcam.py [--seeds 4] [--config CFG.yaml]
 """
@@ -110,7 +111,11 @@ def main() -> None:
             right = degrade(right0, rng, noise, shot, blur, quality, gain, offset)
             model = pipeline.run(left, right).terrain.steps
             measured = [
-                (s.rise_m if s.measured_rise_m is None else s.measured_rise_m, s.run_m) for s in model
+                (
+                    s.rise_m if s.measured_rise_m is None else s.measured_rise_m,
+                    s.run_m if s.measured_run_m is None else s.measured_run_m,
+                )
+                for s in model
             ]
             ok += passes(measured)
             ok_reported += passes([(s.rise_m, s.run_m) for s in model])

@@ -9,22 +9,32 @@ from hypothesis import strategies as st
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.msac import Plane
 from stereo_terrain.terrain import STAIRS, Step, TerrainConfig, build_terrain, estimate_step_sigmas
-from stereo_terrain.terrain.sigmas import _RISE_VARIATION_M
-from stereo_terrain.terrain.uniform import common_rise
+from stereo_terrain.terrain.sigmas import _STEP_VARIATION_M
+from stereo_terrain.terrain.uniform import common_steps
 
 from .test_terrain import _stairs
 
 CONFIG = TerrainConfig()
+RISES_ONLY = TerrainConfig(common_run_tolerance_m=0.0)
 
 
-def _steps(rises, inferred=(), ground=0.0, run=0.29) -> list[Step]:
-    out, top = [], ground
-    for i, r in enumerate(rises):
+def common_rise(steps, ground, config=RISES_ONLY):
+    """:func:`common_steps` on the rises alone: (steps, rises replaced)."""
+    out, n_rises, n_runs = common_steps(steps, ground, config)
+    assert n_runs == 0
+    return out, n_rises
+
+
+def _steps(rises, inferred=(), ground=0.0, runs=None) -> list[Step]:
+    """Steps of ``rises`` and ``runs`` (0.29 m each, the last not seen, by default)."""
+    runs = [0.29] * (len(rises) - 1) + [None] if runs is None else runs
+    out, top, s = [], ground, 1.3
+    for i, (r, g) in enumerate(zip(rises, runs, strict=True)):
         top += r
-        s = 1.3 + i * run
         out.append(
-            Step(r, run, s, 1.0, top, s, Plane(np.array([-1.0, 0.0, 0.0]), s), rise_inferred=i in inferred)
+            Step(r, g, s, 1.0, top, s, Plane(np.array([-1.0, 0.0, 0.0]), s), rise_inferred=i in inferred)
         )
+        s += g or 0.0
     return out
 
 
@@ -36,7 +46,7 @@ def _steps(rises, inferred=(), ground=0.0, run=0.29) -> list[Step]:
 )
 def test_agreeing_rises_report_their_median(rise, noise, ground):
     measured = [rise + e for e in noise]
-    steps, n = common_rise(_steps(measured, ground=ground), ground, CONFIG)
+    steps, n = common_rise(_steps(measured, ground=ground), ground)
     assert n == len(measured)
     common = float(np.median(measured))
     assert [s.rise_m for s in steps] == pytest.approx([common] * len(measured), abs=1e-12)
@@ -49,26 +59,27 @@ def test_agreeing_rises_report_their_median(rise, noise, ground):
 
 def test_a_step_that_does_not_agree_keeps_its_own_rise():
     measured = [0.17, 0.175, 0.23, 0.165]  # the third is 6 cm off: a landing, or wrong
-    steps, n = common_rise(_steps(measured), 0.0, CONFIG)
+    steps, n = common_rise(_steps(measured), 0.0)
     assert n == 3
-    assert [s.rise_m for s in steps] == pytest.approx([0.17, 0.17, 0.23, 0.17])
+    common = float(np.median(measured))  # 0.1725: the odd one's pull on a median is small
+    assert [s.rise_m for s in steps] == pytest.approx([common, common, 0.23, common])
     assert steps[2].measured_rise_m is None and steps[0].measured_rise_m == pytest.approx(0.17)
-    assert steps[-1].top_z_m == pytest.approx(0.17 * 3 + 0.23)
+    assert steps[-1].top_z_m == pytest.approx(common * 3 + 0.23)
 
 
 def test_two_steps_or_no_agreeing_majority_are_left_alone():
     two = _steps([0.17, 0.12])
-    assert common_rise(two, 0.0, CONFIG) == (two, 0)
+    assert common_rise(two, 0.0) == (two, 0)
     scattered = _steps([0.10, 0.17, 0.24])  # each 7 cm from the median: no two agree with it
-    assert common_rise(scattered, 0.0, CONFIG) == (scattered, 0)
-    off = TerrainConfig(common_rise_tolerance_m=0.0)
+    assert common_rise(scattered, 0.0) == (scattered, 0)
+    off = TerrainConfig(common_rise_tolerance_m=0.0, common_run_tolerance_m=0.0)
     steps = _steps([0.17, 0.18, 0.16])
-    assert common_rise(steps, 0.0, off) == (steps, 0)
+    assert common_steps(steps, 0.0, off) == (steps, 0, 0)
 
 
 def test_an_inferred_rise_takes_the_common_rise_and_is_no_measurement():
     measured = [0.17, 0.18, 0.16, 0.15]
-    steps, n = common_rise(_steps(measured + [0.16], inferred={4}), 0.0, CONFIG)
+    steps, n = common_rise(_steps(measured + [0.16], inferred={4}), 0.0)
     assert n == 4
     assert steps[4].rise_inferred and steps[4].measured_rise_m is None
     assert steps[4].rise_m == pytest.approx(float(np.median(measured)))
@@ -88,13 +99,18 @@ def test_the_staircase_reports_one_rise_and_its_sigma_is_a_median_s():
     # A step's true rise may differ from the staircase's by a few millimetres (building
     # codes), so the common rise's sigma is at least that, however well it is measured;
     # here (noise-free faces, own sigmas about a millimetre) it is little more.
-    assert all(s.rise_sigma_m >= _RISE_VARIATION_M for s in sig)
-    assert all(s.rise_sigma_m < _RISE_VARIATION_M + max(o.rise_sigma_m for o in sig_own) for s in sig)
+    assert all(s.rise_sigma_m >= _STEP_VARIATION_M for s in sig)
+    assert all(s.rise_sigma_m < _STEP_VARIATION_M + max(o.rise_sigma_m for o in sig_own) for s in sig)
 
 
 @pytest.mark.parametrize(
     "bad",
-    [{"common_rise_tolerance_m": -0.01}, {"common_rise_min_steps": 1}, {"min_run_m": -0.1}],
+    [
+        {"common_rise_tolerance_m": -0.01},
+        {"common_min_steps": 1},
+        {"common_run_tolerance_m": -0.01},
+        {"min_run_m": -0.1},
+    ],
 )
 def test_config_is_checked(bad):
     with pytest.raises(ConfigError):
@@ -109,3 +125,38 @@ def test_a_riser_too_near_the_one_before_is_not_the_next_step():
     assert len(near.steps) == 2 and near.steps[0].run_m == pytest.approx(0.10, abs=0.01)
     model = build_terrain(planes)
     assert len(model.steps) == 1, model.note  # the first face alone (here a box's front)
+
+
+@settings(max_examples=40, deadline=None)
+@given(run=st.floats(0.22, 0.36), noise=st.lists(st.floats(-0.03, 0.03), min_size=3, max_size=6))
+def test_agreeing_runs_report_their_median_and_the_risers_stay(run, noise):
+    runs = [run + e for e in noise] + [None]
+    given_steps = _steps([0.17] * len(runs), runs=runs)
+    steps, n_rises, n_runs = common_steps(given_steps, 0.0, CONFIG)
+    assert n_runs == len(noise) and n_rises == len(runs)
+    common = float(np.median(runs[:-1]))
+    assert [s.run_m for s in steps[:-1]] == pytest.approx([common] * len(noise), abs=1e-12)
+    assert [s.measured_run_m for s in steps[:-1]] == pytest.approx(runs[:-1], abs=1e-12)
+    assert steps[-1].run_m is None and steps[-1].measured_run_m is None
+    # Where the risers are (their distances and planes) is as measured.
+    assert [s.distance_m for s in steps] == [s.distance_m for s in given_steps]
+    assert [s.riser for s in steps] == [s.riser for s in given_steps]
+
+
+def test_a_run_that_does_not_agree_keeps_its_own():
+    # the second run is two treads (a riser not found): 8 cm or more off is not averaged
+    steps, _, n_runs = common_steps(_steps([0.17] * 5, runs=[0.28, 0.57, 0.29, 0.27, None]), 0.0, CONFIG)
+    assert n_runs == 3
+    assert [s.run_m for s in steps] == pytest.approx([0.285, 0.57, 0.285, 0.285, None])
+    assert steps[1].measured_run_m is None
+
+
+def test_the_staircase_reports_one_run_and_the_json_keeps_the_measured():
+    planes = _stairs(n_steps=4, rise=0.17, run=0.29)
+    model = build_terrain(planes)
+    runs = [s.run_m for s in model.steps if s.run_m is not None]
+    assert len(runs) == 3 and len(set(runs)) == 1
+    assert all(s.measured_run_m == pytest.approx(0.29, abs=0.01) for s in model.steps[:3])
+    assert "measured runs agree" in model.note
+    sig = estimate_step_sigmas(model, planes, focal_px=500.0, baseline_m=0.1).steps
+    assert all(s.run_sigma_m >= _STEP_VARIATION_M for s in sig[:3])

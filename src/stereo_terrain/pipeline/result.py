@@ -80,8 +80,10 @@ class TerrainResult:
                     "distance": r(s.distance_m),
                     "width": r(s.width_m),
                     "rise_inferred": s.rise_inferred,
-                    # issue 11: the step's own rise where "rise" is the staircase's common one
+                    # issue 11: the step's own rise (run) where "rise" ("run") is the
+                    # staircase's common one
                     "measured_rise": r(s.measured_rise_m),
+                    "measured_run": r(s.measured_run_m),
                     # issue 14: 1-sigma of each (null where the value is null or unknown)
                     "rise_sigma": _sigma(s.rise_sigma_m),
                     "run_sigma": _sigma(s.run_sigma_m),

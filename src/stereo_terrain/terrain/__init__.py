@@ -14,8 +14,8 @@ Package layout (data flows one way, each module imports only those before it):
 ``_kernels`` (compiled inner loop of the riser edges, Numba) -> ``risers`` (riser
 candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices),
 ``continuation`` (steps beyond the last riser plane), ``uniform`` (the staircase's common
-rise) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the first-step rules)
--> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
+rise and run) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
+first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
 ``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
 """
 

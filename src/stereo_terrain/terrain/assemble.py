@@ -23,7 +23,7 @@ from .risers import (
     _tread_front,
     riser_distance,
 )
-from .uniform import common_rise
+from .uniform import common_steps
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
 #: orientation method's tolerance) was two different faces.
@@ -313,7 +313,7 @@ def _assemble_along(
     # Before a single step is classified: a riser found beyond it makes it a staircase,
     # though the ground may be seen beyond its top elsewhere (which would make it a box).
     steps, continued = continue_steps(steps, planes, P, u, v, lateral, config)
-    steps, pooled = common_rise(steps, ground_z, config)
+    steps, pooled_rises, pooled_runs = common_steps(steps, ground_z, config)
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
@@ -324,8 +324,10 @@ def _assemble_along(
             f"; {continued} more beyond the last riser plane, from their samples' positions"
             " (rise: the median of the others)"
         )
-    if pooled:
-        note += f"; {pooled} measured rises agree: each step reports their median, the staircase's rise"
+    if pooled_rises:
+        note += f"; {pooled_rises} measured rises agree: those steps report their median"
+    if pooled_runs:
+        note += f"; {pooled_runs} measured runs agree: those steps report their median"
     if len(steps) == 1:
         obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
     poly = _polytope(steps, ordered, u, v, ground_z)

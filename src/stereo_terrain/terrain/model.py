@@ -98,24 +98,19 @@ class TerrainConfig:
         this far beyond it: the runs of ordinary building stairs (codes ask for 22-36
         cm) with a margin for the position's noise. A single step so continued is a
         staircase, not a box.
-    common_rise_tolerance_m : float
-        A staircase's rises are equal (building codes allow a few millimetres between
-        them); what differs between measured rises is mostly the measurement, worst on the
-        far steps. With ``common_rise_min_steps`` or more steps, every step whose measured
-        rise is within this of the median of the measured rises reports that median, the
-        staircase's common rise (its own stays in ``Step.measured_rise_m``); a step
-        further off keeps its own (a different step, or a measurement gone wrong: either
-        way not averaged away). 0 = off. See :mod:`.uniform`.
-    common_rise_min_steps : int
-        Steps with a measured rise a staircase needs for a common rise (with two, neither
-        can be told to be the odd one).
-    max_continued_steps : int
-        At most this many steps are added so.
-    face_bias_correlation : float
-        Correlation of the shared disparity error of neighbouring faces (a tread and the
-        surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
-        Measured on the rendered approaches: single-frame rise errors are about 0.3 of
-        what independent biases would give, i.e. a correlation near 0.9.
+    common_rise_tolerance_m, common_run_tolerance_m : float
+        A staircase's rises are equal, and so are its runs (building codes allow about a
+        centimetre between the largest and the smallest); what differs between measured
+        ones is mostly the measurement, worst on the far steps. Where ``common_min_steps``
+        or more measured rises (runs) lie within this of their median, each of those steps
+        reports the median of them, the staircase's common rise (run); its own stays in
+        ``Step.measured_rise_m`` (``measured_run_m``). A step further off keeps its own (a
+        different step, or a measurement gone wrong: either way not averaged away). The run
+        tolerance is wider: a riser's position is less sure than a height. 0 = off. See
+        :mod:`.uniform`.
+    common_min_steps : int
+        Measured rises (runs) that must agree for a common one (with two, neither can be
+        told to be the odd one).
     """
 
     min_rise_m: float = 0.04
@@ -144,13 +139,14 @@ class TerrainConfig:
     continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
     common_rise_tolerance_m: float = 0.03
-    common_rise_min_steps: int = 3
+    common_run_tolerance_m: float = 0.05
+    common_min_steps: int = 3
 
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "min_riser_points", "min_tread_points")
-        check_min(self, 0, "max_continued_steps", "common_rise_tolerance_m")
-        check_min(self, 2, "common_rise_min_steps")
+        check_min(self, 0, "max_continued_steps", "common_rise_tolerance_m", "common_run_tolerance_m")
+        check_min(self, 2, "common_min_steps")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:
             raise ConfigError(
                 "need 0 < continue_min_run_m < continue_max_run_m, got "
@@ -216,9 +212,10 @@ class Step:
     rise_sigma_m, run_sigma_m, distance_sigma_m, width_sigma_m : float or None
         1-sigma of ``rise_m``, ``run_m``, ``distance_m`` and ``width_m`` (issue 14,
         :func:`estimate_step_sigmas`); NaN until estimated, None where the value is None.
-    measured_rise_m : float or None
-        The rise measured for this step where ``rise_m`` is the staircase's common rise
-        (:mod:`.uniform`); None where ``rise_m`` is its own (or inferred).
+    measured_rise_m, measured_run_m : float or None
+        The rise (run) measured for this step where ``rise_m`` (``run_m``) is the
+        staircase's common one (:mod:`.uniform`); None where it is the step's own (or
+        inferred, or not seen).
     """
 
     rise_m: float
@@ -235,6 +232,7 @@ class Step:
     distance_sigma_m: float = math.nan
     width_sigma_m: float | None = math.nan
     measured_rise_m: float | None = None
+    measured_run_m: float | None = None
 
 
 @dataclass(frozen=True)

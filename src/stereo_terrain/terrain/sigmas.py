@@ -20,9 +20,22 @@ def _wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-#: How much the rises of one staircase may differ (1-sigma): building codes allow about a
-#: centimetre between the tallest and the lowest.
-_RISE_VARIATION_M = 0.004
+#: How much the rises (runs) of one staircase may differ (1-sigma): building codes allow
+#: about a centimetre between the largest and the smallest.
+_STEP_VARIATION_M = 0.004
+
+
+def _median_sigma(own: list[float], values: np.ndarray) -> float:
+    """1-sigma of a step's common rise or run (:mod:`.uniform`): the median of ``values``
+    (n measured ones, ``own`` their sigmas) is about 1.25 sigma / sqrt(n) off, sigma the
+    larger of their own and their spread; and a step's true value may differ from the
+    staircase's by :data:`_STEP_VARIATION_M`. NaN with no values."""
+    if len(values) == 0:
+        return math.nan
+    own_sq = float(np.nanmean(np.square(own))) if np.isfinite(own).any() else 0.0
+    spread_sq = float(np.var(values))
+    return math.sqrt(1.57 * max(own_sq, spread_sq) / len(values) + _STEP_VARIATION_M**2)
+
 
 #: A sample is on a face when its local normal is within about 30 deg of the face's.
 _FACE_COS = 0.85
@@ -244,18 +257,21 @@ def estimate_step_sigmas(
     measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
     own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
     common = [k for k in measured if steps[k].measured_rise_m is not None]
-    common_sigma = math.nan
-    if common:
-        # The median of n measured rises: about 1.25 sigma / sqrt(n) (the larger of their
-        # own sigmas and their spread), and the few millimetres real rises may differ by.
-        own_sq = float(np.nanmean([own_each[measured.index(k)] ** 2 for k in common]))
-        spread_sq = float(np.var(rises[common]))
-        common_sigma = math.sqrt(1.57 * max(own_sq, spread_sq) / len(common) + _RISE_VARIATION_M**2)
+    common_rise_sigma = _median_sigma([own_each[measured.index(k)] for k in common], rises[common])
+
+    def own_run_sigma(i: int) -> float:
+        nxt = positions[i + 1] if i + 1 < len(positions) else math.nan
+        return math.hypot(positions[i], nxt)
+
+    pooled_runs = [k for k, st in enumerate(steps) if st.measured_run_m is not None]
+    common_run_sigma = _median_sigma(
+        [own_run_sigma(k) for k in pooled_runs], np.array([steps[k].measured_run_m for k in pooled_runs])
+    )
     out: list[Step] = []
     for i, st in enumerate(steps):
         sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
         if st.measured_rise_m is not None:
-            sig_rise = common_sigma
+            sig_rise = common_rise_sigma
         elif st.rise_inferred:
             # the median of the measured rises (a first step whose foot is out of view, a
             # step found beyond the last riser plane: terrain/continuation.py)
@@ -267,9 +283,10 @@ def estimate_step_sigmas(
         n_x = abs(float(st.riser.normal[0]))
         sig_dist = math.hypot(positions[i] / max(n_x, 0.2), levers[i])
         sig_run = None
-        if st.run_m is not None:
-            nxt = positions[i + 1] if i + 1 < len(positions) else math.nan
-            sig_run = math.hypot(positions[i], nxt)
+        if st.measured_run_m is not None:
+            sig_run = common_run_sigma
+        elif st.run_m is not None:
+            sig_run = own_run_sigma(i)
         out.append(
             dataclasses.replace(
                 st,
