@@ -486,3 +486,42 @@ def test_a_stop_that_surfaces_as_an_error_stops_the_loop(scene, pipeline, monkey
     # The next loop starts afresh.
     s = LiveLoop(Capture(FrameSource([_frame(scene, 0.0, 0)])), pipeline, lambda m: None).run()
     assert not s.interrupted and s.processed == 1
+
+
+def test_the_loop_takes_out_an_odometry_jump_and_publishes_the_origin_in_the_estimators_frame(
+    scene, pipeline
+):
+    """A relocalisation (the state estimator's frame moved 1 m back between two stamped
+    poses 0.1 s apart) is no travel: the loop counts it, the trigger counts on, and the
+    published origin p0 is in the estimator's frame, where the controller's odometry is."""
+    clock = FakeClock()
+    t0 = clock()
+    script = []
+    cfg = ApproachConfig(image_size=(320, 240), supersample=1, start_distance_m=1.2)
+    for i in range(6):
+        t, x = t0 + 0.1 * i, 0.05 * i
+        seen = render_scene(approach_spec(cfg, x, 0.0))  # the stairs as the body walks on
+        raw_x = x - (1.0 if i >= 3 else 0.0)
+        odo = Odometry((raw_x, 0.0, 0.0), 0.0, t)
+        script.append((t, StereoFrame(seen.left, seen.right, t, t, i, odo, (0.0, 0.0, 0.0))))
+    msgs = []
+    config = LoopConfig(max_skew_s=1.0, stall_timeout_s=1e9)
+    loop = LiveLoop(
+        Capture(ScriptedCamera(clock, script)),
+        pipeline,
+        msgs.append,
+        config=config,
+        clock=clock,
+        sleep=clock.sleep,
+    )
+    s = loop.run()
+    assert s.processed == 6 and s.pose_jumps == 1 and "odometry jumps 1" in s.format()
+    last = [m for m in msgs if not m.stale][-1]
+    # The body is at x = 0.25 (estimator: -0.75); the published origin is where the
+    # estimator puts the point the trigger counts from.
+    trig = loop.trigger.state
+    assert trig.phase in ("approach", "raised")  # an origin that means something
+    assert trig.p0_m[0] - 0.25 == pytest.approx(last.p0_m[0] - (-0.75), abs=1e-6)
+    # and the remaining distance the controller computes from its own odometry is the
+    # trigger's, not a metre off
+    assert trig.trigger_distance_m - (-0.75 - last.p0_m[0]) == pytest.approx(trig.remaining_m - 0.1, abs=0.01)

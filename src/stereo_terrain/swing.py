@@ -12,7 +12,8 @@ import math
 from dataclasses import dataclass
 
 from .checks import check_fields
-from .errors import ConfigError, InputError
+from .errors import ConfigError
+from .odometry import Odometry, usable_odometry  # Odometry: importable from here as before
 from .terrain import NONE, StairModel
 
 
@@ -133,43 +134,6 @@ class TriggerConfig:
             raise ConfigError("TriggerConfig confirm_frames, reacquire_frames and history must be >= 1")
         if self.min_visible_m < 0 or self.release_m < 0:
             raise ConfigError("TriggerConfig min_visible_m and release_m must be >= 0")
-
-
-@dataclass(frozen=True)
-class Odometry:
-    """Body pose from the robot's state estimator (CoM odometry), world frame.
-
-    Attributes
-    ----------
-    position_m : (3,) float, metres, world frame
-    yaw_rad : float
-        Heading of the body x axis in the world frame, radians.
-    """
-
-    position_m: tuple[float, float, float]
-    yaw_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        try:
-            ok = len(self.position_m) == 3
-            [float(v) for v in (*self.position_m, self.yaw_rad)]
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise InputError(
-                f"Odometry needs position_m (x, y, z) in metres and yaw_rad as numbers, "
-                f"got {self.position_m!r}, {self.yaw_rad!r}"
-            )
-
-    @property
-    def finite(self) -> bool:
-        """Whether the pose is a pose: a state estimator may send NaN when it has none."""
-        return all(math.isfinite(float(v)) for v in self.position_m) and math.isfinite(float(self.yaw_rad))
-
-
-def usable_odometry(odometry: Odometry | None) -> Odometry | None:
-    """``odometry`` when it holds a finite pose, else None (no pose this frame)."""
-    return odometry if odometry is not None and odometry.finite else None
 
 
 @dataclass(frozen=True)

@@ -39,7 +39,7 @@ import numpy as np
 from .checks import check_fields
 from .errors import ConfigError, InputError
 from .msac import Plane
-from .swing import Odometry, usable_odometry
+from .odometry import Odometry, usable_odometry
 from .terrain import NONE, STAIRS, Polytope, StairModel, Step
 
 TRACK_NONE, TRACK_TENTATIVE, TRACK_CONFIRMED, TRACK_COASTING = "none", "tentative", "confirmed", "coasting"

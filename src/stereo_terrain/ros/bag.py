@@ -38,6 +38,7 @@ import numpy as np
 
 from ..calibration import StereoCalibration
 from ..errors import InputError
+from ..odometry import Odometry
 from ..runtime.capture import (
     END,
     FRAME,
@@ -47,7 +48,6 @@ from ..runtime.capture import (
     StereoFrame,
     match_stamps,
 )
-from ..swing import Odometry
 
 log = logging.getLogger(__name__)
 
@@ -313,7 +313,8 @@ class BagPairs:
                 rpy = _rpy_from_quaternion(float(q.x), float(q.y), float(q.z), float(q.w))
             except InputError:
                 continue  # a bad orientation: no pose for the pairs near it, as for NaN positions
-            poses.append(_Pose(_header_s(msg), Odometry((values[0], values[1], values[2]), rpy[2]), rpy))
+            t_s = _header_s(msg)
+            poses.append(_Pose(t_s, Odometry((values[0], values[1], values[2]), rpy[2], t_s), rpy))
         poses.sort(key=lambda p: p.t_s)
         self._pose_times = np.array([p.t_s for p in poses], dtype=np.float64)
         return poses

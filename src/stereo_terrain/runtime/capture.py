@@ -36,8 +36,8 @@ import cv2
 import numpy as np
 
 from ..errors import ConfigError, InputError
+from ..odometry import Odometry
 from ..rectify import check_same_size, read_image
-from ..swing import Odometry
 
 log = logging.getLogger(__name__)
 
@@ -574,7 +574,7 @@ class FolderPairs:
         odo = rpy = None
         if row.pose is not None:
             x, y, z, roll, pitch, yaw = row.pose
-            odo = Odometry((x, y, z), yaw)
+            odo = Odometry((x, y, z), yaw, row.t_left)  # stamped with the recorded time
             rpy = (roll, pitch, yaw)
         frame = StereoFrame(left, right, row.t_left + offset, row.t_right + offset, index, odo, rpy)
         return CaptureEvent(FRAME, frame)

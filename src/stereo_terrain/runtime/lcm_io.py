@@ -14,7 +14,7 @@ import threading
 from typing import Any
 
 from ..errors import InputError
-from ..swing import Odometry
+from ..odometry import Odometry
 from .messages import body_state_t, terrain_t
 
 log = logging.getLogger(__name__)
@@ -90,7 +90,7 @@ class LcmStateListener:
         if not all(math.isfinite(v) for v in (*rpy, *position)):
             self.bad += 1  # a state estimator glitch: keep the last good state
             return
-        odo = Odometry(tuple(position), rpy[2])  # type: ignore[arg-type]
+        odo = Odometry(tuple(position), rpy[2], int(msg.utime) * 1e-6)  # type: ignore[arg-type]
         with self._lock:
             self._latest = (odo, rpy, int(msg.utime))
             self.received += 1

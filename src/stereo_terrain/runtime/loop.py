@@ -26,8 +26,9 @@ import numpy as np
 from ..checks import check_fields
 from ..errors import ConfigError, InputError, StereoTerrainError
 from ..frames import Rig
+from ..odometry import Odometry, PoseJumpConfig, PoseJumps
 from ..pipeline import Pipeline, TerrainResult
-from ..swing import Odometry, SwingTrigger, TriggerState
+from ..swing import SwingTrigger, TriggerState
 from ..terrain import NONE as NO_OBSTACLE
 from ..terrain import StairModel
 from ..tracking import TRACK_NONE, StairTracker, single_frame_model
@@ -74,6 +75,9 @@ class LoopConfig:
         Stop after this many processed pairs (0: no limit).
     max_duration_s : float
         Stop after this long (0: no limit).
+    pose_jumps : PoseJumpConfig
+        When a step between two stamped poses is a jump of the state estimator's frame
+        (a glitch, a relocalisation), not travel (:class:`~stereo_terrain.odometry.PoseJumps`).
     max_unusable_start : int
         Consecutive unusable pairs (unreadable, wrong size, skewed, refused by the pipeline)
         before the first usable one after which the loop stops with an :class:`InputError`
@@ -89,6 +93,7 @@ class LoopConfig:
     max_frames: int = 0
     max_duration_s: float = 0.0
     max_unusable_start: int = 10
+    pose_jumps: PoseJumpConfig = field(default_factory=PoseJumpConfig)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -113,6 +118,7 @@ class LoopSummary:
     failed: int = 0
     skipped: int = 0
     bad_poses: int = 0
+    pose_jumps: int = 0  # jumps of the state estimator's frame taken out (PoseJumps)
     stalls: int = 0
     stalled_s: float = 0.0
     elapsed_s: float = 0.0
@@ -139,7 +145,8 @@ class LoopSummary:
             f"median {self.latency_ms(50):.0f} ms, p99 {self.latency_ms(99):.0f} ms; published "
             f"{self.published} ({self.heartbeats} stale heartbeats); dropped: skew {self.skew_dropped}, "
             f"unreadable {self.unreadable}, failed {self.failed}, superseded {self.skipped}; "
-            f"bad poses ignored {self.bad_poses}; stalls {self.stalls} ({self.stalled_s:.1f} s)"
+            f"bad poses ignored {self.bad_poses}; odometry jumps {self.pose_jumps}; "
+            f"stalls {self.stalls} ({self.stalled_s:.1f} s)"
         )
 
 
@@ -248,6 +255,9 @@ class LiveLoop:
         self.publish = publish
         self.trigger = trigger or SwingTrigger(pipeline.config.swing)
         self.pose = pose or rig_pose(pipeline.rig)
+        # The state estimator's frame jumps (glitch, relocalisation) are no travel: every pose
+        # goes through this before the tracker and the trigger see it.
+        self.pose_jumps = PoseJumps(self.config.pose_jumps)
         self.clock = clock
         self.sleep = sleep
         self.status = status
@@ -369,6 +379,8 @@ class LiveLoop:
             self.summary.bad_poses += 1
             log.warning("pair %d: body pose ignored (not finite): %s, %s", frame.index, odo, rpy)
             odo, rpy = None, None
+        odo = self.pose_jumps.correct(odo)
+        self.summary.pose_jumps = self.pose_jumps.jumps
         if rpy is not None and rpy != self._rpy and self.pipeline.rig is not None:
             # The body attitude from the state estimator (paper eq. 1) for this frame.
             self.pipeline.set_rig(dataclasses.replace(self.pipeline.rig, body_rpy=rpy))
@@ -408,7 +420,7 @@ class LiveLoop:
             quality |= terrain_t.QUALITY_POSE_MISSING
         msg = terrain_message(
             model,
-            trig,
+            self._in_estimator_frame(trig),
             capture_s=frame.t_capture_s,
             publish_s=now,
             frame_index=frame.index,
@@ -449,6 +461,15 @@ class LiveLoop:
                 self._heartbeat(now)
         self.sleep(cfg.poll_s)
 
+    def _in_estimator_frame(self, trig: TriggerState) -> TriggerState:
+        """The trigger's decision with its origin (``p0_m``, ``heading_rad``) in the state
+        estimator's own frame, the one a controller compares with its odometry (the
+        trigger counts in the frame without the jumps: :class:`PoseJumps`)."""
+        if self.pose_jumps.jumps == 0:
+            return trig
+        p0, heading = self.pose_jumps.to_raw(trig.p0_m, trig.heading_rad)
+        return dataclasses.replace(trig, p0_m=p0, heading_rad=heading)
+
     def _heartbeat(self, now: float) -> None:
         # A live pose source (the state estimator) has a pose between pairs: the trigger
         # moves on with it. A recording's poses come with its pairs, so a replay has none
@@ -458,6 +479,8 @@ class LiveLoop:
         odo, _ = self.pose(None)
         if not _finite_pose(odo, None):
             odo = None  # as for a pair (a NaN is no pose)
+        odo = self.pose_jumps.correct(odo)
+        self.summary.pose_jumps = self.pose_jumps.jumps
         trig = self.trigger.update(odo) if odo is not None else self.trigger.state
         conditions = self._last_conditions
         if odo is not None:
@@ -467,7 +490,7 @@ class LiveLoop:
         assert capture is not None
         msg = terrain_message(
             self._last_model,
-            trig,
+            self._in_estimator_frame(trig),
             capture_s=capture,
             publish_s=now,
             frame_index=self._last_index,

@@ -30,7 +30,8 @@ import numpy as np
 
 from ..checks import check_fields
 from ..errors import ConfigError
-from ..swing import Odometry, SwingConfig
+from ..odometry import Odometry
+from ..swing import SwingConfig
 from ..synthetic import SceneSpec, StairSpec, SurfaceSpec, SyntheticScene, render_scene
 from .capture import END, FRAME, CaptureEvent, StereoFrame
 from .messages import terrain_t
@@ -210,7 +211,7 @@ def render_approach(cfg: ApproachConfig) -> Iterator[tuple[StereoFrame, Syntheti
         x = true_x(cfg, t)
         pitch = body_pitch(cfg, t)
         scene = render_scene(approach_spec(cfg, x, pitch))
-        odo = Odometry(((1.0 + cfg.odometry_drift) * x, 0.0, 0.0), 0.0)
+        odo = Odometry(((1.0 + cfg.odometry_drift) * x, 0.0, 0.0), 0.0, t)
         frame = StereoFrame(scene.left, scene.right, t, t, k, odo, (0.0, pitch, 0.0))
         yield frame, scene
 
