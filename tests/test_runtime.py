@@ -11,6 +11,7 @@ from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.runtime.capture import (
     END,
     FRAME,
+    MAX_REPLAY_GAP_S,
     NONE,
     SKEW,
     UNREADABLE,
@@ -198,11 +199,30 @@ def test_recorded_folder_round_trip_and_poses(tmp_path):
     f = ev[4].frame
     assert f.t_left_s == pytest.approx(4 / 30, abs=1e-5) and f.skew_s == pytest.approx(0.001, abs=1e-5)
     assert f.odometry.position_m[0] == pytest.approx(0.04) and f.body_rpy == pytest.approx((0, 0.1, 0))
+    assert f.odometry.stamp_s == pytest.approx(4 / 30, abs=1e-5)  # the pose's recorded time
     looped = FolderPairs(folder, loop=True)
-    times = []
+    times, stamps = [], []
     for _ in range(25):
-        times.append(looped.read().frame.t_left_s)
+        frame = looped.read().frame
+        times.append(frame.t_left_s)
+        stamps.append(frame.odometry.stamp_s)
     assert np.all(np.diff(times) > 0)  # repeats keep time going forward
+    assert np.all(np.diff(stamps) > 0)  # and so do the poses' stamps (odometry.PoseJumps)
+
+
+def test_a_long_pause_is_shortened_for_the_pairs_not_for_the_poses_clock(tmp_path):
+    """A replay shortens a long pause between pairs; the poses keep their recorded times,
+    so the travel in the pause is not judged a jump of the odometry's frame."""
+    img = np.zeros((24, 32), np.uint8)
+    frames = [
+        StereoFrame(img, img, t, t, i, Odometry((0.5 * t, 0, 0)), (0, 0, 0))
+        for i, t in enumerate([0.0, 0.1, 10.1])
+    ]
+    write_pairs(tmp_path, frames)
+    src = FolderPairs(tmp_path)
+    got = [src.read().frame for _ in range(3)]
+    assert got[2].t_left_s == pytest.approx(0.1 + MAX_REPLAY_GAP_S)
+    assert got[2].odometry.stamp_s == pytest.approx(10.1)
 
 
 def test_paced_replay_gives_the_newest_pair_and_never_queues(tmp_path):

@@ -12,9 +12,11 @@ swing early, and a relocalisation puts the trigger a metre late, into the riser.
 plus a slack for the estimator's noise. A step beyond that is a jump of the frame, not
 travel: the pose is taken where the body would be at its last speed, and every later pose
 is moved by the same rigid shift (a turn about up and a translation), so the travel counted
-goes on from there. A second jump (the glitch's way back) is taken the same way, so a
-glitch leaves a shift of a few centimetres at most. A camera stall is no jump: the poses'
-times say how long the body had to walk.
+goes on from there. A glitch's way back returns to the shift from before it (the few last
+shifts are kept), also after a stall. A camera stall is no jump: the poses' times say how
+long the body had to walk. What it cannot see: a jump smaller than the body's own possible
+travel in the time (0.28 m at 30 poses a second), and a frame that drifts; a continuous
+odometry frame (ROS ``odom``, not ``map``) is the pose source to give it.
 
 Only stamped poses are judged. A pose without a stamp cannot be (a step of a metre is a
 jump after 30 ms and walking after a second), so it is moved by the shift as it stands and
@@ -33,6 +35,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,8 +111,10 @@ class PoseJumpConfig:
     slack_m, slack_deg : float
         Added to what the time allows: the estimator's own noise between two poses.
     max_gap_s : float
-        After a gap this long between poses the last speed is not carried on: a pose that
-        jumps after it is taken where the last one was.
+        The last speed is carried over a gap between poses for at most this long (where a
+        jump is taken out, the body is put where that speed takes it; beyond it, the travel
+        is not known: more is early, less would be late). Also: a pose older than the last
+        by up to this was delivered late (dropped); by more, the clock restarted.
     """
 
     enabled: bool = True
@@ -117,7 +122,7 @@ class PoseJumpConfig:
     max_turn_rate_dps: float = 180.0
     slack_m: float = 0.15
     slack_deg: float = 5.0
-    max_gap_s: float = 1.0
+    max_gap_s: float = 5.0
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -130,74 +135,193 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
+class _Shift:
+    """A rigid shift of the estimator's frame: ``corrected = R(turn) raw + offset``."""
+
+    def __init__(self, turn: float = 0.0, offset: np.ndarray | None = None) -> None:
+        self.turn = turn
+        self.offset = np.zeros(3) if offset is None else offset
+
+    def apply(self, odo: Odometry) -> Odometry:
+        c, s = math.cos(self.turn), math.sin(self.turn)
+        x, y, z = (float(v) for v in odo.position_m)
+        p = (c * x - s * y + self.offset[0], s * x + c * y + self.offset[1], z + self.offset[2])
+        return Odometry(p, _wrap(float(odo.yaw_rad) + self.turn), odo.stamp_s)
+
+    @classmethod
+    def placing(cls, raw: Odometry, target: np.ndarray, yaw: float) -> _Shift:
+        """The shift that puts ``raw`` at ``target`` with heading ``yaw``."""
+        turn = _wrap(yaw - float(raw.yaw_rad))
+        c, s = math.cos(turn), math.sin(turn)
+        x, y, z = (float(v) for v in raw.position_m)
+        return cls(turn, target - np.array([c * x - s * y, s * x + c * y, z]))
+
+
+#: Shifts kept besides the current one: a glitch's way back returns to the one before it.
+_HISTORY = 3
+
+#: Judged poses over which the stamps' pace is checked against the travel.
+_SPEED_WINDOW = 10
+
+#: This many jumps within a second of stamps: the stamps are wrong, not the frame.
+_MAX_JUMPS = 3
+
+
 class PoseJumps:
     """Removes the jumps of a state estimator's frame from its poses (module docstring).
 
     Feed it every pose, in order, with :meth:`correct`, and pass what it returns to the
     trigger and the tracker (the live loop does). The corrected poses are the estimator's
     moved by the shift of every jump so far.
+
+    Each stamped pose is judged against the last one. Under each shift kept (the current
+    one and the few before it), the step from the last pose must be one the body can make
+    in the time between them; of those that allow it, the one nearest where the body would
+    be at its last speed is taken, keeping the current one unless another is much nearer
+    (the way back of a glitch, even one followed by a stall, returns to the shift from
+    before it). When none allows it, the frame jumped: a new shift puts the pose where the
+    body would be. Stamps that do not advance while the pose moves (a source that never
+    sets them, a clock in the wrong unit) are not judged and said so once; a pose older
+    than the last (by up to ``max_gap_s``: delivered late) is dropped (no pose); a clock
+    that went back further (the estimator restarted) starts the judging again.
     """
 
     def __init__(self, config: PoseJumpConfig | None = None) -> None:
         self.config = config or PoseJumpConfig()
         self.jumps = 0  # how many jumps were taken out
-        self._turn = 0.0  # the shift: corrected = R(turn) raw + offset
-        self._offset = np.zeros(3)
-        self._last: Odometry | None = None  # the last stamped pose, corrected
-        self._velocity = np.zeros(2)  # corrected frame, m/s, from the last two stamped poses
-
-    def _shifted(self, odo: Odometry) -> Odometry:
-        c, s = math.cos(self._turn), math.sin(self._turn)
-        x, y, z = (float(v) for v in odo.position_m)
-        p = (c * x - s * y + self._offset[0], s * x + c * y + self._offset[1], z + self._offset[2])
-        return Odometry(p, _wrap(float(odo.yaw_rad) + self._turn), odo.stamp_s)
+        self.late = 0  # poses dropped as older than the last
+        self._shift = _Shift()
+        self._history: list[_Shift] = []  # earlier shifts, most recent first
+        self._last: Odometry | None = None  # the last judged pose, corrected
+        self._velocity = np.zeros(2)  # corrected frame, m/s, from the last two judged poses
+        self._warned_stamps = False
+        self._recent: deque[tuple[float, float]] = deque(maxlen=_SPEED_WINDOW)  # (stamp, path length)
+        self.untrusted = False  # the stamps are too close together for the poses' travel
+        self._jump_times: deque[float] = deque(maxlen=_MAX_JUMPS)
 
     def correct(self, odometry: Odometry | None) -> Odometry | None:
-        """The pose with the frame's jumps taken out (None and a pose that is not finite
-        are returned as they are)."""
+        """The pose with the frame's jumps taken out; None for a pose delivered late (None
+        and a pose that is not finite are returned as they are)."""
         if odometry is None or not odometry.finite or not self.config.enabled:
             return odometry
-        moved = self._shifted(odometry)
+        if self.untrusted:
+            return odometry
+        moved = self._shift.apply(odometry)
         last = self._last
         if odometry.stamp_s is None:
             return moved  # cannot be judged without its time
         if last is None or last.stamp_s is None:
             self._last = moved
             return moved
+        cfg = self.config
         dt = float(odometry.stamp_s) - float(last.stamp_s)
         if dt < 0:
-            return moved  # an older pose than the last: not judged, not kept
-        cfg = self.config
-        step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
-        turn = _wrap(moved.yaw_rad - last.yaw_rad)
-        far = float(np.hypot(*step)) > cfg.max_speed_mps * dt + cfg.slack_m
-        turned = abs(math.degrees(turn)) > cfg.max_turn_rate_dps * dt + cfg.slack_deg
-        if far or turned:
+            if -dt <= cfg.max_gap_s:
+                self.late += 1
+                return None  # older than a pose already counted: no pose, not a step back
             log.warning(
-                "odometry jumped %.2f m and %.1f deg in %.3f s: taken for a shift of its frame, not travel",
+                "the odometry's clock went back %.1f s (a restart?): its jumps are judged from here", -dt
+            )
+            self._last = moved
+            self._recent.clear()  # the pace of the stamps starts again too
+            self._jump_times.clear()
+            return moved
+        step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
+        if dt == 0:
+            if float(np.hypot(*step)) > cfg.slack_m and not self._warned_stamps:
+                self._warned_stamps = True
+                log.warning(
+                    "odometry stamps do not advance while the pose moves: its jumps are not taken out "
+                    "(give every pose its time on the estimator's clock, in seconds)"
+                )
+            return moved
+        allowed_m = cfg.max_speed_mps * dt + cfg.slack_m
+        allowed_deg = cfg.max_turn_rate_dps * dt + cfg.slack_deg
+        carried = self._velocity * min(dt, cfg.max_gap_s)
+        predicted = np.array(last.position_m[:2]) + carried
+
+        def judged(shift: _Shift) -> tuple[Odometry, bool, float]:
+            pose = shift.apply(odometry)
+            xy = np.array(pose.position_m[:2])
+            ok = (
+                float(np.hypot(*(xy - np.array(last.position_m[:2])))) <= allowed_m
+                and abs(math.degrees(_wrap(pose.yaw_rad - last.yaw_rad))) <= allowed_deg
+            )
+            return pose, ok, float(np.hypot(*(xy - predicted)))
+
+        pose, ok, miss = judged(self._shift)
+        best: tuple[int, Odometry, float] | None = (-1, pose, miss) if ok else None
+        # An earlier shift only where it puts the pose near the prediction (the speed may
+        # have changed by a quarter of the fastest in the time), and much nearer than the
+        # current one does: the way back of a glitch, not a new jump that happens to land
+        # near where an old shift would put it.
+        near = cfg.slack_m + 0.25 * cfg.max_speed_mps * dt
+        for k, shift in enumerate(self._history):
+            other, other_ok, other_miss = judged(shift)
+            if other_ok and other_miss <= near and (best is None or other_miss + cfg.slack_m < 0.5 * best[2]):
+                best = (k, other, other_miss)
+        if best is None:
+            log.warning(
+                "odometry jumped %.2f m in %.3f s: taken for a shift of its frame, not travel",
                 float(np.hypot(*step)),
-                math.degrees(turn),
                 dt,
             )
-            moved = self._rebase(odometry, last, dt)
-        elif dt > 0:
+            self._remember(self._shift)
+            x0, y0, z0 = (float(v) for v in last.position_m)
+            self._shift = _Shift.placing(odometry, np.array([predicted[0], predicted[1], z0]), last.yaw_rad)
+            self.jumps += 1
+            moved = self._shift.apply(odometry)
+            self._jump_times.append(float(odometry.stamp_s))
+            if len(self._jump_times) == _MAX_JUMPS and self._jump_times[-1] - self._jump_times[0] < 1.0:
+                # Several jumps within a second: no estimator relocalises that often, its
+                # stamps are wrong (too close together for the travel).
+                self._distrust(
+                    f"{_MAX_JUMPS} jumps within {self._jump_times[-1] - self._jump_times[0]:.4f} s"
+                )
+                return odometry
+        else:
+            k, moved, _ = best
+            if k >= 0:  # back to an earlier shift: the jump ended (a glitch's way back)
+                log.warning("odometry back in the frame it had before a jump")
+                earlier = self._history.pop(k)
+                self._remember(self._shift)
+                self._shift = earlier
+            step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
             speed = float(np.hypot(*step)) / dt
             self._velocity = step / dt * min(1.0, cfg.max_speed_mps / max(speed, 1e-12))
+            if self._stamps_too_close(float(odometry.stamp_s), float(np.hypot(*step))):
+                return odometry
         self._last = moved
         return moved
 
-    def _rebase(self, raw: Odometry, last: Odometry, dt: float) -> Odometry:
-        """A jump: the shift that puts ``raw`` where the body would be ``dt`` after ``last``
-        at its last speed, with ``last``'s heading and height."""
-        carried = self._velocity * dt if dt <= self.config.max_gap_s else np.zeros(2)
-        x0, y0, z0 = (float(v) for v in last.position_m)
-        target = np.array([x0 + carried[0], y0 + carried[1], z0])
-        self._turn = _wrap(last.yaw_rad - float(raw.yaw_rad))
-        c, s = math.cos(self._turn), math.sin(self._turn)
-        x, y, z = (float(v) for v in raw.position_m)
-        self._offset = target - np.array([c * x - s * y, s * x + c * y, z])
-        self.jumps += 1
-        return Odometry((float(target[0]), float(target[1]), float(target[2])), last.yaw_rad, raw.stamp_s)
+    def _stamps_too_close(self, stamp: float, step_m: float) -> bool:
+        """Whether the stamps are too close together for the travel between the poses (over
+        the last few, steps within the slack each): a clock in the wrong unit (milliseconds
+        read as microseconds) would make every stall a jump. Then nothing more is judged,
+        the shifts are dropped (the poses pass as they come, as without this stage), and
+        it is said once."""
+        path = (self._recent[-1][1] if self._recent else 0.0) + step_m
+        self._recent.append((stamp, path))
+        if len(self._recent) < _SPEED_WINDOW:
+            return False
+        t0, p0 = self._recent[0]
+        travelled, elapsed = path - p0, stamp - t0
+        if travelled <= self.config.slack_m or travelled <= 2.0 * self.config.max_speed_mps * elapsed:
+            return False
+        self._distrust(f"{travelled:.2f} m in {elapsed:.4f} s")
+        return True
+
+    def _distrust(self, why: str) -> None:
+        self.untrusted = True
+        self._shift, self._history = _Shift(), []
+        log.warning(
+            "odometry stamps are too close together for its travel (%s): its jumps are not taken "
+            "out from here (the stamps must be seconds on the estimator's clock)",
+            why,
+        )
+
+    def _remember(self, shift: _Shift) -> None:
+        self._history = ([shift] + self._history)[:_HISTORY]
 
     def to_raw(
         self, position_m: tuple[float, float, float], heading_rad: float
@@ -205,8 +329,9 @@ class PoseJumps:
         """A position and heading of the corrected frame in the estimator's own frame now
         (the inverse of the current shift): what a controller comparing its own odometry
         with them needs."""
-        c, s = math.cos(self._turn), math.sin(self._turn)
-        x = float(position_m[0]) - self._offset[0]
-        y = float(position_m[1]) - self._offset[1]
-        z = float(position_m[2]) - self._offset[2]
-        return (c * x + s * y, -s * x + c * y, z), _wrap(float(heading_rad) - self._turn)
+        turn, offset = self._shift.turn, self._shift.offset
+        c, s = math.cos(turn), math.sin(turn)
+        x = float(position_m[0]) - offset[0]
+        y = float(position_m[1]) - offset[1]
+        z = float(position_m[2]) - offset[2]
+        return (c * x + s * y, -s * x + c * y, z), _wrap(float(heading_rad) - turn)

@@ -25,6 +25,7 @@ decode is an ``unreadable`` pair, counted by the loop.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import struct
@@ -390,7 +391,8 @@ class BagPairs:
             tl - self._shift[k] + offset,
             tr - self._shift[k] + offset,
             index,
-            None if pose is None else pose.odometry,
+            # a looped replay's later rounds come later on the poses' clock too
+            None if pose is None else dataclasses.replace(pose.odometry, stamp_s=pose.t_s + offset),
             None if pose is None else pose.rpy,
             stamp_s=max(tl, tr) + offset,
         )

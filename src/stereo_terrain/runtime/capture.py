@@ -384,6 +384,13 @@ class _Row:
     left: Path
     right: Path
     pose: tuple[float, ...] | None
+    t_pose: float | None = None  # the pose's recorded time where the replay moved t_left
+
+
+def _pose_time(row: _Row) -> float:
+    """The recorded time of a row's pose (the pause caps move the pairs, not the poses'
+    clock: the odometry's jumps are judged on it, stereo_terrain.odometry)."""
+    return row.t_left if row.t_pose is None else row.t_pose
 
 
 #: Recorded times beyond this magnitude are not seconds (a clock in ns, a garbled file).
@@ -515,7 +522,9 @@ def _capped_gaps(rows: list[_Row], index: Path) -> list[_Row]:
                 long_gaps += 1
                 first = first or f"line {i + 2}: {gap:.3g} s"
                 shift += gap - MAX_REPLAY_GAP_S
-        out.append(_Row(r.t_left - shift, r.t_right - shift, r.left, r.right, r.pose) if shift else r)
+        out.append(
+            _Row(r.t_left - shift, r.t_right - shift, r.left, r.right, r.pose, _pose_time(r)) if shift else r
+        )
     if long_gaps:
         log.warning(
             "%s: %d pause(s) longer than %.1f s (the first at %s) replayed as %.1f s",
@@ -535,6 +544,9 @@ class FolderPairs:
         step = (t[-1] - t[0]) / max(1, len(t) - 1) if len(t) > 1 else 1.0 / 30.0
         # Never zero (all times equal): a looped replay would then never get past a pair.
         self._period = t[-1] - t[0] + max(step, 1.0 / 30.0)
+        # The same on the poses' own clock (uncapped): each lap's poses come after the last's.
+        tp = [_pose_time(r) for r in self.rows]
+        self._pose_period = tp[-1] - tp[0] + max(step, 1.0 / 30.0)
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -574,7 +586,8 @@ class FolderPairs:
         odo = rpy = None
         if row.pose is not None:
             x, y, z, roll, pitch, yaw = row.pose
-            odo = Odometry((x, y, z), yaw, row.t_left)  # stamped with the recorded time
+            lap = index // len(self.rows)  # a looped replay's later laps come later
+            odo = Odometry((x, y, z), yaw, _pose_time(row) + lap * self._pose_period)
             rpy = (roll, pitch, yaw)
         frame = StereoFrame(left, right, row.t_left + offset, row.t_right + offset, index, odo, rpy)
         return CaptureEvent(FRAME, frame)
