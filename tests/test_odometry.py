@@ -210,3 +210,47 @@ def test_a_late_pose_is_dropped_and_a_restarted_clock_judges_again(caplog):
     assert restarted.position_m[0] == pytest.approx(0.5) and "went back" in caplog.text
     after = jumps.correct(Odometry((-0.45, 0.0, 0.0), 0.0, 0.1))  # then relocalised 1 m back
     assert after.position_m[0] == pytest.approx(0.55, abs=0.01) and jumps.jumps == 1
+
+
+def test_a_one_pose_glitch_never_reaches_the_published_origin():
+    """Found in the second review: the origin published in the estimator's frame took the
+    glitch's shift at once, and a controller whose own odometry never glitched counted the
+    glitch as travel (raised up to 1.6 m early). A new shift is published once the pose
+    after the jump confirms it."""
+    jumps = PoseJumps()
+    for k in range(12):
+        jumps.correct(Odometry((0.05 * k, 0.0, 0.0), 0.0, 0.1 * k))
+    jumps.correct(Odometry((0.6 - 2.0, 0.0, 0.0), 0.0, 1.2))  # a backward glitch
+    assert jumps.jumps == 1
+    assert jumps.to_raw((1.0, 0.0, 0.0), 0.0)[0] == pytest.approx((1.0, 0.0, 0.0))
+    jumps.correct(Odometry((0.65, 0.0, 0.0), 0.0, 1.3))  # back: the glitch's shift never published
+    assert jumps.to_raw((1.0, 0.0, 0.0), 0.0)[0] == pytest.approx((1.0, 0.0, 0.0))
+    jumps.correct(Odometry((0.7 - 1.0, 0.0, 0.0), 0.0, 1.4))  # a relocalisation 1 m back ...
+    jumps.correct(Odometry((0.75 - 1.0, 0.0, 0.0), 0.0, 1.5))  # ... confirmed by the next pose
+    assert jumps.to_raw((1.0, 0.0, 0.0), 0.0)[0] == pytest.approx((0.0, 0.0, 0.0), abs=0.01)
+
+
+def test_a_clock_stepped_back_while_walking_is_not_a_late_pose():
+    """Found in the second review: a wall clock set back 2 s made every pose for 2 s a late
+    one (dropped), and the travel in it a jump. A pose ahead of the last with an earlier
+    stamp is a clock step: judged from there."""
+    jumps = PoseJumps()
+    for k in range(10):
+        jumps.correct(Odometry((0.05 * k, 0.0, 0.0), 0.0, 100.0 + 0.1 * k))
+    for k in range(10, 30):
+        out = jumps.correct(Odometry((0.05 * k, 0.0, 0.0), 0.0, 98.0 + 0.1 * k))
+        assert out is not None and out.position_m[0] == pytest.approx(0.05 * k)
+    assert jumps.jumps == 0 and jumps.late == 0
+
+
+def test_an_old_glitchs_shift_does_not_explain_a_later_stop():
+    """Found in the second review: a glitch's shift kept for long was taken again when the
+    robot stopped during a later pose gap, its travel taken for the glitch (1.2 m early).
+    Kept shifts expire after a second."""
+    jumps, t, x = PoseJumps(), 0.0, 0.0
+    for k in range(30):
+        t, x = 0.1 * k, 0.1 * k  # 1 m/s
+        glitch = -1.5 if k == 3 else 0.0
+        jumps.correct(Odometry((x + glitch, 0.0, 0.0), 0.0, t))
+    out = jumps.correct(Odometry((x, 0.0, 0.0), 0.0, t + 1.5))  # stopped during a 1.5 s gap
+    assert out.position_m[0] == pytest.approx(x, abs=0.01)

@@ -166,6 +166,13 @@ _SPEED_WINDOW = 10
 #: This many jumps within a second of stamps: the stamps are wrong, not the frame.
 _MAX_JUMPS = 3
 
+#: An earlier shift is taken again only near the prediction over at most this long.
+_NEAR_DT_S = 0.2
+
+#: Earlier shifts are kept this long (stamp seconds) after they were left: a glitch comes
+#: back within it; kept longer, an old shift could "explain" a stop in a later gap.
+_KEEP_SHIFTS_S = 1.0
+
 
 class PoseJumps:
     """Removes the jumps of a state estimator's frame from its poses (module docstring).
@@ -195,9 +202,13 @@ class PoseJumps:
         self._last: Odometry | None = None  # the last judged pose, corrected
         self._velocity = np.zeros(2)  # corrected frame, m/s, from the last two judged poses
         self._warned_stamps = False
-        self._recent: deque[tuple[float, float]] = deque(maxlen=_SPEED_WINDOW)  # (stamp, path length)
+        self._recent: deque[tuple[float, float, float]] = deque(maxlen=_SPEED_WINDOW)  # (stamp, x, y)
         self.untrusted = False  # the stamps are too close together for the poses' travel
-        self._jump_times: deque[float] = deque(maxlen=_MAX_JUMPS)
+        self._jumps_seen: deque[tuple[float, _Shift]] = deque(maxlen=_MAX_JUMPS)  # (stamp, shift before)
+        # The shift the published origin is given in (to_raw): a new one only once the pose
+        # after the jump confirms it (a one-pose glitch never reaches the controller).
+        self._published = self._shift
+        self._superseded: list[float] = []  # stamp at which each kept shift was left
 
     def correct(self, odometry: Odometry | None) -> Odometry | None:
         """The pose with the frame's jumps taken out; None for a pose delivered late (None
@@ -205,7 +216,7 @@ class PoseJumps:
         if odometry is None or not odometry.finite or not self.config.enabled:
             return odometry
         if self.untrusted:
-            return odometry
+            return self._shift.apply(odometry)  # frozen: no more judging
         moved = self._shift.apply(odometry)
         last = self._last
         if odometry.stamp_s is None:
@@ -215,18 +226,20 @@ class PoseJumps:
             return moved
         cfg = self.config
         dt = float(odometry.stamp_s) - float(last.stamp_s)
+        step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
         if dt < 0:
-            if -dt <= cfg.max_gap_s:
+            speed = float(np.hypot(*self._velocity))
+            behind = speed > 0.05 and float(step @ self._velocity) / speed < 0.0
+            if behind and -dt <= cfg.max_gap_s:
                 self.late += 1
-                return None  # older than a pose already counted: no pose, not a step back
-            log.warning(
-                "the odometry's clock went back %.1f s (a restart?): its jumps are judged from here", -dt
-            )
+                return None  # an older pose, delivered late (behind the last): no pose
+            # Ahead of the last pose (or standing) with an earlier stamp: the clock stepped
+            # back (a restart, a wall clock set back), not an old pose: judged from here.
+            log.warning("the odometry's clock went back %.3f s: its jumps are judged from here", -dt)
             self._last = moved
             self._recent.clear()  # the pace of the stamps starts again too
-            self._jump_times.clear()
+            self._jumps_seen.clear()
             return moved
-        step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
         if dt == 0:
             if float(np.hypot(*step)) > cfg.slack_m and not self._warned_stamps:
                 self._warned_stamps = True
@@ -255,7 +268,13 @@ class PoseJumps:
         # have changed by a quarter of the fastest in the time), and much nearer than the
         # current one does: the way back of a glitch, not a new jump that happens to land
         # near where an old shift would put it.
-        near = cfg.slack_m + 0.25 * cfg.max_speed_mps * dt
+        # (Over at most a frame's time: after a long gap the speed is too unsure to tell an
+        # old glitch's shift from a change of pace; and kept shifts expire.)
+        near = cfg.slack_m + 0.25 * cfg.max_speed_mps * min(dt, _NEAR_DT_S)
+        stamp = float(odometry.stamp_s)
+        keep = [i for i, t in enumerate(self._superseded) if stamp - t <= _KEEP_SHIFTS_S]
+        self._history = [self._history[i] for i in keep]
+        self._superseded = [self._superseded[i] for i in keep]
         for k, shift in enumerate(self._history):
             other, other_ok, other_miss = judged(shift)
             if other_ok and other_miss <= near and (best is None or other_miss + cfg.slack_m < 0.5 * best[2]):
@@ -266,46 +285,48 @@ class PoseJumps:
                 float(np.hypot(*step)),
                 dt,
             )
-            self._remember(self._shift)
+            self._jumps_seen.append((stamp, self._shift))
+            self._remember(self._shift, stamp)
             x0, y0, z0 = (float(v) for v in last.position_m)
             self._shift = _Shift.placing(odometry, np.array([predicted[0], predicted[1], z0]), last.yaw_rad)
             self.jumps += 1
             moved = self._shift.apply(odometry)
-            self._jump_times.append(float(odometry.stamp_s))
-            if len(self._jump_times) == _MAX_JUMPS and self._jump_times[-1] - self._jump_times[0] < 1.0:
+            first, before = self._jumps_seen[0]
+            if len(self._jumps_seen) == _MAX_JUMPS and stamp - first < 1.0:
                 # Several jumps within a second: no estimator relocalises that often, its
-                # stamps are wrong (too close together for the travel).
-                self._distrust(
-                    f"{_MAX_JUMPS} jumps within {self._jump_times[-1] - self._jump_times[0]:.4f} s"
-                )
-                return odometry
+                # stamps are wrong (too close together for the travel). Those jumps are
+                # undone; what was taken out before them stays.
+                self._shift = self._published = before
+                self._distrust(f"{_MAX_JUMPS} jumps within {stamp - first:.4f} s")
+                return self._shift.apply(odometry)
         else:
             k, moved, _ = best
             if k >= 0:  # back to an earlier shift: the jump ended (a glitch's way back)
                 log.warning("odometry back in the frame it had before a jump")
                 earlier = self._history.pop(k)
-                self._remember(self._shift)
+                self._superseded.pop(k)
+                self._remember(self._shift, stamp)
                 self._shift = earlier
+            self._published = self._shift  # this pose agrees with it
             step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
             speed = float(np.hypot(*step)) / dt
             self._velocity = step / dt * min(1.0, cfg.max_speed_mps / max(speed, 1e-12))
-            if self._stamps_too_close(float(odometry.stamp_s), float(np.hypot(*step))):
-                return odometry
+            if self._stamps_too_close(stamp, moved):
+                return moved
         self._last = moved
         return moved
 
-    def _stamps_too_close(self, stamp: float, step_m: float) -> bool:
-        """Whether the stamps are too close together for the travel between the poses (over
-        the last few, steps within the slack each): a clock in the wrong unit (milliseconds
-        read as microseconds) would make every stall a jump. Then nothing more is judged,
-        the shifts are dropped (the poses pass as they come, as without this stage), and
-        it is said once."""
-        path = (self._recent[-1][1] if self._recent else 0.0) + step_m
-        self._recent.append((stamp, path))
+    def _stamps_too_close(self, stamp: float, pose: Odometry) -> bool:
+        """Whether the stamps are too close together for the poses' travel (the net
+        displacement over the last few judged poses, each step within the slack): a clock
+        in the wrong unit (milliseconds read as microseconds) would make every stall a
+        jump. Then nothing more is judged (the current shift stays), and it is said once."""
+        x, y = float(pose.position_m[0]), float(pose.position_m[1])
+        self._recent.append((stamp, x, y))
         if len(self._recent) < _SPEED_WINDOW:
             return False
-        t0, p0 = self._recent[0]
-        travelled, elapsed = path - p0, stamp - t0
+        t0, x0, y0 = self._recent[0]
+        travelled, elapsed = math.hypot(x - x0, y - y0), stamp - t0
         if travelled <= self.config.slack_m or travelled <= 2.0 * self.config.max_speed_mps * elapsed:
             return False
         self._distrust(f"{travelled:.2f} m in {elapsed:.4f} s")
@@ -313,23 +334,25 @@ class PoseJumps:
 
     def _distrust(self, why: str) -> None:
         self.untrusted = True
-        self._shift, self._history = _Shift(), []
+        self._history, self._superseded = [], []
         log.warning(
             "odometry stamps are too close together for its travel (%s): its jumps are not taken "
             "out from here (the stamps must be seconds on the estimator's clock)",
             why,
         )
 
-    def _remember(self, shift: _Shift) -> None:
+    def _remember(self, shift: _Shift, stamp: float) -> None:
         self._history = ([shift] + self._history)[:_HISTORY]
+        self._superseded = ([stamp] + self._superseded)[:_HISTORY]
 
     def to_raw(
         self, position_m: tuple[float, float, float], heading_rad: float
     ) -> tuple[tuple[float, float, float], float]:
-        """A position and heading of the corrected frame in the estimator's own frame now
-        (the inverse of the current shift): what a controller comparing its own odometry
-        with them needs."""
-        turn, offset = self._shift.turn, self._shift.offset
+        """A position and heading of the corrected frame in the estimator's own frame (the
+        inverse of the shift the last pose confirmed: a jump's new shift counts once the pose
+        after it agrees, so a one-pose glitch never reaches the controller): what a
+        controller comparing its own odometry with them needs."""
+        turn, offset = self._published.turn, self._published.offset
         c, s = math.cos(turn), math.sin(turn)
         x = float(position_m[0]) - offset[0]
         y = float(position_m[1]) - offset[1]

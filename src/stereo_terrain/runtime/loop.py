@@ -479,12 +479,15 @@ class LiveLoop:
         odo, _ = self.pose(None)
         if not _finite_pose(odo, None):
             odo = None  # as for a pair (a NaN is no pose)
+        given = odo
         odo = self.pose_jumps.correct(odo)
         self.summary.pose_jumps = self.pose_jumps.jumps
         trig = self.trigger.update(odo) if odo is not None else self.trigger.state
         conditions = self._last_conditions
         if odo is not None:
             conditions &= ~terrain_t.QUALITY_POSE_MISSING
+        elif given is not None:
+            conditions |= terrain_t.QUALITY_POSE_MISSING  # a pose delivered late: dropped
         result = self._last_result
         capture = self._last_capture if self._last_capture is not None else self._last_fresh
         assert capture is not None
