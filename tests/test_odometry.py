@@ -254,3 +254,17 @@ def test_an_old_glitchs_shift_does_not_explain_a_later_stop():
         jumps.correct(Odometry((x + glitch, 0.0, 0.0), 0.0, t))
     out = jumps.correct(Odometry((x, 0.0, 0.0), 0.0, t + 1.5))  # stopped during a 1.5 s gap
     assert out.position_m[0] == pytest.approx(x, abs=0.01)
+
+
+def test_a_late_pose_after_a_glitch_while_standing_does_not_keep_the_glitch():
+    """Found in the third review: standing, a one-pose glitch, then a pose stamped before
+    it (delivered late, itself still glitched): it was taken for a clock set back under the
+    glitch's shift, which then stayed (0.28 m late)."""
+    jumps = PoseJumps()
+    for k in range(10):
+        jumps.correct(Odometry((1.5, 0.0, 0.0), 0.0, 3.0 + 0.1 * k))  # standing
+    jumps.correct(Odometry((1.0, 0.0, 0.0), 0.0, 4.0))  # a glitch of -0.5 m
+    jumps.correct(Odometry((1.0, 0.0, 0.0), 0.0, 3.98))  # late, still glitched
+    for k in range(1, 10):
+        out = jumps.correct(Odometry((1.5 + 0.05 * k, 0.0, 0.0), 0.0, 4.0 + 0.1 * k))  # walks on
+        assert out.position_m[0] == pytest.approx(1.5 + 0.05 * k, abs=0.06)

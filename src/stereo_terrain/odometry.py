@@ -229,13 +229,20 @@ class PoseJumps:
         step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
         if dt < 0:
             speed = float(np.hypot(*self._velocity))
-            behind = speed > 0.05 and float(step @ self._velocity) / speed < 0.0
+            if speed > 0.05:
+                behind = float(step @ self._velocity) / speed < 0.0
+            else:  # standing: a late pose is where the body stands
+                behind = float(np.hypot(*step)) <= cfg.slack_m
             if behind and -dt <= cfg.max_gap_s:
                 self.late += 1
                 return None  # an older pose, delivered late (behind the last): no pose
-            # Ahead of the last pose (or standing) with an earlier stamp: the clock stepped
-            # back (a restart, a wall clock set back), not an old pose: judged from here.
+            # Ahead of the last pose (standing: away from it) with an earlier stamp: the
+            # clock stepped back (a restart, a wall clock set back), not an old pose.
             log.warning("the odometry's clock went back %.3f s: its jumps are judged from here", -dt)
+            # A shift no pose has confirmed yet (a glitch's) is not carried into the restart
+            # (found in the third review: a late pose under a glitch's shift kept it).
+            self._shift = self._published
+            moved = self._shift.apply(odometry)
             self._last = moved
             self._recent.clear()  # the pace of the stamps starts again too
             self._jumps_seen.clear()
@@ -344,6 +351,12 @@ class PoseJumps:
     def _remember(self, shift: _Shift, stamp: float) -> None:
         self._history = ([shift] + self._history)[:_HISTORY]
         self._superseded = ([stamp] + self._superseded)[:_HISTORY]
+
+    @property
+    def settled(self) -> bool:
+        """False just after a jump, until the next pose confirms the new shift (or goes back):
+        the estimator's own frame is then not known for sure."""
+        return self._shift is self._published
 
     def to_raw(
         self, position_m: tuple[float, float, float], heading_rad: float

@@ -468,6 +468,11 @@ class LiveLoop:
         if self.pose_jumps.jumps == 0:
             return trig
         p0, heading = self.pose_jumps.to_raw(trig.p0_m, trig.heading_rad)
+        if not self.pose_jumps.settled:
+            # Just after a jump the estimator's frame is not yet known (a glitch, or a
+            # relocalisation the next pose confirms): the origin is in neither for sure, so no
+            # distance is given this once; the controller goes by ``raise_swing``.
+            return dataclasses.replace(trig, p0_m=p0, heading_rad=heading, trigger_distance_m=None)
         return dataclasses.replace(trig, p0_m=p0, heading_rad=heading)
 
     def _heartbeat(self, now: float) -> None:
