@@ -268,3 +268,30 @@ def test_a_late_pose_after_a_glitch_while_standing_does_not_keep_the_glitch():
     for k in range(1, 10):
         out = jumps.correct(Odometry((1.5 + 0.05 * k, 0.0, 0.0), 0.0, 4.0 + 0.1 * k))  # walks on
         assert out.position_m[0] == pytest.approx(1.5 + 0.05 * k, abs=0.06)
+
+
+def test_glitches_that_come_back_do_not_switch_the_judging_off():
+    """Found in review: three one-pose glitches within a second (each undone by its way
+    back) counted as wrong stamps and switched the stage off for good."""
+    jumps = PoseJumps()
+    for k in range(40):
+        glitch = {10: 2.0, 13: -1.0, 16: 1.5}.get(k, 0.0)
+        out = jumps.correct(Odometry((0.05 * k + glitch, 0.0, 0.0), 0.0, 0.1 * k))
+        if not glitch:
+            assert out.position_m[0] == pytest.approx(0.05 * k, abs=0.01)
+    assert jumps.jumps == 3 and not jumps.untrusted
+
+
+def test_a_restarted_clock_forgets_the_old_shifts_and_reset_forgets_everything():
+    jumps = PoseJumps()
+    for k in range(10):
+        jumps.correct(Odometry((0.05 * k + (1.0 if k == 5 else 0.0), 0.0, 0.0), 0.0, 100.0 + 0.1 * k))
+    assert jumps._history
+    jumps.correct(Odometry((0.6, 0.0, 0.0), 0.0, 0.0))  # the clock went back 101 s
+    assert not jumps._history
+    jumps.reset()
+    assert (
+        jumps.jumps == 0
+        and jumps.settled
+        and jumps.correct(Odometry((5.0, 0.0, 0.0), 0.0, 1.0)).position_m[0] == 5.0
+    )

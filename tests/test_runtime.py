@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from stereo_terrain.errors import ConfigError, InputError
+from stereo_terrain.odometry import PoseJumps
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.runtime.capture import (
     END,
@@ -208,6 +209,23 @@ def test_recorded_folder_round_trip_and_poses(tmp_path):
         stamps.append(frame.odometry.stamp_s)
     assert np.all(np.diff(times) > 0)  # repeats keep time going forward
     assert np.all(np.diff(stamps) > 0)  # and so do the poses' stamps (odometry.PoseJumps)
+    # The first pair of each later round says the source started over (the loop then
+    # forgets the odometry's jumps: the poses start over with the images).
+    looped = FolderPairs(folder, loop=True)
+    restarts = [looped.read().frame.restart for _ in range(25)]
+    assert [i for i, r in enumerate(restarts) if r] == [10, 20]
+    # As the live loop feeds them: the poses' way back to the start (here 0.9 m in a
+    # frame's time, a jump of the frame otherwise) is no jump.
+    img = np.zeros((24, 32), np.uint8)
+    walk = [StereoFrame(img, img, i / 30, i / 30, i, Odometry((0.1 * i, 0, 0)), (0, 0, 0)) for i in range(10)]
+    write_pairs(folder / "walk", walk)
+    jumps, looped = PoseJumps(), FolderPairs(folder / "walk", loop=True)
+    for _ in range(25):
+        frame = looped.read().frame
+        if frame.restart:
+            jumps.reset()
+        assert jumps.correct(frame.odometry).position_m == frame.odometry.position_m
+    assert jumps.jumps == 0
 
 
 def test_a_long_pause_is_shortened_for_the_pairs_not_for_the_poses_clock(tmp_path):

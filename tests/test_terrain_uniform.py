@@ -1,6 +1,8 @@
 """A staircase's common rise (terrain/uniform.py) and the least run of a step
 (``TerrainConfig.min_run_m``), issue 11."""
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -151,7 +153,7 @@ def test_a_run_that_does_not_agree_keeps_its_own():
     assert steps[1].measured_run_m is None
 
 
-def test_the_staircase_reports_one_run_and_the_json_keeps_the_measured():
+def test_the_staircase_reports_one_run_and_keeps_the_measured_ones():
     planes = _stairs(n_steps=4, rise=0.17, run=0.29)
     model = build_terrain(planes)
     runs = [s.run_m for s in model.steps if s.run_m is not None]
@@ -160,3 +162,23 @@ def test_the_staircase_reports_one_run_and_the_json_keeps_the_measured():
     assert "measured runs agree" in model.note
     sig = estimate_step_sigmas(model, planes, focal_px=500.0, baseline_m=0.1).steps
     assert all(s.run_sigma_m >= _STEP_VARIATION_M for s in sig[:3])
+
+
+def test_the_swing_clears_the_larger_of_a_steps_common_and_measured_rise():
+    """Pooled rises may differ by up to twice the tolerance: a 20 cm step among 17 cm ones
+    reports 17 cm, but the swing plan clears its 20 cm (found in review)."""
+    from stereo_terrain.swing import plan_swing
+    from stereo_terrain.terrain import STAIRS, Polytope, StairModel
+
+    steps, n, _ = common_steps(_steps([0.20, 0.17, 0.17, 0.17]), 0.0, CONFIG)
+    assert n == 4 and steps[0].rise_m == pytest.approx(0.17)
+    model = StairModel(STAIRS, tuple(steps), 0.0, 0.0, Polytope(np.zeros((0, 3))), "yaw", "")
+    assert plan_swing(model).step_height_m == pytest.approx(0.20)
+
+
+def test_a_median_of_rises_without_sigmas_has_no_sigma():
+    from stereo_terrain.terrain.sigmas import _median_sigma
+
+    assert math.isnan(_median_sigma([math.nan, math.nan, math.nan], np.array([0.17, 0.17, 0.17])))
+    assert math.isnan(_median_sigma([], np.array([])))
+    assert _median_sigma([0.01, 0.01, 0.01], np.array([0.17, 0.17, 0.17])) > _STEP_VARIATION_M

@@ -114,7 +114,8 @@ class PoseJumpConfig:
         The last speed is carried over a gap between poses for at most this long (where a
         jump is taken out, the body is put where that speed takes it; beyond it, the travel
         is not known: more is early, less would be late). Also: a pose older than the last
-        by up to this was delivered late (dropped); by more, the clock restarted.
+        by up to this and behind it was delivered late (dropped); otherwise the clock went
+        back.
     """
 
     enabled: bool = True
@@ -163,8 +164,23 @@ _HISTORY = 3
 #: Judged poses over which the stamps' pace is checked against the travel.
 _SPEED_WINDOW = 10
 
-#: This many jumps within a second of stamps: the stamps are wrong, not the frame.
+#: This many jumps (not undone by a way back) within this long of stamps: the stamps are
+#: wrong, not the frame (no estimator relocalises that often).
 _MAX_JUMPS = 3
+_MAX_JUMPS_WITHIN_S = 1.0
+
+#: The stamps are too close when the poses' net travel over the window is this many
+#: times what the fastest body could make in their time.
+_PACE_MARGIN = 2.0
+
+#: Slower than this (m/s) the body stands: a late pose is then where the last one was.
+_STANDING_MPS = 0.05
+
+#: An earlier shift must land within the slack plus this share of the fastest travel in
+#: the time (the pace may have changed that much), and its miss be under this fraction of
+#: the current shift's ("much nearer").
+_NEAR_SPEED_SHARE = 0.25
+_MUCH_NEARER = 0.5
 
 #: An earlier shift is taken again only near the prediction over at most this long.
 _NEAR_DT_S = 0.2
@@ -188,9 +204,12 @@ class PoseJumps:
     (the way back of a glitch, even one followed by a stall, returns to the shift from
     before it). When none allows it, the frame jumped: a new shift puts the pose where the
     body would be. Stamps that do not advance while the pose moves (a source that never
-    sets them, a clock in the wrong unit) are not judged and said so once; a pose older
-    than the last (by up to ``max_gap_s``: delivered late) is dropped (no pose); a clock
-    that went back further (the estimator restarted) starts the judging again.
+    sets them, a clock in the wrong unit) are not judged and said so once. A pose older
+    than the last by up to ``max_gap_s`` that lies behind it (standing: within the slack
+    of it) was delivered late and is dropped (no pose); one ahead of it, or older by
+    more, means the clock went back (a restart, a wall clock set back): the judging
+    starts again from it, under the last confirmed shift. A new shift is published
+    (:meth:`to_raw`) once the pose after the jump confirms it (:attr:`settled`).
     """
 
     def __init__(self, config: PoseJumpConfig | None = None) -> None:
@@ -229,7 +248,7 @@ class PoseJumps:
         step = np.array(moved.position_m[:2]) - np.array(last.position_m[:2])
         if dt < 0:
             speed = float(np.hypot(*self._velocity))
-            if speed > 0.05:
+            if speed > _STANDING_MPS:
                 behind = float(step @ self._velocity) / speed < 0.0
             else:  # standing: a late pose is where the body stands
                 behind = float(np.hypot(*step)) <= cfg.slack_m
@@ -246,6 +265,7 @@ class PoseJumps:
             self._last = moved
             self._recent.clear()  # the pace of the stamps starts again too
             self._jumps_seen.clear()
+            self._history, self._superseded = [], []  # stamps of the old clock
             return moved
         if dt == 0:
             if float(np.hypot(*step)) > cfg.slack_m and not self._warned_stamps:
@@ -277,14 +297,18 @@ class PoseJumps:
         # near where an old shift would put it.
         # (Over at most a frame's time: after a long gap the speed is too unsure to tell an
         # old glitch's shift from a change of pace; and kept shifts expire.)
-        near = cfg.slack_m + 0.25 * cfg.max_speed_mps * min(dt, _NEAR_DT_S)
+        near = cfg.slack_m + _NEAR_SPEED_SHARE * cfg.max_speed_mps * min(dt, _NEAR_DT_S)
         stamp = float(odometry.stamp_s)
         keep = [i for i, t in enumerate(self._superseded) if stamp - t <= _KEEP_SHIFTS_S]
         self._history = [self._history[i] for i in keep]
         self._superseded = [self._superseded[i] for i in keep]
         for k, shift in enumerate(self._history):
             other, other_ok, other_miss = judged(shift)
-            if other_ok and other_miss <= near and (best is None or other_miss + cfg.slack_m < 0.5 * best[2]):
+            if (
+                other_ok
+                and other_miss <= near
+                and (best is None or other_miss + cfg.slack_m < _MUCH_NEARER * best[2])
+            ):
                 best = (k, other, other_miss)
         if best is None:
             log.warning(
@@ -294,12 +318,12 @@ class PoseJumps:
             )
             self._jumps_seen.append((stamp, self._shift))
             self._remember(self._shift, stamp)
-            x0, y0, z0 = (float(v) for v in last.position_m)
+            z0 = float(last.position_m[2])
             self._shift = _Shift.placing(odometry, np.array([predicted[0], predicted[1], z0]), last.yaw_rad)
             self.jumps += 1
             moved = self._shift.apply(odometry)
             first, before = self._jumps_seen[0]
-            if len(self._jumps_seen) == _MAX_JUMPS and stamp - first < 1.0:
+            if len(self._jumps_seen) == _MAX_JUMPS and stamp - first < _MAX_JUMPS_WITHIN_S:
                 # Several jumps within a second: no estimator relocalises that often, its
                 # stamps are wrong (too close together for the travel). Those jumps are
                 # undone; what was taken out before them stays.
@@ -310,6 +334,8 @@ class PoseJumps:
             k, moved, _ = best
             if k >= 0:  # back to an earlier shift: the jump ended (a glitch's way back)
                 log.warning("odometry back in the frame it had before a jump")
+                if self._jumps_seen:
+                    self._jumps_seen.pop()  # undone: not a jump that says the stamps are wrong
                 earlier = self._history.pop(k)
                 self._superseded.pop(k)
                 self._remember(self._shift, stamp)
@@ -334,7 +360,10 @@ class PoseJumps:
             return False
         t0, x0, y0 = self._recent[0]
         travelled, elapsed = math.hypot(x - x0, y - y0), stamp - t0
-        if travelled <= self.config.slack_m or travelled <= 2.0 * self.config.max_speed_mps * elapsed:
+        if (
+            travelled <= self.config.slack_m
+            or travelled <= _PACE_MARGIN * self.config.max_speed_mps * elapsed
+        ):
             return False
         self._distrust(f"{travelled:.2f} m in {elapsed:.4f} s")
         return True
@@ -351,6 +380,10 @@ class PoseJumps:
     def _remember(self, shift: _Shift, stamp: float) -> None:
         self._history = ([shift] + self._history)[:_HISTORY]
         self._superseded = ([stamp] + self._superseded)[:_HISTORY]
+
+    def reset(self) -> None:
+        """Forget every pose and shift (a source that starts over: a looped replay's next lap)."""
+        self.__init__(self.config)  # type: ignore[misc]
 
     @property
     def settled(self) -> bool:

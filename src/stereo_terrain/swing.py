@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from .checks import check_fields
 from .errors import ConfigError
 from .odometry import Odometry, usable_odometry  # Odometry: importable from here as before
-from .terrain import NONE, StairModel
+from .terrain import NONE, StairModel, Step
 
 
 @dataclass(frozen=True)
@@ -68,12 +68,20 @@ class SwingPlan:
     step_height_m: float
 
 
+def rise_to_clear(step: Step) -> float:
+    """The rise a swing must clear at ``step``: the larger of its reported rise and its own
+    measured one, where the reported one is the staircase's common rise (the pooled rises
+    may differ by up to twice the tolerance: :mod:`stereo_terrain.terrain.uniform`)."""
+    measured = step.measured_rise_m
+    return step.rise_m if measured is None else max(step.rise_m, measured)
+
+
 def plan_swing(model: StairModel, config: SwingConfig | None = None) -> SwingPlan:
     """Swing plan for the obstacle in ``model`` (the nominal swing when there is none)."""
     config = config or SwingConfig()
     if model.obstacle == NONE or not model.steps:
         return SwingPlan(config.nominal_height_m, None, True, 0.0)
-    step_height = max(s.rise_m for s in model.steps)
+    step_height = max(rise_to_clear(s) for s in model.steps)
     wanted = max(config.nominal_height_m, step_height + config.clearance_m)
     height = min(wanted, config.max_height_m)
     traversable = step_height <= config.max_height_m
@@ -325,7 +333,7 @@ class SwingTrigger:
     def _measured_rises(self, model: StairModel) -> list[float]:
         z = self._camera_z
         steps = model.steps
-        return [s.rise_m for i, s in enumerate(steps) if i == 0 or z is None or s.top_z_m <= z]
+        return [rise_to_clear(s) for i, s in enumerate(steps) if i == 0 or z is None or s.top_z_m <= z]
 
     def _step_height(self) -> float:
         """Top-of-step height to clear: the highest per-step median rise over the recent

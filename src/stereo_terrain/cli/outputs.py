@@ -147,7 +147,7 @@ def all_or_none() -> Iterator[None]:
         _drop(pending)
         raise
     finally:
-        _STAGED.remove(pending)
+        _STAGED.pop()  # the innermost block: its own list
     for k, (tmp, target) in enumerate(pending):
         try:
             _rename_onto(tmp, target)

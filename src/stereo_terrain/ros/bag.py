@@ -270,7 +270,11 @@ class BagPairs:
             )  # fmt: skip
         t = raw_t - self._shift
         self._period = t[-1] - t[0] + max((t[-1] - t[0]) / max(1, len(t) - 1), 1.0 / 30.0)
+        # The same on the poses' own clock (pauses not shortened): each round's pose stamps
+        # come after the last round's.
+        self._pose_period = raw_t[-1] - raw_t[0] + max((t[-1] - t[0]) / max(1, len(t) - 1), 1.0 / 30.0)
         self._round = 0
+        self._read_round = 0  # the round of the last pair read
         self._stream: Iterator[tuple[int, Any, Any]] | None = None
         self._next: tuple[int, Any, Any] | None = None
         self._index = 0
@@ -376,6 +380,8 @@ class BagPairs:
             return CaptureEvent(END)
         k, (lc, lm), (rc, rm) = self._next
         offset = self._round * self._period
+        pose_offset = self._round * self._pose_period
+        restart, self._read_round = self._round > self._read_round, self._round
         index = self._index
         self.skip()
         _, _, tl, tr = self.pairs[k]
@@ -392,9 +398,10 @@ class BagPairs:
             tr - self._shift[k] + offset,
             index,
             # a looped replay's later rounds come later on the poses' clock too
-            None if pose is None else dataclasses.replace(pose.odometry, stamp_s=pose.t_s + offset),
+            None if pose is None else dataclasses.replace(pose.odometry, stamp_s=pose.t_s + pose_offset),
             None if pose is None else pose.rpy,
             stamp_s=max(tl, tr) + offset,
+            restart=restart,
         )
         return CaptureEvent(FRAME, frame)
 

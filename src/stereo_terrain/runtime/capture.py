@@ -68,6 +68,9 @@ class StereoFrame:
         Capture time of the pair on the source's own clock, seconds since the epoch, when
         it has one (a bag's header stamps); kept when :class:`Paced` moves the times onto
         the loop's clock, so outputs can carry the original stamps.
+    restart : bool
+        The first pair of a looped source's next round: it starts over (the loop forgets
+        the odometry's jump history, :class:`~stereo_terrain.odometry.PoseJumps`).
     """
 
     left: np.ndarray = field(repr=False)
@@ -78,6 +81,7 @@ class StereoFrame:
     odometry: Odometry | None = None
     body_rpy: tuple[float, float, float] | None = None
     stamp_s: float | None = None
+    restart: bool = False
 
     @property
     def t_capture_s(self) -> float:
@@ -540,6 +544,7 @@ class FolderPairs:
         self.rows = _capped_gaps(read_pairs_index(folder), Path(folder) / PAIRS_FILE)
         self.loop = loop
         self._i = 0
+        self._lap = 0  # of the last pair read
         t = [max(r.t_left, r.t_right) for r in self.rows]
         step = (t[-1] - t[0]) / max(1, len(t) - 1) if len(t) > 1 else 1.0 / 30.0
         # Never zero (all times equal): a looped replay would then never get past a pair.
@@ -589,7 +594,11 @@ class FolderPairs:
             lap = index // len(self.rows)  # a looped replay's later laps come later
             odo = Odometry((x, y, z), yaw, _pose_time(row) + lap * self._pose_period)
             rpy = (roll, pitch, yaw)
-        frame = StereoFrame(left, right, row.t_left + offset, row.t_right + offset, index, odo, rpy)
+        lap = index // len(self.rows)
+        restart, self._lap = lap > self._lap, lap  # (its first pair may have been skipped)
+        frame = StereoFrame(
+            left, right, row.t_left + offset, row.t_right + offset, index, odo, rpy, restart=restart
+        )
         return CaptureEvent(FRAME, frame)
 
     def close(self) -> None:

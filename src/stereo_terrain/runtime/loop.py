@@ -258,6 +258,7 @@ class LiveLoop:
         # The state estimator's frame jumps (glitch, relocalisation) are no travel: every pose
         # goes through this before the tracker and the trigger see it.
         self.pose_jumps = PoseJumps(self.config.pose_jumps)
+        self._jumps_before = 0  # taken out before the source last started over
         self.clock = clock
         self.sleep = sleep
         self.status = status
@@ -379,8 +380,11 @@ class LiveLoop:
             self.summary.bad_poses += 1
             log.warning("pair %d: body pose ignored (not finite): %s, %s", frame.index, odo, rpy)
             odo, rpy = None, None
+        if frame.restart:  # a looped source started over: its poses begin again too
+            self._jumps_before += self.pose_jumps.jumps
+            self.pose_jumps.reset()
         odo = self.pose_jumps.correct(odo)
-        self.summary.pose_jumps = self.pose_jumps.jumps
+        self.summary.pose_jumps = self._jumps_before + self.pose_jumps.jumps
         if rpy is not None and rpy != self._rpy and self.pipeline.rig is not None:
             # The body attitude from the state estimator (paper eq. 1) for this frame.
             self.pipeline.set_rig(dataclasses.replace(self.pipeline.rig, body_rpy=rpy))
@@ -486,7 +490,7 @@ class LiveLoop:
             odo = None  # as for a pair (a NaN is no pose)
         given = odo
         odo = self.pose_jumps.correct(odo)
-        self.summary.pose_jumps = self.pose_jumps.jumps
+        self.summary.pose_jumps = self._jumps_before + self.pose_jumps.jumps
         trig = self.trigger.update(odo) if odo is not None else self.trigger.state
         conditions = self._last_conditions
         if odo is not None:

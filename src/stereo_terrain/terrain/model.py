@@ -98,16 +98,24 @@ class TerrainConfig:
         this far beyond it: the runs of ordinary building stairs (codes ask for 22-36
         cm) with a margin for the position's noise. A single step so continued is a
         staircase, not a box.
+    max_continued_steps : int
+        At most this many steps are added so.
+    face_bias_correlation : float
+        Correlation of the shared disparity error of neighbouring faces (a tread and the
+        surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
+        Measured on the rendered approaches: single-frame rise errors are about 0.3 of
+        what independent biases would give, i.e. a correlation near 0.9.
     common_rise_tolerance_m, common_run_tolerance_m : float
         A staircase's rises are equal, and so are its runs (building codes allow about a
         centimetre between the largest and the smallest); what differs between measured
         ones is mostly the measurement, worst on the far steps. Where ``common_min_steps``
         or more measured rises (runs) lie within this of their median, each of those steps
-        reports the median of them, the staircase's common rise (run); its own stays in
-        ``Step.measured_rise_m`` (``measured_run_m``). A step further off keeps its own (a
-        different step, or a measurement gone wrong: either way not averaged away). The run
-        tolerance is wider: a riser's position is less sure than a height. 0 = off. See
-        :mod:`.uniform`.
+        reports that median, the staircase's common rise (run); its own stays in
+        ``Step.measured_rise_m`` (``measured_run_m``), and the swing plan clears the larger
+        of the two. A step further off keeps its own (a different step, or a measurement
+        gone wrong: either way not averaged away; those pooled may differ by up to twice
+        this between them). The run tolerance is wider: a riser's position is less sure
+        than a height. 0 = off. See :mod:`.uniform`.
     common_min_steps : int
         Measured rises (runs) that must agree for a common one (with two, neither can be
         told to be the odd one).

@@ -32,9 +32,12 @@ def _median_sigma(own: list[float], values: np.ndarray) -> float:
     staircase's by :data:`_STEP_VARIATION_M`. NaN with no values."""
     if len(values) == 0:
         return math.nan
-    own_sq = float(np.nanmean(np.square(own))) if np.isfinite(own).any() else 0.0
+    if not np.isfinite(own).any():
+        return math.nan  # nothing says how well they were measured
+    own_sq = float(np.nanmean(np.square(own)))
     spread_sq = float(np.var(values))
-    return math.sqrt(1.57 * max(own_sq, spread_sq) / len(values) + _STEP_VARIATION_M**2)
+    # The median of n values: pi / 2 times the variance of their mean.
+    return math.sqrt(math.pi / 2 * max(own_sq, spread_sq) / len(values) + _STEP_VARIATION_M**2)
 
 
 #: A sample is on a face when its local normal is within about 30 deg of the face's.
@@ -271,7 +274,7 @@ def estimate_step_sigmas(
     for i, st in enumerate(steps):
         sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
         if st.measured_rise_m is not None:
-            sig_rise = common_rise_sigma
+            sig_rise = common_rise_sigma  # the staircase's common rise
         elif st.rise_inferred:
             # the median of the measured rises (a first step whose foot is out of view, a
             # step found beyond the last riser plane: terrain/continuation.py)

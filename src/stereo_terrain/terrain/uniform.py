@@ -15,7 +15,10 @@ measurement gone wrong, and averaging would hide either from the swing plan. Ste
 rise was inferred (:mod:`.continuation`, a first step whose foot is out of view) take the
 common rise too. The tread heights follow the rises (each tread stands its rise above the
 one before it, the first above the ground), so that the model's heights agree with its
-rises; the riser positions and distances, the planes and the polytope stay as measured.
+rises (a step without a tread plane takes its polytope top from that height); the riser
+positions and distances and the planes stay as measured. Pooled values may differ by up
+to twice the tolerance between them, so the swing plan clears the larger of a step's
+common and measured rise (:func:`stereo_terrain.swing.plan_swing`).
 
 Measured on the plane sets of 280 rendered staircases per profile (docs/benchmarks.md,
 "Eighth session"): rise and run errors fall on both profiles (the default profile's rise
