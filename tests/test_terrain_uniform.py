@@ -182,3 +182,35 @@ def test_a_median_of_rises_without_sigmas_has_no_sigma():
     assert math.isnan(_median_sigma([math.nan, math.nan, math.nan], np.array([0.17, 0.17, 0.17])))
     assert math.isnan(_median_sigma([], np.array([])))
     assert _median_sigma([0.01, 0.01, 0.01], np.array([0.17, 0.17, 0.17])) > _STEP_VARIATION_M
+
+
+def _first_step_unplaned(n_steps=4, rise=0.19, run=0.29, distance=1.3):
+    """``_stairs`` whose first riser and first tread formed no plane (their samples stay)."""
+    import dataclasses
+
+    from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL
+
+    planes = _stairs(n_steps=n_steps, rise=rise, run=run, distance=distance)
+    keep = [
+        seg
+        for seg in planes.segments
+        if not (seg.kind == VERTICAL and abs(seg.plane.offset - distance) < 1e-6)
+        and not (seg.kind == HORIZONTAL and abs(seg.plane.offset + rise) < 1e-6)
+    ]
+    assert len(keep) == len(planes.segments) - 2
+    return dataclasses.replace(planes, segments=tuple(keep))
+
+
+def test_a_chain_above_the_ground_gets_its_first_step_inferred():
+    """Realistic stairs whose first riser formed no plane: the riser planes above it chain
+    with each other a run apart, a whole rise above the ground (issue 11)."""
+    planes = _first_step_unplaned()
+    off = build_terrain(planes, TerrainConfig(max_steps_below_chain=0))
+    # without it only the too-tall-step safety net takes them: two steps as one of 38 cm
+    assert len(off.steps) == 3 and off.steps[0].rise_m == pytest.approx(0.38, abs=0.02), off.note
+    model = build_terrain(planes)
+    assert model.obstacle == STAIRS and len(model.steps) == 4, model.note
+    assert model.steps[0].rise_inferred and not model.steps[1].rise_inferred
+    assert model.steps[0].distance_m == pytest.approx(1.3, abs=0.02)
+    assert [s.top_z_m for s in model.steps] == pytest.approx([0.19, 0.38, 0.57, 0.76], abs=0.02)
+    assert "below the lowest riser plane" in model.note

@@ -103,6 +103,56 @@ def _chained(model: StairModel) -> int:
     return len(model.steps) - sum(1 for s in model.steps[1:] if s.rise_inferred)
 
 
+#: One link of a chain: (riser candidate or None, top height, riser plane, tread plane or
+#: None, position along the stair axis).
+_Link = tuple[_Riser | None, float, Plane, Plane | None, float]
+
+
+def _chain_above_ground(
+    cands_all: list[tuple[float, float, _Riser | None, Plane, Plane | None]],
+    chain_from,
+    ground_z: float,
+    u: np.ndarray,
+    config: TerrainConfig,
+) -> tuple[list[_Link], set[int]]:
+    """Where nothing chains from the ground: a chain of two or more riser planes that
+    starts above it, a whole number of its rises up (at most ``max_steps_below_chain``),
+    with the steps below it inferred at its rise and run (issue 11).
+
+    On realistic stairs the first riser often forms no plane while the upper ones do, in
+    part; the chain from the ground then refuses them all ("floats above the current
+    level"). A bookshelf's shelf fronts stand at regular heights too, but at one depth: the
+    chain needs them a run apart. Returns the chain and the indices of its inferred steps
+    (both empty when there is none); the longest such chain wins.
+    """
+    best: tuple[list[_Link], int, float, float, float] | None = None
+    for s_pos, _top, cand, _riser, _tread in cands_all:
+        if cand is None or cand.z_lo < ground_z + config.min_rise_m:
+            continue
+        sub = [link for link in chain_from(False, start_z=cand.z_lo) if link[4] >= s_pos - 1e-9]
+        if len(sub) < 2 or sub[0][0] is not cand or sub[1][0] is None:
+            continue
+        rise = float(median(np.diff([cand.z_lo] + [link[1] for link in sub])))
+        below = int(round((cand.z_lo - ground_z) / rise)) if rise > 0 else 0
+        if not 1 <= below <= config.max_steps_below_chain:
+            continue
+        if abs(cand.z_lo - ground_z - below * rise) > config.chain_tolerance_m:
+            continue  # not a whole number of steps above the ground
+        run = float(median(np.diff([link[4] for link in sub])))
+        if not config.min_run_m <= run <= config.continue_max_run_m:
+            continue
+        if best is None or len(sub) > len(best[0]):
+            best = (sub, below, rise, run, s_pos)
+    if best is None:
+        return [], set()
+    sub, below, rise, run, s0 = best
+    chain: list[_Link] = []
+    for j in range(1, below + 1):
+        s_j = s0 - (below - j + 1) * run
+        chain.append((None, ground_z + j * rise, Plane(-u, s_j), None, s_j))
+    return chain + sub, set(range(below))
+
+
 def _assemble_along(
     planes: PlaneSet,
     config: TerrainConfig,
@@ -220,9 +270,10 @@ def _assemble_along(
     # cameras. The first step must be a real riser plane, unless its riser was not matched
     # (a texture-poor face) and a real riser plane chains on the tread behind it: then the
     # first riser stands at that tread's front edge.
-    def chain_from(virtual_first: bool) -> list[tuple[_Riser | None, float, Plane, Plane | None, float]]:
-        chain: list[tuple[_Riser | None, float, Plane, Plane | None, float]] = []
-        level, last_s = ground_z, -np.inf
+    def chain_from(virtual_first: bool, start_z: float | None = None) -> list[_Link]:
+        """The chain from the ground (or from ``start_z``: see :func:`_chain_above_ground`)."""
+        chain: list[_Link] = []
+        level, last_s = (ground_z if start_z is None else start_z), -np.inf
         for s_pos, top, cand, riser_plane, tread_plane in cands_all:
             if top < level + config.min_rise_m or top - level > config.max_rise_m + config.edge_margin_m:
                 continue
@@ -251,6 +302,9 @@ def _assemble_along(
     loose = chain_from(True) if tread_first else []
     if len(loose) > max(1, len(chain)) and loose[0][0] is None and loose[1][0] is not None:
         chain = loose
+    below: set[int] = set()  # steps inferred below a chain that starts above the ground
+    if not chain and config.max_steps_below_chain > 0:
+        chain, below = _chain_above_ground(cands_all, chain_from, ground_z, u, config)
 
     # Stairs filling the view: the first riser's foot (and the floor before it) is below
     # the image, so the first tread was taken for the ground. A riser in front of the
@@ -299,7 +353,7 @@ def _assemble_along(
                 s_pos,
                 riser_plane,
                 tread_plane,
-                rise_inferred=inferred_first and i == 0,
+                rise_inferred=(inferred_first and i == 0) or i in below,
             )
         )
         prev_top = top
@@ -319,6 +373,11 @@ def _assemble_along(
     note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
     if inferred_first:
         note += "; the first riser's foot is out of view: its rise is the median of the others"
+    if below:
+        note += (
+            f"; the {len(below)} step(s) below the lowest riser plane formed none: inferred at the"
+            " staircase's rise and run"
+        )
     if continued:
         note += (
             f"; {continued} more beyond the last riser plane, from their samples' positions"

@@ -105,6 +105,12 @@ class TerrainConfig:
         surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
         Measured on the rendered approaches: single-frame rise errors are about 0.3 of
         what independent biases would give, i.e. a correlation near 0.9.
+    max_steps_below_chain : int
+        Where nothing chains from the ground, a chain of two or more riser planes that
+        starts this many of its rises or fewer above the ground (a whole number, within
+        ``chain_tolerance_m``) and whose risers stand a run apart is the staircase, the
+        steps below it inferred at its rise and run (``rise_inferred``): realistic stairs
+        whose first riser formed no plane. 0 = off.
     common_rise_tolerance_m, common_run_tolerance_m : float
         A staircase's rises are equal, and so are its runs (building codes allow about a
         centimetre between the largest and the smallest); what differs between measured
@@ -146,6 +152,7 @@ class TerrainConfig:
     continue_min_run_m: float = 0.20
     continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
+    max_steps_below_chain: int = 2
     common_rise_tolerance_m: float = 0.03
     common_run_tolerance_m: float = 0.05
     common_min_steps: int = 3
@@ -153,7 +160,14 @@ class TerrainConfig:
     def __post_init__(self) -> None:
         check_fields(self)
         check_min(self, 1, "min_riser_points", "min_tread_points")
-        check_min(self, 0, "max_continued_steps", "common_rise_tolerance_m", "common_run_tolerance_m")
+        check_min(
+            self,
+            0,
+            "max_continued_steps",
+            "max_steps_below_chain",
+            "common_rise_tolerance_m",
+            "common_run_tolerance_m",
+        )
         check_min(self, 2, "common_min_steps")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:
             raise ConfigError(
