@@ -104,3 +104,8 @@ def cross3(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray) -> 
     a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
     b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
+def wrap_angle(a: float) -> float:
+    """``a`` (radians) wrapped into ``[-pi, pi)``."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi

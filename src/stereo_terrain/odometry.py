@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._numeric import wrap_angle
 from .checks import check_fields
 from .errors import ConfigError, InputError
 
@@ -132,10 +133,6 @@ class PoseJumpConfig:
                 raise ConfigError(f"PoseJumpConfig.{name} must be > 0, got {getattr(self, name)}")
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 class _Shift:
     """A rigid shift of the estimator's frame: ``corrected = R(turn) raw + offset``."""
 
@@ -147,12 +144,12 @@ class _Shift:
         c, s = math.cos(self.turn), math.sin(self.turn)
         x, y, z = (float(v) for v in odo.position_m)
         p = (c * x - s * y + self.offset[0], s * x + c * y + self.offset[1], z + self.offset[2])
-        return Odometry(p, _wrap(float(odo.yaw_rad) + self.turn), odo.stamp_s)
+        return Odometry(p, wrap_angle(float(odo.yaw_rad) + self.turn), odo.stamp_s)
 
     @classmethod
     def placing(cls, raw: Odometry, target: np.ndarray, yaw: float) -> _Shift:
         """The shift that puts ``raw`` at ``target`` with heading ``yaw``."""
-        turn = _wrap(yaw - float(raw.yaw_rad))
+        turn = wrap_angle(yaw - float(raw.yaw_rad))
         c, s = math.cos(turn), math.sin(turn)
         x, y, z = (float(v) for v in raw.position_m)
         return cls(turn, target - np.array([c * x - s * y, s * x + c * y, z]))
@@ -217,7 +214,7 @@ class PoseJumps:
         self.jumps = 0  # how many jumps were taken out
         self.late = 0  # poses dropped as older than the last
         self._shift = _Shift()
-        self._history: list[_Shift] = []  # earlier shifts, most recent first
+        self._history: list[tuple[_Shift, float]] = []  # earlier shifts and when they were left, newest first
         self._last: Odometry | None = None  # the last judged pose, corrected
         self._velocity = np.zeros(2)  # corrected frame, m/s, from the last two judged poses
         self._warned_stamps = False
@@ -227,7 +224,6 @@ class PoseJumps:
         # The shift the published origin is given in (to_raw): a new one only once the pose
         # after the jump confirms it (a one-pose glitch never reaches the controller).
         self._published = self._shift
-        self._superseded: list[float] = []  # stamp at which each kept shift was left
 
     def correct(self, odometry: Odometry | None) -> Odometry | None:
         """The pose with the frame's jumps taken out; None for a pose delivered late (None
@@ -265,7 +261,7 @@ class PoseJumps:
             self._last = moved
             self._recent.clear()  # the pace of the stamps starts again too
             self._jumps_seen.clear()
-            self._history, self._superseded = [], []  # stamps of the old clock
+            self._history = []  # left at stamps of the old clock
             return moved
         if dt == 0:
             if float(np.hypot(*step)) > cfg.slack_m and not self._warned_stamps:
@@ -285,7 +281,7 @@ class PoseJumps:
             xy = np.array(pose.position_m[:2])
             ok = (
                 float(np.hypot(*(xy - np.array(last.position_m[:2])))) <= allowed_m
-                and abs(math.degrees(_wrap(pose.yaw_rad - last.yaw_rad))) <= allowed_deg
+                and abs(math.degrees(wrap_angle(pose.yaw_rad - last.yaw_rad))) <= allowed_deg
             )
             return pose, ok, float(np.hypot(*(xy - predicted)))
 
@@ -299,10 +295,8 @@ class PoseJumps:
         # old glitch's shift from a change of pace; and kept shifts expire.)
         near = cfg.slack_m + _NEAR_SPEED_SHARE * cfg.max_speed_mps * min(dt, _NEAR_DT_S)
         stamp = float(odometry.stamp_s)
-        keep = [i for i, t in enumerate(self._superseded) if stamp - t <= _KEEP_SHIFTS_S]
-        self._history = [self._history[i] for i in keep]
-        self._superseded = [self._superseded[i] for i in keep]
-        for k, shift in enumerate(self._history):
+        self._history = [(shift, left) for shift, left in self._history if stamp - left <= _KEEP_SHIFTS_S]
+        for k, (shift, _left) in enumerate(self._history):
             other, other_ok, other_miss = judged(shift)
             if (
                 other_ok
@@ -336,8 +330,7 @@ class PoseJumps:
                 log.warning("odometry back in the frame it had before a jump")
                 if self._jumps_seen:
                     self._jumps_seen.pop()  # undone: not a jump that says the stamps are wrong
-                earlier = self._history.pop(k)
-                self._superseded.pop(k)
+                earlier = self._history.pop(k)[0]
                 self._remember(self._shift, stamp)
                 self._shift = earlier
             self._published = self._shift  # this pose agrees with it
@@ -370,7 +363,7 @@ class PoseJumps:
 
     def _distrust(self, why: str) -> None:
         self.untrusted = True
-        self._history, self._superseded = [], []
+        self._history = []
         log.warning(
             "odometry stamps are too close together for its travel (%s): its jumps are not taken "
             "out from here (the stamps must be seconds on the estimator's clock)",
@@ -378,8 +371,7 @@ class PoseJumps:
         )
 
     def _remember(self, shift: _Shift, stamp: float) -> None:
-        self._history = ([shift] + self._history)[:_HISTORY]
-        self._superseded = ([stamp] + self._superseded)[:_HISTORY]
+        self._history = ([(shift, stamp)] + self._history)[:_HISTORY]
 
     def reset(self) -> None:
         """Forget every pose and shift (a source that starts over: a looped replay's next lap)."""
@@ -403,4 +395,4 @@ class PoseJumps:
         x = float(position_m[0]) - offset[0]
         y = float(position_m[1]) - offset[1]
         z = float(position_m[2]) - offset[2]
-        return (c * x + s * y, -s * x + c * y, z), _wrap(float(heading_rad) - turn)
+        return (c * x + s * y, -s * x + c * y, z), wrap_angle(float(heading_rad) - turn)

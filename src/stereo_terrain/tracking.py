@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._numeric import wrap_angle
 from .checks import check_fields
 from .errors import ConfigError, InputError
 from .msac import Plane
@@ -269,10 +270,6 @@ def _pose(odo: Odometry | None) -> tuple[np.ndarray, float, float]:
     return np.array([float(p[0]), float(p[1])]), float(p[2]), float(odo.yaw_rad)
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def _finite(x: float | None, default: float) -> float:
     return default if x is None or not math.isfinite(x) else float(x)
 
@@ -306,10 +303,10 @@ def _measure(model: StairModel, odo: Odometry | None, yaw_w: float | None, ancho
     Unknown sigmas become 5 cm (rises: 2 cm), so that a model without them still fuses,
     weakly."""
     xy, z, body_yaw = _pose(odo)
-    yaw_meas = _wrap(model.yaw_rad + body_yaw)
+    yaw_meas = wrap_angle(model.yaw_rad + body_yaw)
     yaw = yaw_meas if yaw_w is None else yaw_w
     u = np.array([math.cos(yaw), math.sin(yaw)])
-    rel = _wrap(yaw - body_yaw)
+    rel = wrap_angle(yaw - body_yaw)
     base = float(u @ (xy - anchor))
     steps = model.steps
     s = np.array([base + st.distance_m * math.cos(rel) for st in steps])
@@ -392,7 +389,7 @@ class _Track:
         n, k_max = len(self.s), len(m.s)
         yaw_gate = cfg.gate_sigmas * math.sqrt(self.yaw_var + m.yaw_sigma**2)
         yaw_gate = min(max(yaw_gate, math.radians(cfg.yaw_gate_deg)), math.radians(cfg.max_yaw_gate_deg))
-        if abs(_wrap(m.yaw - self.yaw)) > yaw_gate:
+        if abs(wrap_angle(m.yaw - self.yaw)) > yaw_gate:
             return None
         best: tuple[int, float, int, list[tuple[int, int]]] | None = None
         for o in range(-(k_max - 1), n):
@@ -626,7 +623,7 @@ def _fuse(x: float, var: float, z: float, z_var: float) -> tuple[float, float]:
 
 def _fuse_angle(x: float, var: float, z: float, z_var: float) -> tuple[float, float]:
     k = var / (var + z_var)
-    return _wrap(x + k * _wrap(z - x)), float((1.0 - k) * var)
+    return wrap_angle(x + k * wrap_angle(z - x)), float((1.0 - k) * var)
 
 
 def tracked_model(track: TrackedStaircase, odometry: Odometry | None, frame: str = "yaw") -> StairModel:
@@ -636,7 +633,7 @@ def tracked_model(track: TrackedStaircase, odometry: Odometry | None, frame: str
     Risers behind the body (negative distance) are kept: they have only left the view.
     """
     xy, z, body_yaw = _pose(odometry)
-    rel = _wrap(track.yaw_rad - body_yaw)
+    rel = wrap_angle(track.yaw_rad - body_yaw)
     c = math.cos(rel)
     c_safe = c if abs(c) > 0.2 else math.copysign(0.2, c or 1.0)
     u_w = np.array([math.cos(track.yaw_rad), math.sin(track.yaw_rad)])

@@ -48,6 +48,7 @@ from ..runtime.capture import (
     CaptureEvent,
     StereoFrame,
     match_stamps,
+    replay_step_s,
 )
 
 log = logging.getLogger(__name__)
@@ -269,10 +270,11 @@ class BagPairs:
                 self.path, int(np.sum(gaps > MAX_REPLAY_GAP_S)), MAX_REPLAY_GAP_S, MAX_REPLAY_GAP_S,
             )  # fmt: skip
         t = raw_t - self._shift
-        self._period = t[-1] - t[0] + max((t[-1] - t[0]) / max(1, len(t) - 1), 1.0 / 30.0)
+        step = replay_step_s(t)
+        self._period = t[-1] - t[0] + step
         # The same on the poses' own clock (pauses not shortened): each round's pose stamps
         # come after the last round's.
-        self._pose_period = raw_t[-1] - raw_t[0] + max((t[-1] - t[0]) / max(1, len(t) - 1), 1.0 / 30.0)
+        self._pose_period = raw_t[-1] - raw_t[0] + step
         self._round = 0
         self._read_round = 0  # the round of the last pair read
         self._stream: Iterator[tuple[int, Any, Any]] | None = None

@@ -27,7 +27,7 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol
@@ -514,6 +514,15 @@ def _bad_row(rec: dict, previous: _Row | None, has_pose: bool) -> str:
 _EARLIER = "pair times must not decrease"
 
 
+def replay_step_s(times: Sequence[float] | np.ndarray) -> float:
+    """The mean time between a recording's pairs (``times`` in order), at least 1/30 s:
+    what a looped replay leaves between its last pair and its first (never zero, or the
+    replay would never get past a pair)."""
+    n = len(times)
+    mean = (float(times[-1]) - float(times[0])) / (n - 1) if n > 1 else 0.0
+    return max(mean, 1.0 / 30.0)
+
+
 def _capped_gaps(rows: list[_Row], index: Path) -> list[_Row]:
     """``rows`` with every pause longer than :data:`MAX_REPLAY_GAP_S` shortened to it (a
     warning names the first and how many)."""
@@ -546,12 +555,10 @@ class FolderPairs:
         self._i = 0
         self._lap = 0  # of the last pair read
         t = [max(r.t_left, r.t_right) for r in self.rows]
-        step = (t[-1] - t[0]) / max(1, len(t) - 1) if len(t) > 1 else 1.0 / 30.0
-        # Never zero (all times equal): a looped replay would then never get past a pair.
-        self._period = t[-1] - t[0] + max(step, 1.0 / 30.0)
+        step = replay_step_s(t)
+        self._period = t[-1] - t[0] + step
         # The same on the poses' own clock (uncapped): each lap's poses come after the last's.
-        tp = [_pose_time(r) for r in self.rows]
-        self._pose_period = tp[-1] - tp[0] + max(step, 1.0 / 30.0)
+        self._pose_period = _pose_time(self.rows[-1]) - _pose_time(self.rows[0]) + step
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -588,14 +595,14 @@ class FolderPairs:
             left, right = read_image(row.left), read_image(row.right)
         except InputError as exc:
             return CaptureEvent(UNREADABLE, detail=str(exc))
+        lap = index // len(self.rows)
+        restart, self._lap = lap > self._lap, lap  # (its first pair may have been skipped)
         odo = rpy = None
         if row.pose is not None:
             x, y, z, roll, pitch, yaw = row.pose
-            lap = index // len(self.rows)  # a looped replay's later laps come later
+            # a looped replay's later laps come later on the poses' clock too
             odo = Odometry((x, y, z), yaw, _pose_time(row) + lap * self._pose_period)
             rpy = (roll, pitch, yaw)
-        lap = index // len(self.rows)
-        restart, self._lap = lap > self._lap, lap  # (its first pair may have been skipped)
         frame = StereoFrame(
             left, right, row.t_left + offset, row.t_right + offset, index, odo, rpy, restart=restart
         )

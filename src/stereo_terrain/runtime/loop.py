@@ -383,8 +383,7 @@ class LiveLoop:
         if frame.restart:  # a looped source started over: its poses begin again too
             self._jumps_before += self.pose_jumps.jumps
             self.pose_jumps.reset()
-        odo = self.pose_jumps.correct(odo)
-        self.summary.pose_jumps = self._jumps_before + self.pose_jumps.jumps
+        odo = self._without_jumps(odo)
         if rpy is not None and rpy != self._rpy and self.pipeline.rig is not None:
             # The body attitude from the state estimator (paper eq. 1) for this frame.
             self.pipeline.set_rig(dataclasses.replace(self.pipeline.rig, body_rpy=rpy))
@@ -465,6 +464,13 @@ class LiveLoop:
                 self._heartbeat(now)
         self.sleep(cfg.poll_s)
 
+    def _without_jumps(self, odo: Odometry | None) -> Odometry | None:
+        """``odo`` through :class:`PoseJumps` (None: a pose delivered late), the summary's
+        count of jumps taken out kept up to date."""
+        odo = self.pose_jumps.correct(odo)
+        self.summary.pose_jumps = self._jumps_before + self.pose_jumps.jumps
+        return odo
+
     def _in_estimator_frame(self, trig: TriggerState) -> TriggerState:
         """The trigger's decision with its origin (``p0_m``, ``heading_rad``) in the state
         estimator's own frame, the one a controller compares with its odometry (the
@@ -489,8 +495,7 @@ class LiveLoop:
         if not _finite_pose(odo, None):
             odo = None  # as for a pair (a NaN is no pose)
         given = odo
-        odo = self.pose_jumps.correct(odo)
-        self.summary.pose_jumps = self._jumps_before + self.pose_jumps.jumps
+        odo = self._without_jumps(odo)
         trig = self.trigger.update(odo) if odo is not None else self.trigger.state
         conditions = self._last_conditions
         if odo is not None:

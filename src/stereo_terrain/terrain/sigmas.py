@@ -9,16 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
+from .._numeric import median, percentile, wrap_angle  # NumPy's bits, a fraction of its time (issue 13)
 from ..errors import ConfigError
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
 from .model import StairModel, Step, TerrainConfig
-
-
-def _wrap_angle(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
 
 #: How much the rises (runs) of one staircase may differ (1-sigma): building codes allow
 #: about a centimetre between the largest and the smallest.
@@ -259,8 +254,9 @@ def estimate_step_sigmas(
     rises = np.array([s.rise_m if s.measured_rise_m is None else s.measured_rise_m for s in steps])
     measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
     own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
+    own_of = dict(zip(measured, own_each, strict=True))
     common = [k for k in measured if steps[k].measured_rise_m is not None]
-    common_rise_sigma = _median_sigma([own_each[measured.index(k)] for k in common], rises[common])
+    common_rise_sigma = _median_sigma([own_of[k] for k in common], rises[common])
 
     def own_run_sigma(i: int) -> float:
         nxt = positions[i + 1] if i + 1 < len(positions) else math.nan
@@ -303,7 +299,7 @@ def estimate_step_sigmas(
         w = np.array([a for a, _, _ in yaw_info])
         w = w / w.sum()
         sig = np.array([b for _, b, _ in yaw_info])
-        dev = np.array([_wrap_angle(c - model.yaw_rad) for _, _, c in yaw_info])
+        dev = np.array([wrap_angle(c - model.yaw_rad) for _, _, c in yaw_info])
         # The risers' own disagreement (one riser plane fitted a few degrees off pulls the
         # weighted mean): their weighted spread about the stair yaw.
         spread = float(np.sqrt(np.sum(w * dev**2)))
