@@ -72,8 +72,7 @@ def rise_to_clear(step: Step) -> float:
     """The rise a swing must clear at ``step``: the larger of its reported rise and its own
     measured one, where the reported one is the staircase's common rise (the pooled rises
     may differ by up to twice the tolerance: :mod:`stereo_terrain.terrain.uniform`)."""
-    measured = step.measured_rise_m
-    return step.rise_m if measured is None else max(step.rise_m, measured)
+    return max(step.rise_m, step.own_rise_m)
 
 
 def plan_swing(model: StairModel, config: SwingConfig | None = None) -> SwingPlan:

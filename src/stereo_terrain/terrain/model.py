@@ -256,6 +256,17 @@ class Step:
     measured_rise_m: float | None = None
     measured_run_m: float | None = None
 
+    @property
+    def own_rise_m(self) -> float:
+        """The rise this step measured: ``measured_rise_m`` where ``rise_m`` is the
+        staircase's common one, else ``rise_m``."""
+        return self.rise_m if self.measured_rise_m is None else self.measured_rise_m
+
+    @property
+    def own_run_m(self) -> float | None:
+        """The run this step measured (as :attr:`own_rise_m`; None where not seen)."""
+        return self.run_m if self.measured_run_m is None else self.measured_run_m
+
 
 @dataclass(frozen=True)
 class Polytope:

@@ -251,7 +251,7 @@ def estimate_step_sigmas(
 
     # Each step's own measured rise (a step reporting the staircase's common rise keeps
     # its own in measured_rise_m: terrain/uniform.py).
-    rises = np.array([s.rise_m if s.measured_rise_m is None else s.measured_rise_m for s in steps])
+    rises = np.array([s.own_rise_m for s in steps])
     measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
     own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
     own_of = dict(zip(measured, own_each, strict=True))

@@ -43,6 +43,10 @@ PROG = "python -m stereo_terrain.viz.mcap_figure"
 TOPICS = (TOPIC_IMAGE, TOPIC_DISPARITY, TOPIC_CLOUD, TOPIC_TF, TOPIC_CAMERA_INFO, TOPIC_TERRAIN, TOPIC_STAIRS)
 
 
+#: Topics whose messages carry the pair's stamp in their header (one message per pair).
+PAIR_STAMPED = (TOPIC_IMAGE, TOPIC_DISPARITY, TOPIC_CLOUD, TOPIC_CAMERA_INFO)
+
+
 def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
     """The decoded messages of the ``pair``-th processed pair: topic -> message (the
     terrain message the one stamped like the pair, see :func:`pair_terrain`).
@@ -101,10 +105,6 @@ def read_pair(path: str | Path, pair: int = 0) -> dict[str, Any]:
             )
         chosen[TOPIC_TERRAIN] = terrain
     return chosen
-
-
-#: Topics whose messages carry the pair's stamp in their header (one message per pair).
-PAIR_STAMPED = (TOPIC_IMAGE, TOPIC_DISPARITY, TOPIC_CLOUD, TOPIC_CAMERA_INFO)
 
 
 def _stamp_ns(header: Any) -> int | None:
