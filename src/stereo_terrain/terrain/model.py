@@ -125,6 +125,13 @@ class TerrainConfig:
     common_min_steps : int
         Measured rises (runs) that must agree for a common one (with two, neither can be
         told to be the odd one).
+    max_edge_bias_m : float
+        A riser's top edge, found from the samples nearest it, lies low, and its bottom
+        edge high, by about the same amount. In a staircase whose every top is its riser's
+        edge (no tread formed a plane), the rises between them cancel it but the first
+        step's, from the floor plane, keeps it all: there half the median gap between a
+        top edge and the next riser's bottom edge (where that foot is in view) is added to
+        every top, at most this much. 0 = off. See :func:`.risers.edge_bias`.
     """
 
     min_rise_m: float = 0.04
@@ -156,6 +163,7 @@ class TerrainConfig:
     common_rise_tolerance_m: float = 0.03
     common_run_tolerance_m: float = 0.05
     common_min_steps: int = 3
+    max_edge_bias_m: float = 0.04
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -167,6 +175,7 @@ class TerrainConfig:
             "max_steps_below_chain",
             "common_rise_tolerance_m",
             "common_run_tolerance_m",
+            "max_edge_bias_m",
         )
         check_min(self, 2, "common_min_steps")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:

@@ -66,6 +66,30 @@ def _riser_edges(
     return float(percentile(lows, _EDGE_BOTTOM_QUANTILE)), float(percentile(highs, _EDGE_QUANTILE))
 
 
+def edge_bias(links: list[tuple[_Riser | None, float]], cam_z: float, config: TerrainConfig) -> float:
+    """How far the top edges found by :func:`_riser_edges` lie below the true ones, from a
+    chain of steps ``links`` whose tops are their risers' top edges: ``(riser candidate,
+    top height)`` per step, nearest first.
+
+    The edges come from the samples nearest them, and near an edge a sample's box mixes
+    the two faces and its normal leaves the riser's plane: the top edge is found low and
+    the bottom edge high, each by about the same amount (2-3 cm on the realistic profile,
+    nearly nothing on faces the matcher reads well; docs/benchmarks.md, "Tenth session").
+    Where the next riser's foot is seen (the step's top below the cameras, the foot not
+    cut by the image), a step's top and that foot should meet: half the median gap
+    between them is the bias, clipped to ``[0, max_edge_bias_m]``; 0 where no pair shows
+    it.
+    """
+    gaps = [
+        nxt.z_lo - top
+        for (_, top), (nxt, _) in zip(links, links[1:], strict=False)
+        if nxt is not None and not nxt.foot_hidden and top < cam_z - config.edge_margin_m
+    ]
+    if not gaps or config.max_edge_bias_m <= 0:
+        return 0.0
+    return min(max(0.5 * float(median(np.asarray(gaps))), 0.0), config.max_edge_bias_m)
+
+
 #: Lateral slices of a riser over which its edge heights are taken, and the percentiles
 #: of the slices' top and bottom edges that are the riser's.
 _EDGE_BINS = 8
