@@ -98,3 +98,20 @@ def test_a_vertical_plane_on_the_floor_is_no_step_below_it():
     model = build_terrain(planes)
     assert model.obstacle == STAIRS and len(model.steps) == 2, model.note
     assert model.ground_z_m == pytest.approx(0.0, abs=0.02)
+
+
+def test_with_the_floor_known_a_riser_on_it_is_a_step_when_only_its_tread_formed_a_plane():
+    """A rig puts the frame's origin on the floor. Where the floor before a step formed no
+    plane and its tread did, that tread is the lowest horizontal plane; with nothing
+    chained beyond it, it was taken for the ground and the step was lost ("risers found
+    but no step rises above the ground": realistic seed 11 scene 008). The riser's foot on
+    the floor makes the floor the ground."""
+    planes = _without_floor_plane(_stairs(n_steps=1, rise=RISE_M))
+    model = build_terrain(planes, floor_known=True)
+    assert model.obstacle != "none", model.note
+    assert model.ground_z_m == pytest.approx(0.0, abs=1e-9)
+    assert model.steps[0].rise_m == pytest.approx(RISE_M, abs=0.01)
+    assert model.steps[0].distance_m == pytest.approx(1.3, abs=1e-6)
+    # Without a floor of the frame's own (no rig, none found), the lowest plane is the
+    # ground: nothing is claimed below it.
+    assert build_terrain(planes, floor_known=False).obstacle == "none"

@@ -227,6 +227,16 @@ def _assemble_along(
         return _no_obstacle(planes, "no horizontal surface below the cameras (no floor in view)", min(h_z))
     else:
         ground_z = merged[0].z_lo
+    if (
+        floor_known
+        and ground_z > config.min_rise_m
+        and any(abs(r.z_lo) <= config.chain_tolerance_m for r in merged)
+    ):
+        # The frame's origin is on the floor (a rig, or the floor plane found), the lowest
+        # horizontal plane stands a step above it, and a riser's foot is on the floor: the
+        # floor before the stairs formed no plane (a texture-poor or edge-on floor) and
+        # that plane is a tread. The ground is the floor (issue 11).
+        ground_z = 0.0
 
     def tread_above(r: _Riser, s_next: float, level: float) -> int | None:
         """Index of the active horizontal plane above riser ``r``: most inliers between it
