@@ -51,7 +51,7 @@ def _assemble(
     if not verticals:
         return _no_obstacle(planes, "no vertical plane found", lowest_z)
 
-    cands = _riser_candidates(samples, P, cam, verticals, config)
+    cands = _riser_candidates(samples, P, cam, verticals, config, floor_z=0.0 if floor_known else None)
     if not cands:
         return _no_obstacle(
             planes, "no vertical plane looks like a riser (all too tall, small or facing away)", lowest_z

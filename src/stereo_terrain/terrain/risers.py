@@ -149,10 +149,79 @@ _LOW_INLIER_PCT = 5.0
 _TOP_CUT_ROWS = 2
 
 
+#: Lateral slices in which a plane too tall for a riser is looked at for a riser part.
+_WALL_SLICE_M = 0.1
+#: The narrowest riser part taken from such a plane: a staircase's opening in a wall
+#: (building stairs are 0.6 m wide or more; a chair's or a shelf's low front beside its
+#: tall parts is narrower).
+_MIN_OPENING_M = 0.5
+
+
+def _riser_beside_wall(
+    P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, config: TerrainConfig
+) -> tuple[float, float] | None:
+    """The lateral extent of the riser in a vertical plane too tall for one, where the plane
+    is a riser beside a wall in line with it (None where it is not).
+
+    Stairs set in an opening of a wall whose face is flush with the first riser put the
+    riser and the wall on one plane: the plane stage finds one plane, as tall as the wall.
+    (:func:`_riser_candidates` keeps such a part only where it stands on the floor.)
+    Across the plane (``v``, slices of :data:`_WALL_SLICE_M`), the samples within
+    ``edge_band_m`` of it then stand from the floor up to a step's height in the opening
+    and far higher beside it. The riser is the widest run of consecutive slices (one
+    empty slice may interrupt it) whose samples span ``min_rise_m`` to ``max_rise_m`` (+
+    ``edge_margin_m``), at least :data:`_MIN_OPENING_M` wide, with a slice taller than
+    that next to it: a face with nothing taller beside it is not split.
+    """
+    near = plane.residuals(P) < config.edge_band_m
+    q = P[near]
+    lat = q @ v
+    inside = (lat > v_lo) & (lat < v_hi)
+    z, lat = q[inside, 2], lat[inside]
+    n_slices = int(math.ceil((v_hi - v_lo) / _WALL_SLICE_M))
+    if n_slices < 2:
+        return None
+    which = np.minimum(((lat - v_lo) / _WALL_SLICE_M).astype(np.int64), n_slices - 1)
+    tallest = config.max_rise_m + config.edge_margin_m
+    kind = np.zeros(n_slices, np.int8)  # 0 empty, 1 riser-like, 2 taller, 3 lower
+    for k in range(n_slices):
+        zk = z[which == k]
+        if len(zk) < 3:
+            continue
+        lo, hi = percentile(zk, [2, 98])
+        kind[k] = 2 if hi - lo > tallest else (1 if hi - lo >= config.min_rise_m else 3)
+    best: tuple[int, int] | None = None
+    k = 0
+    while k < n_slices:
+        if kind[k] != 1:
+            k += 1
+            continue
+        end = k
+        while end + 1 < n_slices and (
+            kind[end + 1] == 1 or (kind[end + 1] == 0 and end + 2 < n_slices and kind[end + 2] == 1)
+        ):
+            end += 1
+        beside = (k > 0 and kind[k - 1] == 2) or (end + 1 < n_slices and kind[end + 1] == 2)
+        if beside and (best is None or end - k > best[1] - best[0]):
+            best = (k, end)
+        k = end + 1
+    if best is None:
+        return None
+    a, b = v_lo + best[0] * _WALL_SLICE_M, min(v_lo + (best[1] + 1) * _WALL_SLICE_M, v_hi)
+    return (a, b) if b - a >= max(config.min_riser_width_m, _MIN_OPENING_M) else None
+
+
 def _riser_candidates(
-    samples: GridSample, P: np.ndarray, cam: np.ndarray, verticals: list[PlaneSegment], config: TerrainConfig
+    samples: GridSample,
+    P: np.ndarray,
+    cam: np.ndarray,
+    verticals: list[PlaneSegment],
+    config: TerrainConfig,
+    floor_z: float | None = None,
 ) -> list[_Riser]:
-    """The vertical planes that can be risers (the first part of :func:`~.assemble._assemble`)."""
+    """The vertical planes that can be risers (the first part of :func:`~.assemble._assemble`).
+    ``floor_z``: the floor's height where the frame has one (a riser in line with a wall
+    must stand on it, :func:`_riser_beside_wall`), else None."""
     # Candidate risers: short vertical planes facing the camera.
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
     row_hi = samples.rows.max()
@@ -181,19 +250,43 @@ def _riser_candidates(
         if edges is None:
             continue
         z_lo, z_hi = edges
-        if z_hi - z_lo > config.max_rise_m + config.edge_margin_m or z_hi - z_lo < config.min_rise_m / 2:
+        idx = seg.indices
+        if z_hi - z_lo > config.max_rise_m + config.edge_margin_m:
+            # Too tall for a riser, unless it is a riser in line with a wall beside it
+            # (stairs in an opening of a wall flush with their first riser).
+            part = _riser_beside_wall(P, seg.plane, v, v_lo, v_hi, config)
+            if part is None:
+                continue
+            v_lo, v_hi = part
+            idx = seg.indices[(lat > v_lo) & (lat < v_hi)]
+            if len(idx) < config.min_riser_points:
+                continue
+            pts = P[idx]
+            edges = _riser_edges(
+                P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(pts[:, 2]))
+            )
+            if edges is None:
+                continue
+            z_lo, z_hi = edges
+            if z_hi - z_lo > config.max_rise_m + config.edge_margin_m:
+                continue
+            if floor_z is None or abs(z_lo - floor_z) > config.chain_tolerance_m:
+                # The first riser only: a far wall's band cut by the depth range, standing
+                # on a landing, is no riser.
+                continue
+        if z_hi - z_lo < config.min_rise_m / 2:
             continue
-        if float(percentile(grid_row[seg.indices], _LOW_INLIER_PCT)) <= _TOP_CUT_ROWS:
+        if float(percentile(grid_row[idx], _LOW_INLIER_PCT)) <= _TOP_CUT_ROWS:
             # The face goes on above the image (a wall, a cupboard's front): the height
             # seen is the image's, not a riser's, and no tread above it can be seen.
             continue
-        cols = samples.cols[seg.indices]
+        cols = samples.cols[idx]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
-        foot_hidden = bool(samples.rows[seg.indices].max() >= row_hi - border)
+        foot_hidden = bool(samples.rows[idx].max() >= row_hi - border)
         cands.append(
             _Riser(
                 seg.plane,
-                seg.indices,
+                idx,
                 float(median(pts @ u)),
                 z_lo,
                 z_hi,
