@@ -176,8 +176,12 @@ def _riser_beside_wall(
     near = plane.residuals(P) < config.edge_band_m
     q = P[near]
     lat = q @ v
-    inside = (lat > v_lo) & (lat < v_hi)
-    z, lat = q[inside, 2], lat[inside]
+    # Over every sample on the plane, not only its inliers' extent: the riser's own
+    # samples, whose normals the edges and the noise tilted, may lie outside it.
+    z = q[:, 2]
+    if len(lat) < 3:
+        return None
+    v_lo, v_hi = float(lat.min()), float(lat.max()) + 1e-9
     n_slices = int(math.ceil((v_hi - v_lo) / _WALL_SLICE_M))
     if n_slices < 2:
         return None
@@ -207,8 +211,14 @@ def _riser_beside_wall(
         k = end + 1
     if best is None:
         return None
-    a, b = v_lo + best[0] * _WALL_SLICE_M, min(v_lo + (best[1] + 1) * _WALL_SLICE_M, v_hi)
-    return (a, b) if b - a >= max(config.min_riser_width_m, _MIN_OPENING_M) else None
+    # The part's extent from its samples above the floor (the slices' bounds would add up
+    # to a slice at each end).
+    in_run = (which >= best[0]) & (which <= best[1])
+    raised = in_run & (z > float(percentile(z[in_run], 2)) + config.min_rise_m / 2)
+    if raised.sum() < 3:
+        return None
+    a, b = percentile(lat[raised], [2, 98])
+    return (float(a), float(b)) if b - a >= max(config.min_riser_width_m, _MIN_OPENING_M) else None
 
 
 def _riser_candidates(
