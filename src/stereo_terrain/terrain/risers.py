@@ -268,16 +268,23 @@ def _riser_candidates(
             if part is None:
                 continue
             v_lo, v_hi = part
-            idx = seg.indices[(lat > v_lo) & (lat < v_hi)]
-            if len(idx) < config.min_riser_points:
+            # The riser's samples: on the plane in the opening, between its edges (few of
+            # them are the plane's inliers: their normals are what kept them out).
+            on_plane = np.flatnonzero(seg.plane.residuals(P) < config.edge_band_m)
+            lat_on = P[on_plane] @ v
+            in_part = on_plane[(lat_on > v_lo) & (lat_on < v_hi)]
+            if len(in_part) < config.min_riser_points:
                 continue
-            pts = P[idx]
             edges = _riser_edges(
-                P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(pts[:, 2]))
+                P, seg.plane, v, v_lo, v_hi, thr=config.edge_band_m, seed_z=float(median(P[in_part, 2]))
             )
             if edges is None:
                 continue
             z_lo, z_hi = edges
+            idx = in_part[(P[in_part, 2] >= z_lo) & (P[in_part, 2] <= z_hi)]
+            if len(idx) < config.min_riser_points:
+                continue
+            pts = P[idx]
             if z_hi - z_lo > config.max_rise_m + config.edge_margin_m:
                 continue
             if floor_z is None or abs(z_lo - floor_z) > config.chain_tolerance_m:
