@@ -97,3 +97,19 @@ def test_a_narrow_low_part_of_a_tall_face_is_no_opening():
     model = build_terrain(walled, floor_known=True)
     measured_first = [s for s in model.steps if not s.rise_inferred and abs(s.distance_m - DISTANCE_M) < 0.05]
     assert not measured_first, model.note
+
+
+def test_a_lone_low_band_in_line_with_a_wall_needs_the_staircase_behind_it():
+    """Split off a taller plane, a riser is a staircase's first step only with the
+    staircase behind it: alone and with its top not seen it is as likely a wall's low band
+    (a false 34 cm step 1.1 m before far stairs, bench_far_stairs.py scene 9). With its
+    tread seen it stays."""
+    alone = _with_wall_in_line(
+        _no_treads(_stairs(n_steps=1, rise=RISE_M, run=RUN_M, distance=DISTANCE_M)), (0.5, 1.5), 1.2
+    )
+    assert build_terrain(alone, floor_known=True).obstacle == NONE
+    with_tread = _with_wall_in_line(
+        _stairs(n_steps=1, rise=RISE_M, run=RUN_M, distance=DISTANCE_M), (0.5, 1.5), 1.2
+    )
+    model = build_terrain(with_tread, floor_known=True)
+    assert model.obstacle != NONE and model.steps[0].rise_m == pytest.approx(RISE_M, abs=0.01)

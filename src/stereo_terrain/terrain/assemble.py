@@ -206,6 +206,7 @@ def _assemble_along(
                 float(v_hi),
                 a.touches_border or r.touches_border,
                 a.foot_hidden or r.foot_hidden,
+                a.in_wall or r.in_wall,
             )
         else:
             merged.append(r)
@@ -316,6 +317,10 @@ def _assemble_along(
     below: set[int] = set()  # steps inferred below a chain that starts above the ground
     if not chain and config.max_steps_below_chain > 0:
         chain, below = _chain_above_ground(cands_all, chain_from, ground_z, u, config)
+    if len(chain) == 1 and chain[0][0] is not None and chain[0][0].in_wall and chain[0][3] is None:
+        # A riser found in line with a wall (risers._riser_beside_wall) is a staircase's
+        # first step; alone, its top not seen, it is as likely a wall's low band (issue 11).
+        chain = []
 
     # Stairs filling the view: the first riser's foot (and the floor before it) is below
     # the image, so the first tread was taken for the ground. A riser in front of the

@@ -28,6 +28,7 @@ class _Riser:
     v_hi: float
     touches_border: bool
     foot_hidden: bool = False  # its inliers reach the image's last rows: its foot is out of view
+    in_wall: bool = False  # the part of a taller plane in line with a wall (_riser_beside_wall)
 
 
 def _riser_edges(
@@ -261,6 +262,7 @@ def _riser_candidates(
             continue
         z_lo, z_hi = edges
         idx = seg.indices
+        in_wall = False
         if z_hi - z_lo > config.max_rise_m + config.edge_margin_m:
             # Too tall for a riser, unless it is a riser in line with a wall beside it
             # (stairs in an opening of a wall flush with their first riser).
@@ -285,6 +287,7 @@ def _riser_candidates(
             if len(idx) < config.min_riser_points:
                 continue
             pts = P[idx]
+            in_wall = True
             if z_hi - z_lo > config.max_rise_m + config.edge_margin_m:
                 continue
             if floor_z is None or abs(z_lo - floor_z) > config.chain_tolerance_m:
@@ -311,6 +314,7 @@ def _riser_candidates(
                 float(v_hi),
                 touches,
                 foot_hidden,
+                in_wall,
             )
         )
     return cands
