@@ -159,7 +159,7 @@ _MIN_OPENING_M = 0.5
 
 
 def _riser_beside_wall(
-    P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, config: TerrainConfig
+    P: np.ndarray, plane: Plane, v: np.ndarray, config: TerrainConfig
 ) -> tuple[float, float] | None:
     """The lateral extent of the riser in a vertical plane too tall for one, where the plane
     is a riser beside a wall in line with it (None where it is not).
@@ -266,7 +266,7 @@ def _riser_candidates(
         if z_hi - z_lo > config.max_rise_m + config.edge_margin_m:
             # Too tall for a riser, unless it is a riser in line with a wall beside it
             # (stairs in an opening of a wall flush with their first riser).
-            part = _riser_beside_wall(P, seg.plane, v, v_lo, v_hi, config)
+            part = _riser_beside_wall(P, seg.plane, v, config)
             if part is None:
                 continue
             v_lo, v_hi = part
