@@ -160,8 +160,9 @@ _MIN_OPENING_M = 0.5
 
 def _riser_beside_wall(
     P: np.ndarray, plane: Plane, v: np.ndarray, config: TerrainConfig
-) -> tuple[float, float] | None:
-    """The lateral extent of the riser in a vertical plane too tall for one, where the plane
+) -> tuple[float, float, np.ndarray] | None:
+    """The lateral extent ``(v_lo, v_hi)`` of the riser in a vertical plane too tall for
+    one, and the indices into ``P`` of the samples on the plane inside it, where the plane
     is a riser beside a wall in line with it (None where it is not).
 
     Stairs set in an opening of a wall whose face is flush with the first riser put the
@@ -174,7 +175,7 @@ def _riser_beside_wall(
     ``edge_margin_m``), at least :data:`_MIN_OPENING_M` wide, with a slice taller than
     that next to it: a face with nothing taller beside it is not split.
     """
-    near = plane.residuals(P) < config.edge_band_m
+    near = np.flatnonzero(plane.residuals(P) < config.edge_band_m)
     q = P[near]
     lat = q @ v
     # Over every sample on the plane, not only its inliers' extent: the riser's own
@@ -219,7 +220,9 @@ def _riser_beside_wall(
     if raised.sum() < 3:
         return None
     a, b = percentile(lat[raised], [2, 98])
-    return (float(a), float(b)) if b - a >= max(config.min_riser_width_m, _MIN_OPENING_M) else None
+    if b - a < max(config.min_riser_width_m, _MIN_OPENING_M):
+        return None
+    return float(a), float(b), near[(lat > a) & (lat < b)]
 
 
 def _riser_candidates(
@@ -269,12 +272,9 @@ def _riser_candidates(
             part = _riser_beside_wall(P, seg.plane, v, config)
             if part is None:
                 continue
-            v_lo, v_hi = part
             # The riser's samples: on the plane in the opening, between its edges (few of
             # them are the plane's inliers: their normals are what kept them out).
-            on_plane = np.flatnonzero(seg.plane.residuals(P) < config.edge_band_m)
-            lat_on = P[on_plane] @ v
-            in_part = on_plane[(lat_on > v_lo) & (lat_on < v_hi)]
+            v_lo, v_hi, in_part = part
             if len(in_part) < config.min_riser_points:
                 continue
             edges = _riser_edges(
