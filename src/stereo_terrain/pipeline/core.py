@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import functools
 import os
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -21,10 +20,8 @@ from ..errors import ConfigError, InputError
 from ..frames import Rig, Transform
 from ..gravity import (
     GravityEstimate,
-    SceneLines,
     combine_with_lines,
     estimate_up,
-    horizontal_direction,
     levelling,
     refine_up_from_planes,
     scene_lines,
@@ -32,14 +29,14 @@ from ..gravity import (
 from ..planes.auto import combine_plane_sets
 from ..planes.contour import extract_planes_contour
 from ..planes.orientation import PlaneSet, extract_planes_orientation, transform_planes
-from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
-from ..stereo import DisparityBackend, DisparityMap, check_max_disparity, default_max_disparity, make_backend
-from ..stereo.fill import FlatRegions, fill_planar_regions, find_flat_regions
-from ..stereo.manhattan import fill_manhattan_faces
+from ..rectify import Rectification, compute_rectification, rectify
+from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
+from ..stereo.fill import find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
 from .config import PipelineConfig
+from .fill_steps import fill_faces, fill_faces_with_up, identity_camera_rect
 from .gravity_steps import (
     _gravity_report,
     _level_from_scene,
@@ -184,13 +181,17 @@ class Pipeline:
                 want_horizontal=want_horizontal,
                 prior_cone_deg=self.config.gravity.prior_cone_deg,
             )
-        disp = self.backend.compute(pair, self.max_disparity_px)
+        disp = matched = self.backend.compute(pair, self.max_disparity_px)
+        faces = None
         if regions is not None:
-            disp = self._fill(disp, pair, regions.result(), lines_job, rig_up, want_horizontal)
+            lines_found = None if lines_job is None else lines_job.result()
+            flat = regions.result()
+            faces = fill_faces(disp, pair, flat, lines_found, rig_up, want_horizontal, self.config)
+            disp = faces.disparity
         lap("disparity")
         cfg = self.config
         cam_sample = sample_disparity(
-            disp, _identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
+            disp, identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
         )
         lap("cloud")
         rig_T = self.T_yaw_camera_rect
@@ -230,6 +231,19 @@ class Pipeline:
             correction = levelling(fine.up)
             T = correction @ T
             planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
+            if faces is not None and faces.waited_for_up and cfg.fill.manhattan_after_gravity:
+                assert lines_job is not None  # a Manhattan fill that waited had the lines
+                # The Manhattan fill waited for up, which the scene has now fixed: fill the
+                # faces with it and find the planes again in the same frame (issue 11).
+                refilled = fill_faces_with_up(
+                    matched, faces, pair, lines_job.result(), T.inverse().apply_vectors(_UP), cfg
+                )
+                if refilled is not None:
+                    disp = refilled
+                    cam_sample = sample_disparity(
+                        disp, identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
+                    )
+                    planes = self._extract_planes(transform_sample(cam_sample, T), pair.left)
         floor_known = source == "rig"
         if not floor_known:
             planes, T, floor_known = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
@@ -258,62 +272,6 @@ class Pipeline:
             choice,
             self.config.method,
         )
-
-    def _fill(
-        self,
-        disp: DisparityMap,
-        pair: RectifiedPair,
-        flat: FlatRegions,
-        lines_job: Future[SceneLines] | None,
-        rig_up: np.ndarray | None,
-        manhattan: bool,
-    ) -> DisparityMap:
-        """Texture-poor faces: the planar fill (disparity from their outline, see
-        stereo/fill.py), then the Manhattan fill (faces with one end in view: planes of the
-        scene's three directions, see stereo/manhattan.py) when up and a horizontal
-        direction are known: up from the rig, else from the image's vertical lines, else
-        (they do not fix it) a first estimate from the planar-filled disparity's planes."""
-        cfg = self.config
-        occluded: list[int] = []
-        values, filled = fill_planar_regions(
-            disp.disparity,
-            pair.left,
-            cfg.fill,
-            max_disparity_px=disp.max_disparity_px,
-            valid=pair.rectification.valid_left,
-            regions=flat,
-            occluded=occluded,
-        )
-        found = None if lines_job is None else lines_job.result()
-        if manhattan and found is not None:
-            up, horizontal = rig_up, found.horizontal
-            if up is None and found.up is not None and found.up.ok:
-                up = found.up.up
-            elif up is None:
-                first = sample_disparity(
-                    dataclasses.replace(disp, disparity=values, filled=filled),
-                    _identity_camera_rect(),
-                    cfg.cloud,
-                    target_points=cfg.orientation.target_points,
-                )
-                coarse = estimate_up(first, cfg.gravity)
-                if coarse.ok and coarse.sigma_deg <= cfg.fill.manhattan_max_up_sigma_deg:
-                    up = coarse.up
-                    horizontal = horizontal_direction(found.segments, pair.rectification, up, cfg.vanishing)
-            if up is not None and horizontal is not None:
-                values, filled = fill_manhattan_faces(
-                    disp.disparity,
-                    values,
-                    filled,
-                    flat.without(occluded) if occluded else flat,  # an occluder's edge holds them
-                    pair.left,
-                    pair.rectification,
-                    up,
-                    horizontal,
-                    cfg.fill,
-                    max_disparity_px=disp.max_disparity_px,
-                )
-        return dataclasses.replace(disp, disparity=values, filled=filled)
 
     def _rig_up_camera(self, rig_T: Transform) -> np.ndarray:
         """The rig's up in the rectified camera frame (read-only), computed once per rig
@@ -385,12 +343,9 @@ def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
         )
 
 
-@functools.cache
-def _identity_camera_rect() -> Transform:
-    """The identity of ``camera_rect``, built once (a Transform checks its matrix when
-    built: issue 13)."""
-    return Transform.identity("camera_rect")
-
+#: Up in the yaw frame.
+_UP = np.array([0.0, 0.0, 1.0])
+_UP.setflags(write=False)
 
 _BLAS: list[Any] = []  # the process's BLAS libraries (threadpoolctl), see _find_blas
 

@@ -139,6 +139,11 @@ class PlanarFillConfig:
     manhattan_check_deg : float
         A region the planar fill filled with a plane more than this far from all three of
         the scene's directions is fitted again by the Manhattan fill (0 = never).
+    manhattan_after_gravity : bool
+        Without a rig, where the Manhattan fill had no up to work with (the image's
+        vertical lines did not fix it and the first estimate was too unsure), run it once
+        the frame's planes and lines have fixed up, and find the planes again from the
+        filled disparity (the pipeline does this; default True).
     max_behind_ratio : float
         A region's plane is refused when more than this share of its support lies behind
         it (by more than twice ``inlier_threshold_px``), away from its inliers: an
@@ -179,6 +184,7 @@ class PlanarFillConfig:
     manhattan_max_planes: int = 8
     manhattan_max_up_sigma_deg: float = 1.0
     manhattan_check_deg: float = 20.0
+    manhattan_after_gravity: bool = True
     max_behind_ratio: float = 0.15
     support_gap_px: int = 8
 
