@@ -1,14 +1,21 @@
 """The fills as a frame runs them (stereo_terrain.pipeline.fill_steps): the Manhattan fill
-waits for up when nothing gives it, and runs once the scene has fixed it (issue 11)."""
+waits for up, or for a horizontal direction of the scene, when nothing gives it, and runs
+once the frame has them (issue 11)."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 import stereo_terrain.pipeline.core as core
+from stereo_terrain.cloud import GridSample
+from stereo_terrain.frames import R_BODY_OPTICAL, Transform
 from stereo_terrain.gravity import GravityEstimate, SceneLines, horizontal_direction
+from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
-from stereo_terrain.pipeline.fill_steps import fill_faces, fill_faces_with_up
+from stereo_terrain.pipeline.fill_steps import fill_faces, fill_faces_later
+from stereo_terrain.planes.orientation import VERTICAL, PlaneSegment, PlaneSet
 from stereo_terrain.rectify import RectifiedPair
 from stereo_terrain.stereo import DisparityMap
 from stereo_terrain.stereo.fill import find_flat_regions
@@ -18,6 +25,21 @@ from .test_manhattan import FILL_TOL_PX, _one_ended_riser
 
 #: Up of the head-on scene of ``_one_ended_riser`` in its camera.
 UP = np.array([0.0, -1.0, 0.0])
+#: Its level yaw frame (x forward, y left, z up) from the camera.
+T_YAW_CAMERA = Transform.from_rt(R_BODY_OPTICAL, np.zeros(3), "yaw", "camera_rect")
+
+
+def _planes(*vertical_normals: np.ndarray) -> PlaneSet:
+    """A plane set in the yaw frame holding vertical planes of these normals (each with
+    more inliers than the one after it); its samples are not read."""
+    empty = np.zeros((0, 3), np.float32)
+    none = np.zeros(0, np.int32)
+    samples = GridSample(empty, empty, np.zeros(0, np.float32), none, none, none, (0, 0), 4, "yaw")
+    segments = tuple(
+        PlaneSegment(Plane(n, 2.0), VERTICAL, np.arange(100 - k), 0.01)
+        for k, n in enumerate(vertical_normals)
+    )
+    return PlaneSet(segments, samples, np.array([0.0, 0.0, 1.0]), "test", np.zeros(3))
 
 
 def _riser_frame():
@@ -45,39 +67,60 @@ def test_without_up_the_manhattan_fill_waits_and_leaves_the_planar_fill():
     assert faces.planar.filled is not None and faces.planar.filled[riser].mean() < 0.1
 
 
+def _filled_at_once(pair, disp, flat, lines, config):
+    """The fill with up known from the start (a rig: the lines' job then finds the
+    horizontal direction from the same segments)."""
+    horizontal = horizontal_direction(lines.segments, pair.rectification, UP, config.vanishing)
+    at_once = fill_faces(disp, pair, flat, SceneLines(None, horizontal, lines.segments), UP, True, config)
+    assert not at_once.waited
+    return at_once.disparity
+
+
 def test_given_up_later_the_face_is_filled_as_with_up_at_once():
     pair, disp, flat, lines, config, riser, truth = _riser_frame()
     faces = fill_faces(disp, pair, flat, lines, None, True, config)
-    later = fill_faces_with_up(disp, faces, pair, lines, UP, config)
+    later = fill_faces_later(disp, faces, pair, lines, _planes(), T_YAW_CAMERA, config)
     assert later is not None and later.filled is not None
     inner = riser.copy()
     inner[:, : 150 + 10] = False
     assert later.filled[inner].mean() > 0.9
     assert np.max(np.abs(later.disparity - truth)[inner & later.filled]) < FILL_TOL_PX
-    # The same fill as one with up known from the start (a rig: the lines' job then finds
-    # the horizontal direction from the same segments).
-    horizontal = horizontal_direction(lines.segments, pair.rectification, UP, config.vanishing)
-    with_rig_lines = SceneLines(None, horizontal, lines.segments)
-    at_once = fill_faces(disp, pair, flat, with_rig_lines, UP, True, config)
-    assert not at_once.waited_for_up
-    np.testing.assert_array_equal(later.disparity, at_once.disparity.disparity)
-    np.testing.assert_array_equal(later.filled, at_once.disparity.filled)
+    at_once = _filled_at_once(pair, disp, flat, lines, config)
+    np.testing.assert_array_equal(later.disparity, at_once.disparity)
+    np.testing.assert_array_equal(later.filled, at_once.filled)
+
+
+def test_without_a_horizontal_direction_the_largest_vertical_plane_gives_it():
+    """Up known (a rig) but the lines give no horizontal direction: the fill waits, then
+    takes it from the frame's largest vertical plane (here the riser's own, facing the
+    camera, which a small plane 30 deg off does not outvote)."""
+    pair, disp, flat, lines, config, riser, truth = _riser_frame()
+    vertical = np.array([[100.0 + 40 * i, 20.0, 100.0 + 40 * i, 300.0] for i in range(8)])
+    no_horizontal = SceneLines(None, None, vertical)
+    faces = fill_faces(disp, pair, flat, no_horizontal, UP, True, config)
+    assert faces.waited_for_horizontal and not faces.waited_for_up
+    assert faces.disparity is faces.planar
+    facing = np.array([-1.0, 0.0, 0.0])
+    off = np.array([-math.cos(math.radians(30.0)), math.sin(math.radians(30.0)), 0.0])
+    later = fill_faces_later(disp, faces, pair, no_horizontal, _planes(facing, off), T_YAW_CAMERA, config)
+    assert later is not None and later.filled is not None
+    inner = riser.copy()
+    inner[:, : 150 + 10] = False
+    assert later.filled[inner].mean() > 0.9
+    assert np.max(np.abs(later.disparity - truth)[inner & later.filled]) < FILL_TOL_PX
+    # No vertical plane and no lines: nothing to fill.
+    assert fill_faces_later(disp, faces, pair, no_horizontal, _planes(), T_YAW_CAMERA, config) is None
 
 
 def test_up_known_at_once_never_waits():
     pair, disp, flat, lines, config, _, _ = _riser_frame()
-    assert not fill_faces(disp, pair, flat, lines, UP, True, config).waited_for_up
+    horizontal = horizontal_direction(lines.segments, pair.rectification, UP, config.vanishing)
+    assert not fill_faces(
+        disp, pair, flat, SceneLines(None, horizontal, lines.segments), UP, True, config
+    ).waited
     # Without the Manhattan fill, or without lines, there is nothing to wait for.
-    assert not fill_faces(disp, pair, flat, lines, None, False, config).waited_for_up
-    assert not fill_faces(disp, pair, flat, None, None, True, config).waited_for_up
-
-
-def test_no_horizontal_direction_for_the_new_up_fills_nothing():
-    pair, disp, flat, lines, config, _, _ = _riser_frame()
-    faces = fill_faces(disp, pair, flat, lines, None, True, config)
-    vertical = np.array([[100.0 + 40 * i, 50.0, 100.0 + 40 * i, 300.0] for i in range(8)])
-    vertical_only = SceneLines(lines.up, None, vertical)
-    assert fill_faces_with_up(disp, faces, pair, vertical_only, UP, config) is None
+    assert not fill_faces(disp, pair, flat, lines, None, False, config).waited
+    assert not fill_faces(disp, pair, flat, None, None, True, config).waited
 
 
 def test_the_pipeline_fills_the_faces_once_the_scene_has_fixed_up(monkeypatch):
@@ -112,3 +155,28 @@ def test_the_pipeline_fills_the_faces_once_the_scene_has_fixed_up(monkeypatch):
     )
     # The gravity is the scene's either way: the refill comes after it.
     np.testing.assert_allclose(on.T_yaw_camera_rect.matrix[:3, :3], off.T_yaw_camera_rect.matrix[:3, :3])
+
+
+def test_with_a_rig_and_no_horizontal_direction_the_planes_give_it(monkeypatch):
+    """With a rig, where the image's lines give no horizontal direction (about one
+    realistic frame in five), the faces wait for the frame's planes: the painted
+    staircase of this scene is then filled and counted."""
+    found_lines = core.scene_lines
+
+    def no_horizontal(*args, **kwargs):
+        return SceneLines(None, None, found_lines(*args, **kwargs).segments)
+
+    monkeypatch.setattr(core, "scene_lines", no_horizontal)
+    rng = np.random.default_rng(5)
+    specs = [random_scene_spec(rng, kind="stairs", weak_texture=True) for _ in range(2)]
+    scene = render_scene(specs[1])  # painted, 5 steps
+    results = {}
+    for after in (True, False):
+        config = PipelineConfig.from_dict({"fill": {"manhattan_after_gravity": after}})
+        results[after] = Pipeline(scene.calibration, scene.rig, config).run(scene.left, scene.right)
+    on, off = results[True], results[False]
+    assert on.gravity_source == "rig"
+    assert on.disparity.filled is not None and off.disparity.filled is not None
+    assert on.disparity.filled.sum() > 1.3 * off.disparity.filled.sum()
+    assert on.terrain.obstacle == "stairs"
+    assert len(on.terrain.steps) == len(scene.truth["steps"])

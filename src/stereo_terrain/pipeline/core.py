@@ -36,7 +36,7 @@ from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
 from .config import PipelineConfig
-from .fill_steps import fill_faces, fill_faces_with_up, identity_camera_rect
+from .fill_steps import fill_faces, fill_faces_later, identity_camera_rect
 from .gravity_steps import (
     _gravity_report,
     _level_from_scene,
@@ -231,19 +231,19 @@ class Pipeline:
             correction = levelling(fine.up)
             T = correction @ T
             planes = transform_planes(planes, correction, up=np.array([0.0, 0.0, 1.0]))
-            if faces is not None and faces.waited_for_up and cfg.fill.manhattan_after_gravity:
-                assert lines_job is not None  # a Manhattan fill that waited had the lines
-                # The Manhattan fill waited for up, which the scene has now fixed: fill the
-                # faces with it and find the planes again in the same frame (issue 11).
-                refilled = fill_faces_with_up(
-                    matched, faces, pair, lines_job.result(), T.inverse().apply_vectors(_UP), cfg
+        levelled = source == "rig" or (source == "scene" and fine.ok)
+        if faces is not None and faces.waited and levelled and cfg.fill.manhattan_after_gravity:
+            assert lines_job is not None  # a Manhattan fill that waited had the lines
+            # The Manhattan fill waited for up or a horizontal direction, which the frame now
+            # has (the scene's up, or the rig's; its vertical planes): fill the faces and
+            # find the planes again in the same frame (issue 11).
+            refilled = fill_faces_later(matched, faces, pair, lines_job.result(), planes, T, cfg)
+            if refilled is not None:
+                disp = refilled
+                cam_sample = sample_disparity(
+                    disp, identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
                 )
-                if refilled is not None:
-                    disp = refilled
-                    cam_sample = sample_disparity(
-                        disp, identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
-                    )
-                    planes = self._extract_planes(transform_sample(cam_sample, T), pair.left)
+                planes = self._extract_planes(transform_sample(cam_sample, T), pair.left)
         floor_known = source == "rig"
         if not floor_known:
             planes, T, floor_known = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
@@ -342,10 +342,6 @@ def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
             f"got {type(config).__name__}"
         )
 
-
-#: Up in the yaw frame.
-_UP = np.array([0.0, 0.0, 1.0])
-_UP.setflags(write=False)
 
 _BLAS: list[Any] = []  # the process's BLAS libraries (threadpoolctl), see _find_blas
 

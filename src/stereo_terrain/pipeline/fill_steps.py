@@ -14,11 +14,16 @@ import numpy as np
 from ..cloud import sample_disparity
 from ..frames import Transform
 from ..gravity import SceneLines, estimate_up, horizontal_direction
+from ..planes.orientation import VERTICAL, PlaneSet
 from ..rectify import RectifiedPair
 from ..stereo import DisparityMap
 from ..stereo.fill import FlatRegions, fill_planar_regions
 from ..stereo.manhattan import fill_manhattan_faces
 from .config import PipelineConfig
+
+#: Up in the yaw frame.
+_UP = np.array([0.0, 0.0, 1.0])
+_UP.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -36,14 +41,24 @@ class FilledFaces:
     waited_for_up : bool
         The Manhattan fill did not run for want of up: no rig, the image's vertical lines
         did not fix it, and the first estimate from the planar-filled disparity was too
-        unsure (``fill.manhattan_max_up_sigma_deg``). :func:`fill_faces_with_up` runs it
+        unsure (``fill.manhattan_max_up_sigma_deg``). :func:`fill_faces_later` runs it
         once the scene has fixed up.
+    waited_for_horizontal : bool
+        Up was known but the image's lines gave no horizontal direction of the scene:
+        :func:`fill_faces_later` runs the fill with the one the frame's vertical planes
+        give.
     """
 
     disparity: DisparityMap = field(repr=False)
     planar: DisparityMap = field(repr=False)
     regions: FlatRegions = field(repr=False)
     waited_for_up: bool = False
+    waited_for_horizontal: bool = False
+
+    @property
+    def waited(self) -> bool:
+        """The Manhattan fill waited for up or for a horizontal direction."""
+        return self.waited_for_up or self.waited_for_horizontal
 
 
 def fill_faces(
@@ -89,25 +104,34 @@ def fill_faces(
     if up is None:
         return FilledFaces(planar, planar, regions, waited_for_up=True)
     if horizontal is None:
-        return FilledFaces(planar, planar, regions)
+        return FilledFaces(planar, planar, regions, waited_for_horizontal=True)
     return FilledFaces(_manhattan(disp, planar, regions, pair, up, horizontal, config), planar, regions)
 
 
-def fill_faces_with_up(
+def fill_faces_later(
     disp: DisparityMap,
     faces: FilledFaces,
     pair: RectifiedPair,
     lines: SceneLines,
-    up: np.ndarray,
+    planes: PlaneSet,
+    T_yaw_camera: Transform,
     config: PipelineConfig,
 ) -> DisparityMap | None:
-    """The Manhattan fill that :func:`fill_faces` left for want of up (``faces.waited_for_up``),
-    with ``up`` (in the rectified camera) now fixed by the scene: the frame's planes and
-    lines. ``disp`` is the matcher's disparity. None when the image's lines give no
-    horizontal direction for this up (nothing to fill)."""
+    """The Manhattan fill that :func:`fill_faces` left (``faces.waited``), once the frame is
+    levelled: up is the yaw frame's (``T_yaw_camera``: the rig's, or the scene's from its
+    planes and lines); the horizontal direction the image's lines give for it, else the
+    normal of the frame's largest vertical plane (``planes``, in the yaw frame: a riser or
+    a wall, either of the scene's two vertical families). ``disp`` is the matcher's
+    disparity. None when there is no horizontal direction (nothing to fill)."""
+    to_camera = T_yaw_camera.inverse()
+    up = to_camera.apply_vectors(_UP)
     horizontal = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
     if horizontal is None:
-        return None
+        vertical = [s for s in planes.segments if s.kind == VERTICAL]
+        if not vertical:
+            return None
+        n = max(vertical, key=lambda s: s.count).plane.normal * np.array([1.0, 1.0, 0.0])
+        horizontal = to_camera.apply_vectors(n / float(np.linalg.norm(n)))
     return _manhattan(disp, faces.planar, faces.regions, pair, up, horizontal, config)
 
 
