@@ -24,6 +24,9 @@ from ..swing import SwingConfig
 from ..terrain import TerrainConfig
 from ..tracking import TrackingConfig
 
+#: The rematch's matcher (``PipelineConfig.rematch_sgbm``): issue 11, wood seen by webcams.
+REMATCH_SGBM = OpenCVSGBMConfig(match_exposure=True, p1_per_px=24, p2_per_px=96, penalty_width_px=640)
+
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")
 
@@ -73,6 +76,17 @@ class PipelineConfig:
         The staircase tracked over frames by the live loop (``run``, ``replay``; issue
         14, :mod:`stereo_terrain.tracking`); ``tracking: {enabled: false}`` gives single
         frames. A single ``reconstruct`` does not use it.
+    rematch : bool
+        With the ``opencv`` backend: when a frame finds no obstacle, match its pair again
+        with ``rematch_sgbm`` and run the later stages on that disparity; its result is kept
+        when it finds a staircase of two steps or more (the terrain note says so; a lone
+        step from the harder smoothing is as likely an object's front). Default true (issue 11:
+        wooden stairs seen by webcams; docs/benchmarks.md, "Eleventh session"). A frame
+        with nothing in view pays for both passes.
+    rematch_sgbm : OpenCVSGBMConfig
+        The second matcher: the right image's exposure matched to the left's and harder
+        penalties (``p1_per_px`` 24, ``p2_per_px`` 96, scaled with the image width from
+        640 px), which hold the rows of a face with horizontal grain together.
     """
 
     backend: str = "opencv"
@@ -94,6 +108,8 @@ class PipelineConfig:
     vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)  # issue 14
     vanishing: VerticalLinesConfig = field(default_factory=VerticalLinesConfig)  # issue 11
+    rematch: bool = True  # issue 11
+    rematch_sgbm: OpenCVSGBMConfig = field(default_factory=lambda: REMATCH_SGBM)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -119,6 +135,7 @@ class PipelineConfig:
         nested = {f.name: f.type for f in dataclasses.fields(cls)}
         sub_types = {
             "sgbm": OpenCVSGBMConfig,
+            "rematch_sgbm": OpenCVSGBMConfig,
             "sgm": SGMConfig,
             "fill": PlanarFillConfig,
             "cloud": CloudConfig,
@@ -145,7 +162,10 @@ class PipelineConfig:
                         f"config '{key}': unknown keys {set(value) - known}; known: {sorted(known)}"
                     )
                 try:
-                    kwargs[key] = sub(**value)
+                    if key == "rematch_sgbm":  # its own defaults, with what the file changes
+                        kwargs[key] = dataclasses.replace(REMATCH_SGBM, **value)
+                    else:
+                        kwargs[key] = sub(**value)
                 except (TypeError, ValueError) as exc:  # ConfigError included: name the section
                     raise ConfigError(f"config '{key}': {exc}") from None
             else:

@@ -8,8 +8,8 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from ..errors import ConfigError, InputError
 from ..frames import Rig, Transform
 from ..gravity import (
     GravityEstimate,
+    SceneLines,
     combine_with_lines,
     estimate_up,
     levelling,
@@ -29,12 +30,13 @@ from ..gravity import (
 from ..planes.auto import combine_plane_sets
 from ..planes.contour import extract_planes_contour
 from ..planes.orientation import PlaneSet, extract_planes_orientation, transform_planes
-from ..rectify import Rectification, compute_rectification, rectify
+from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
-from ..stereo.fill import find_flat_regions
+from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
+from ..terrain.model import NONE, STAIRS
 from .config import PipelineConfig
 from .fill_steps import fill_faces, fill_faces_later, identity_camera_rect
 from .gravity_steps import (
@@ -100,11 +102,17 @@ class Pipeline:
             self.max_disparity_px = check_max_disparity(self.config.max_disparity_px, width)
         else:
             self.max_disparity_px = default_max_disparity(self.rectification, self.config.min_depth_m)
+        custom_backend = backend
         if backend is None:
             chosen = self.config.sgbm if self.config.backend == "opencv" else self.config.sgm
             options = dataclasses.asdict(chosen)
             backend = make_backend(self.config.backend, **options)
         self.backend = backend
+        # Issue 11: a second matcher for frames in which the first finds nothing (only when
+        # the config's own OpenCV matcher is the first: never behind a backend passed in).
+        self._rematcher: DisparityBackend | None = None
+        if custom_backend is None and self.config.backend == "opencv" and self.config.rematch:
+            self._rematcher = make_backend("opencv", **dataclasses.asdict(self.config.rematch_sgbm))
         # Rectified left camera -> yaw frame from the rig (None without one: the floor decides).
         self.T_yaw_camera_rect: Transform | None = (
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
@@ -130,24 +138,19 @@ class Pipeline:
         self.rig = rig
         self.T_yaw_camera_rect = None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
 
-    def run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
+    def run(self, left: np.ndarray, right: np.ndarray, *, rematch: bool = True) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
-        On the main thread the process's BLAS is held to one thread while the frame runs
-        (see :func:`_one_blas_thread`); the caller's setting is back afterwards."""
+        ``rematch``: False skips the second matcher for this frame
+        (``PipelineConfig.rematch``: the live loop runs it on every other pair while
+        nothing is in view). On the main thread the process's BLAS is held to one thread
+        while the frame runs (see :func:`_one_blas_thread`); the caller's setting is back
+        afterwards."""
         with _one_blas_thread():
-            return self._run(left, right)
+            return self._run(left, right, rematch)
 
-    def _run(self, left: np.ndarray, right: np.ndarray) -> TerrainResult:
-        timing: dict[str, float] = {}
-        t0 = t = time.perf_counter()
-
-        def lap(name: str) -> None:
-            nonlocal t
-            now = time.perf_counter()
-            timing[name] = (now - t) * 1000.0
-            t = now
-
+    def _run(self, left: np.ndarray, right: np.ndarray, rematch: bool = True) -> TerrainResult:
+        t0 = time.perf_counter()
         pair = rectify(left, right, self.rectification)
         if self.rectifier is not None:
             self.last_correction = self.rectifier.update(pair)
@@ -155,11 +158,34 @@ class Pipeline:
                 self.rectification = self.last_correction.rectification
                 pair = rectify(left, right, self.rectification)
         pair, self.last_vertical = align_vertical(pair, self.config.vertical)  # residual vertical offset
-        lap("rectify")
+        t1 = time.perf_counter()
+        image_jobs = self._image_jobs(pair)
+        result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
+        if rematch and self._rematcher is not None and result.terrain.obstacle == NONE:
+            # Nothing found: match the pair again with the rematch settings (issue 11; see
+            # PipelineConfig.rematch). Its harder smoothing can make an object's front a
+            # lone "step" (a real room's motorbike did), so its result is kept only when it
+            # shows a staircase's own pattern: two steps or more.
+            t2 = time.perf_counter()
+            second = self._from_pair(pair, self._rematcher, image_jobs, {}, t2)
+            spent = (time.perf_counter() - t2) * 1000.0
+            if second.terrain.obstacle == STAIRS and len(second.terrain.steps) >= 2:
+                note = f"{second.terrain.note}; {_REMATCH_NOTE}"
+                timing = {**result.timing_ms, **{k: v for k, v in second.timing_ms.items() if k != "total"}}
+                result = dataclasses.replace(
+                    second, terrain=dataclasses.replace(second.terrain, note=note), timing_ms=timing
+                )
+            result.timing_ms["rematch"] = spent
+        result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
+        return result
+
+    def _image_jobs(self, pair: RectifiedPair) -> _ImageJobs:
+        """The work that needs only the rectified left image, started on the other core while
+        the matcher runs (OpenCV releases the GIL; issue 13): the fill's regions, and the
+        image's lines (without a rig, up from its vertical lines; the scene's horizontal
+        direction for the Manhattan fill)."""
         regions = None
         if self.config.fill.enabled:
-            # The fill's regions need only the left image: found on another core while the
-            # matcher runs (OpenCV releases the GIL; issue 13).
             regions = _background().submit(
                 find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
             )
@@ -168,9 +194,6 @@ class Pipeline:
         want_horizontal = self.config.fill.enabled and self.config.fill.manhattan
         rig_up = None if self.T_yaw_camera_rect is None else self._rig_up_camera(self.T_yaw_camera_rect)
         if want_up or (want_horizontal and (rig_up is not None or self.config.vanishing.enabled)):
-            # Image only, so found on the other core while the matcher runs, as the fill's
-            # regions are: without a rig, up from the image's vertical lines; and the
-            # scene's horizontal direction for the Manhattan fill.
             lines_job = _background().submit(
                 scene_lines,
                 pair.left,
@@ -181,7 +204,28 @@ class Pipeline:
                 want_horizontal=want_horizontal,
                 prior_cone_deg=self.config.gravity.prior_cone_deg,
             )
-        disp = matched = self.backend.compute(pair, self.max_disparity_px)
+        return _ImageJobs(regions, lines_job, rig_up, want_horizontal)
+
+    def _from_pair(
+        self,
+        pair: RectifiedPair,
+        backend: DisparityBackend,
+        jobs: _ImageJobs,
+        timing: dict[str, float],
+        t_start: float,
+    ) -> TerrainResult:
+        """Every stage after rectification, with ``backend`` as the matcher; ``timing`` gets
+        each stage's milliseconds (from ``t_start``)."""
+        t = t_start
+
+        def lap(name: str) -> None:
+            nonlocal t
+            now = time.perf_counter()
+            timing[name] = (now - t) * 1000.0
+            t = now
+
+        regions, lines_job, rig_up, want_horizontal = jobs
+        disp = matched = backend.compute(pair, self.max_disparity_px)
         faces = None
         if regions is not None:
             lines_found = None if lines_job is None else lines_job.result()
@@ -257,7 +301,6 @@ class Pipeline:
         )
         swing = plan_swing(terrain, self.config.swing)
         lap("polytope")
-        timing["total"] = (time.perf_counter() - t0) * 1000.0
         return TerrainResult(
             terrain,
             swing,
@@ -341,6 +384,22 @@ def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
             "the config must be a PipelineConfig (PipelineConfig.from_dict or from_yaml builds one), "
             f"got {type(config).__name__}"
         )
+
+
+#: What the terrain note says when the rematch found the obstacle.
+_REMATCH_NOTE = (
+    "found by the rematch (nothing with the first matcher; the right image's exposure matched to "
+    "the left's and harder smoothness penalties, PipelineConfig.rematch_sgbm)"
+)
+
+
+class _ImageJobs(NamedTuple):
+    """A frame's work on the rectified left image alone (:meth:`Pipeline._image_jobs`)."""
+
+    regions: Future[FlatRegions] | None
+    lines: Future[SceneLines] | None
+    rig_up: np.ndarray | None
+    want_horizontal: bool
 
 
 _BLAS: list[Any] = []  # the process's BLAS libraries (threadpoolctl), see _find_blas

@@ -1,0 +1,134 @@
+"""The rematch (PipelineConfig.rematch, issue 11): a frame in which the first matcher finds
+nothing is matched again with harder penalties and exposure matching; a staircase of two
+steps or more found so replaces the empty result."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.pipeline.config import REMATCH_SGBM
+from stereo_terrain.rectify import RectifiedPair
+from stereo_terrain.stereo import DisparityMap
+from stereo_terrain.synthetic import BoxSpec, default_scene_spec, render_scene
+
+
+class _Blind:
+    """A first matcher that matches nothing (a camera pair it cannot read)."""
+
+    name = "blind"
+
+    def compute(self, pair: RectifiedPair, max_disparity_px: int) -> DisparityMap:
+        nothing = np.full(pair.left.shape, np.nan, np.float32)
+        return DisparityMap(nothing, max_disparity_px, pair.rectification, None, self.name)
+
+
+def _blind_first(scene, config: PipelineConfig | None = None) -> Pipeline:
+    pipeline = Pipeline(scene.calibration, scene.rig, config)
+    pipeline.backend = _Blind()  # the rematch keeps the config's own matcher
+    return pipeline
+
+
+def test_nothing_found_then_the_rematch_finds_the_staircase():
+    scene = render_scene(default_scene_spec())
+    result = _blind_first(scene).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs"
+    assert len(result.terrain.steps) == len(scene.truth["steps"])
+    assert "rematch" in result.terrain.note
+    assert result.timing_ms["rematch"] > 0
+    assert result.timing_ms["total"] >= result.timing_ms["rematch"]
+    assert result.disparity.backend == "opencv"
+    for got, want in zip(result.terrain.steps, scene.truth["steps"], strict=True):
+        assert abs(got.rise_m - want["rise"]) < 0.01
+
+
+def test_without_the_rematch_nothing_is_nothing():
+    scene = render_scene(default_scene_spec())
+    off = PipelineConfig.from_dict({"rematch": False})
+    result = _blind_first(scene, off).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "none"
+    assert "rematch" not in result.timing_ms
+
+
+def test_a_lone_step_from_the_rematch_is_not_kept():
+    """Its harder smoothing can make an object's front a step: one step (a box here) is not
+    enough; the first pass's empty result stands, and the time spent is reported."""
+    base = default_scene_spec()
+    box = BoxSpec(height_m=0.2, depth_m=0.6, width_m=1.0, distance_m=1.4, yaw_rad=0.1)
+    scene = render_scene(dataclasses.replace(base, obstacle=box))
+    assert Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).terrain.obstacle == "box"
+    # The rematch's own matcher, as the first, finds the box too.
+    as_first = PipelineConfig(sgbm=REMATCH_SGBM, rematch=False)
+    alone = Pipeline(scene.calibration, scene.rig, as_first).run(scene.left, scene.right)
+    assert alone.terrain.obstacle == "box"
+    result = _blind_first(scene).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "none"
+    assert result.timing_ms["rematch"] > 0
+
+
+def test_a_frame_that_finds_something_is_not_matched_again(monkeypatch):
+    scene = render_scene(default_scene_spec())
+    pipeline = Pipeline(scene.calibration, scene.rig)
+    assert pipeline._rematcher is not None
+
+    def no_second_call(*args, **kwargs):
+        raise AssertionError("rematched a frame that found its staircase")
+
+    monkeypatch.setattr(pipeline._rematcher, "compute", no_second_call)
+    result = pipeline.run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs" and "rematch" not in result.timing_ms
+
+
+def test_rematch_config():
+    # The rematch's matcher keeps its own defaults where a file changes one of them.
+    config = PipelineConfig.from_dict({"rematch_sgbm": {"p2_per_px": 200}})
+    assert config.rematch_sgbm == dataclasses.replace(REMATCH_SGBM, p2_per_px=200)
+    assert PipelineConfig().rematch_sgbm.match_exposure
+    with pytest.raises(ConfigError, match="rematch_sgbm"):
+        PipelineConfig.from_dict({"rematch_sgbm": {"p2_per_pixel": 200}})
+    with pytest.raises(ConfigError, match="rematch"):
+        PipelineConfig.from_dict({"rematch": "yes"})
+    # Only behind the config's own OpenCV matcher.
+    scene = render_scene(default_scene_spec())
+    assert Pipeline(scene.calibration, scene.rig, PipelineConfig(backend="sgm"))._rematcher is None
+    assert Pipeline(scene.calibration, scene.rig, backend=_Blind())._rematcher is None
+
+
+def test_the_live_loop_rematches_every_other_pair_while_nothing_is_in_view(monkeypatch):
+    from stereo_terrain.runtime.capture import END, FRAME, Capture, CaptureEvent, StereoFrame
+    from stereo_terrain.runtime.loop import LiveLoop, LoopConfig
+    from stereo_terrain.synthetic import default_scene_spec
+
+    empty = render_scene(dataclasses.replace(default_scene_spec(), obstacle=None))
+    pipeline = Pipeline(empty.calibration, empty.rig)
+    asked: list[bool] = []
+    run = pipeline.run
+
+    def spy(left, right, *, rematch=True):
+        asked.append(rematch)
+        return run(left, right, rematch=rematch)
+
+    monkeypatch.setattr(pipeline, "run", spy)
+
+    class Camera:
+        def __init__(self):
+            self.left = 5
+
+        def read(self):
+            if not self.left:
+                return CaptureEvent(END)
+            self.left -= 1
+            t = float(5 - self.left)
+            return CaptureEvent(FRAME, StereoFrame(empty.left, empty.right, t, t, 5 - self.left))
+
+        def close(self):
+            pass
+
+    loop = LiveLoop(Capture(Camera()), pipeline, lambda msg: None, config=LoopConfig(poll_s=0.0))
+    summary = loop.run()
+    assert summary.processed == 5
+    assert asked == [True, False, True, False, True]
