@@ -38,7 +38,7 @@ def test_nothing_found_then_the_rematch_finds_the_staircase():
     result = _blind_first(scene).run(scene.left, scene.right)
     assert result.terrain.obstacle == "stairs"
     assert len(result.terrain.steps) == len(scene.truth["steps"])
-    assert "rematch" in result.terrain.note
+    assert "rematch" in result.terrain.note and result.rematched
     assert result.timing_ms["rematch"] > 0
     assert result.timing_ms["total"] >= result.timing_ms["rematch"]
     assert result.disparity.backend == "opencv"
@@ -66,7 +66,7 @@ def test_a_lone_step_from_the_rematch_is_not_kept():
     alone = Pipeline(scene.calibration, scene.rig, as_first).run(scene.left, scene.right)
     assert alone.terrain.obstacle == "box"
     result = _blind_first(scene).run(scene.left, scene.right)
-    assert result.terrain.obstacle == "none"
+    assert result.terrain.obstacle == "none" and not result.rematched
     assert result.timing_ms["rematch"] > 0
 
 
@@ -132,3 +132,17 @@ def test_the_live_loop_rematches_every_other_pair_while_nothing_is_in_view(monke
     summary = loop.run()
     assert summary.processed == 5
     assert asked == [True, False, True, False, True]
+
+
+def test_what_the_rematch_is_run_for():
+    """No obstacle, or a staircase of one step (often the one riser the first matcher held
+    of several); not a box, not a staircase of two steps or more."""
+    from stereo_terrain.pipeline.core import _unconvincing
+
+    scene = render_scene(default_scene_spec())
+    stairs = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).terrain
+    assert stairs.obstacle == "stairs" and len(stairs.steps) >= 2
+    assert not _unconvincing(stairs)
+    assert _unconvincing(dataclasses.replace(stairs, steps=stairs.steps[:1]))
+    assert _unconvincing(dataclasses.replace(stairs, obstacle="none", steps=()))
+    assert not _unconvincing(dataclasses.replace(stairs, obstacle="box", steps=stairs.steps[:1]))

@@ -77,10 +77,11 @@ class PipelineConfig:
         14, :mod:`stereo_terrain.tracking`); ``tracking: {enabled: false}`` gives single
         frames. A single ``reconstruct`` does not use it.
     rematch : bool
-        With the ``opencv`` backend: when a frame finds no obstacle, match its pair again
-        with ``rematch_sgbm`` and run the later stages on that disparity; its result is kept
-        when it finds a staircase of two steps or more (the terrain note says so; a lone
-        step from the harder smoothing is as likely an object's front). Default true (issue 11:
+        With the ``opencv`` backend: when a frame finds no obstacle, or a staircase of one
+        step, match its pair again with ``rematch_sgbm`` and run the later stages on that
+        disparity; its result is kept when it finds a staircase of two steps or more (the
+        terrain note says so; a lone step from the harder smoothing is as likely an
+        object's front). Default true (issue 11:
         wooden stairs seen by webcams; docs/benchmarks.md, "Eleventh session"). A frame
         with nothing in view pays for both passes.
     rematch_sgbm : OpenCVSGBMConfig

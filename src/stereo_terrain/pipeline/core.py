@@ -161,11 +161,11 @@ class Pipeline:
         t1 = time.perf_counter()
         image_jobs = self._image_jobs(pair)
         result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
-        if rematch and self._rematcher is not None and result.terrain.obstacle == NONE:
-            # Nothing found: match the pair again with the rematch settings (issue 11; see
-            # PipelineConfig.rematch). Its harder smoothing can make an object's front a
-            # lone "step" (a real room's motorbike did), so its result is kept only when it
-            # shows a staircase's own pattern: two steps or more.
+        if rematch and self._rematcher is not None and _unconvincing(result.terrain):
+            # Nothing found, or a lone step: match the pair again with the rematch settings
+            # (issue 11; see PipelineConfig.rematch). Its harder smoothing can make an
+            # object's front a lone "step" (a real room's motorbike did), so its result is
+            # kept only when it shows a staircase's own pattern: two steps or more.
             t2 = time.perf_counter()
             second = self._from_pair(pair, self._rematcher, image_jobs, {}, t2)
             spent = (time.perf_counter() - t2) * 1000.0
@@ -173,7 +173,10 @@ class Pipeline:
                 note = f"{second.terrain.note}; {_REMATCH_NOTE}"
                 timing = {**result.timing_ms, **{k: v for k, v in second.timing_ms.items() if k != "total"}}
                 result = dataclasses.replace(
-                    second, terrain=dataclasses.replace(second.terrain, note=note), timing_ms=timing
+                    second,
+                    terrain=dataclasses.replace(second.terrain, note=note),
+                    timing_ms=timing,
+                    rematched=True,
                 )
             result.timing_ms["rematch"] = spent
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
@@ -391,6 +394,13 @@ _REMATCH_NOTE = (
     "found by the rematch (nothing with the first matcher; the right image's exposure matched to "
     "the left's and harder smoothness penalties, PipelineConfig.rematch_sgbm)"
 )
+
+
+def _unconvincing(terrain: StairModel) -> bool:
+    """Whether a first pass's terrain leaves room for the rematch: no obstacle, or a
+    staircase of a single step (on webcam photos often the one riser the first matcher
+    held of several)."""
+    return terrain.obstacle == NONE or (terrain.obstacle == STAIRS and len(terrain.steps) == 1)
 
 
 class _ImageJobs(NamedTuple):

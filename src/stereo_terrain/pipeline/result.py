@@ -42,6 +42,9 @@ class TerrainResult:
     plane_choice : str
         Why the planes are those of ``planes.method`` (``auto`` explains its pick).
     method_requested : str
+    rematched : bool
+        The result is the rematch's (``PipelineConfig.rematch``: the first matcher found
+        nothing convincing); ``timing_ms["rematch"]`` is there whenever the rematch ran.
     """
 
     terrain: StairModel
@@ -56,6 +59,7 @@ class TerrainResult:
     cloud_config: CloudConfig = field(default_factory=CloudConfig, repr=False)
     plane_choice: str = ""
     method_requested: str = "orientation"
+    rematched: bool = False
 
     @functools.cached_property
     def cloud(self) -> PointCloud:
