@@ -35,6 +35,7 @@ KEYS = {
     "ratio_to_opencv_3way",
     "accuracy",
     "rigs_read",
+    "rematch_share",
 }
 ACCURACY_KEYS = {"detection_rate", "step_count_accuracy", "rise_err_median_cm", "rise_err_p90_cm"}
 
@@ -70,6 +71,9 @@ def test_bench_json_has_the_issue_shape_and_the_evaluation_accuracy(scenes, tmp_
     assert {"rectify", "disparity", "cloud", "planes", "polytope", "total"} <= set(data["stages_ms"])
     assert data["frame_ms"]["p90"] >= data["frame_ms"]["median"] > 0
     assert data["stages_ms"]["total"] == pytest.approx(data["frame_ms"]["median"])
+    # The rematch (PipelineConfig.rematch): its median time where it ran, and how often.
+    assert 0.0 <= data["rematch_share"] <= 1.0
+    assert (data["stages_ms"]["rematch"] is None) == (data["rematch_share"] == 0.0)
     assert set(data["accuracy"]) == ACCURACY_KEYS
     ref = _evaluation_accuracy(scenes)
     acc = data["accuracy"]

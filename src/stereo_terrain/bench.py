@@ -35,8 +35,9 @@ from .rectify import read_image
 
 #: Files every scene folder must hold.
 SCENE_FILES = ("left.png", "right.png", "calib.yaml")
-#: Stages of ``timing_ms`` reported per stage (the pipeline's laps and its total).
-STAGES = ("rectify", "disparity", "cloud", "gravity", "planes", "polytope", "total")
+#: Stages of ``timing_ms`` reported per stage (the pipeline's laps and its total; and the
+#: rematch, ``PipelineConfig.rematch``, a median over the frames that ran it).
+STAGES = ("rectify", "disparity", "cloud", "gravity", "planes", "polytope", "rematch", "total")
 _OBSTACLES = ("stairs", "box", "none")
 
 
@@ -396,6 +397,7 @@ def bench_summary(outcomes: list[SceneOutcome], *, rigs_read: bool = True) -> di
     stages: dict[str, float | None] = {}
     for k in STAGES:
         stages[k] = _median([v for t in timed for v in t.stages_ms.get(k, [])])
+    rematched = sum(len(t.stages_ms.get("rematch", [])) for t in timed)
     return {
         "scenes": len(outcomes),
         "frame_ms": {"median": _median(frames), "p90": _percentile(frames, 90)},
@@ -403,6 +405,8 @@ def bench_summary(outcomes: list[SceneOutcome], *, rigs_read: bool = True) -> di
         "stages_ms": stages,
         "opencv_sgbm_3way_ms": {"median": _median([v for t in timed for v in t.opencv_3way_ms])},
         "ratio_to_opencv_3way": {"median": _median([r for t in timed for r in t.ratios])},
+        # Share of the warm frames that ran the rematch (null when nothing was timed).
+        "rematch_share": rematched / len(frames) if frames else None,
         "accuracy": accuracy_summary(outcomes),
         "rigs_read": rigs_read,
     }
@@ -445,7 +449,12 @@ def bench_table(outcomes: list[SceneOutcome], summary: dict[str, Any]) -> list[s
         f"OpenCV 3-way alone {_f(summary['opencv_sgbm_3way_ms']['median'])} ms, "
         f"ratio {_f(summary['ratio_to_opencv_3way']['median'], '{:.2f}')}",
         "stages (median ms): "
-        + ", ".join(f"{k} {_f(v)}" for k, v in summary["stages_ms"].items() if v is not None),
+        + ", ".join(f"{k} {_f(v)}" for k, v in summary["stages_ms"].items() if v is not None)
+        + (
+            f" (the rematch in {summary['rematch_share']:.0%} of the frames)"
+            if summary.get("rematch_share")
+            else ""
+        ),
         f"accuracy: detected {_f(acc['detection_rate'], '{:.0%}')}, step count right "
         f"{_f(acc['step_count_accuracy'], '{:.0%}')}, rise error median "
         f"{_f(acc['rise_err_median_cm'], '{:.2f}')} cm, p90 {_f(acc['rise_err_p90_cm'], '{:.2f}')} cm",
