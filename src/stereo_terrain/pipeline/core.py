@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..calibration import StereoCalibration
-from ..cloud import GridSample, sample_disparity, transform_sample
+from ..cloud import GridSample, transform_sample
 from ..drift import CorrectionUpdate, OnlineRectifier
 from ..errors import ConfigError, InputError
 from ..frames import Rig, Transform
@@ -38,7 +38,7 @@ from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
 from ..terrain.model import NONE, STAIRS
 from .config import PipelineConfig
-from .fill_steps import fill_faces, fill_faces_later, identity_camera_rect
+from .fill_steps import camera_sample, fill_faces, fill_faces_later
 from .gravity_steps import (
     _gravity_report,
     _level_from_scene,
@@ -237,9 +237,7 @@ class Pipeline:
             disp = faces.disparity
         lap("disparity")
         cfg = self.config
-        cam_sample = sample_disparity(
-            disp, identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
-        )
+        cam_sample = camera_sample(disp, cfg)
         lap("cloud")
         rig_T = self.T_yaw_camera_rect
         prior = rig_up  # the rig's up in the camera, as the lines' job had it
@@ -287,9 +285,7 @@ class Pipeline:
             refilled = fill_faces_later(matched, faces, pair, lines_job.result(), planes, T, cfg)
             if refilled is not None:
                 disp = refilled
-                cam_sample = sample_disparity(
-                    disp, identity_camera_rect(), cfg.cloud, target_points=cfg.orientation.target_points
-                )
+                cam_sample = camera_sample(disp, cfg)
                 planes = self._extract_planes(transform_sample(cam_sample, T), pair.left)
         floor_known = source == "rig"
         if not floor_known:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..cloud import sample_disparity
+from ..cloud import GridSample, sample_disparity
 from ..frames import Transform
 from ..gravity import SceneLines, estimate_up, horizontal_direction
 from ..planes.orientation import VERTICAL, PlaneSet
@@ -94,10 +94,7 @@ def fill_faces(
     if up is None and lines.up is not None and lines.up.ok:
         up = lines.up.up
     elif up is None:
-        first = sample_disparity(
-            planar, identity_camera_rect(), config.cloud, target_points=config.orientation.target_points
-        )
-        coarse = estimate_up(first, config.gravity)
+        coarse = estimate_up(camera_sample(planar, config), config.gravity)
         if coarse.ok and coarse.sigma_deg <= config.fill.manhattan_max_up_sigma_deg:
             up = coarse.up
             horizontal = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
@@ -162,8 +159,16 @@ def _manhattan(
     return dataclasses.replace(disp, disparity=values, filled=filled)
 
 
+def camera_sample(disp: DisparityMap, config: PipelineConfig) -> GridSample:
+    """The grid sample of ``disp`` in the rectified camera frame that the gravity and plane
+    stages read (``config.cloud``, ``orientation.target_points`` samples)."""
+    return sample_disparity(
+        disp, _identity_camera_rect(), config.cloud, target_points=config.orientation.target_points
+    )
+
+
 @functools.cache
-def identity_camera_rect() -> Transform:
+def _identity_camera_rect() -> Transform:
     """The identity of ``camera_rect``, built once (a Transform checks its matrix when
     built: issue 13)."""
     return Transform.identity("camera_rect")
