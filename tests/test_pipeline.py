@@ -13,6 +13,7 @@ from stereo_terrain.frames import Rig, camera_mount
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import read_image
 from stereo_terrain.synthetic import default_scene_spec, random_scene_spec, render_scene
+from stereo_terrain.terrain import TerrainConfig
 
 # The issue's acceptance bounds.
 MIN_DETECTION_RATE = 0.95
@@ -277,6 +278,26 @@ def test_real_middlebury_staircase_has_four_ordinary_steps(shared_data):
     assert data.terrain.obstacle == "stairs" and len(steps) >= 4, data.terrain.note
     assert all(0.14 <= s["rise"] <= 0.21 for s in steps)
     assert all(0.24 <= s["run"] <= 0.34 for s in steps if s["run"] is not None)
+
+
+def test_real_middlebury_staircase_upper_steps_from_their_nosings(shared_data):
+    """The painted staircase's upper risers form no plane (a few pixels of disparity noise
+    tall) but their nosings are long edges in the image: the terrain stage adds them at
+    the staircase's rise and run (terrain/nosings.py). Without it, the four steps of the
+    riser planes; with it, more, every one an ordinary step."""
+    d = shared_data / "middlebury2014Q_noGT" / "Staircase"
+    calibration = read_calibration(d / "calib.txt")
+    left, right = read_image(d / "im0.png"), read_image(d / "im1.png")
+    off = PipelineConfig(terrain=TerrainConfig(nosing_steps=False))
+    without = Pipeline(calibration, config=off).run(left, right).terrain
+    with_lines = Pipeline(calibration).run(left, right).terrain
+    assert "line segments show their nosings" in with_lines.note
+    assert len(with_lines.steps) > len(without.steps) >= 4
+    assert all(0.14 <= s.rise_m <= 0.21 for s in with_lines.steps)
+    added = with_lines.steps[len(without.steps) :]
+    assert all(s.rise_inferred for s in added)
+    positions = [s.axis_position_m for s in with_lines.steps]
+    assert all(0.24 <= b - a <= 0.34 for a, b in zip(positions, positions[1:], strict=False))
 
 
 def test_real_middlebury_staircase_axis_is_across_the_wall_not_along_the_railing(shared_data):

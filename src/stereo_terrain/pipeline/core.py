@@ -35,7 +35,7 @@ from ..stereo import DisparityBackend, check_max_disparity, default_max_disparit
 from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
-from ..terrain import StairModel, build_terrain, estimate_step_sigmas
+from ..terrain import ImageLines, StairModel, build_terrain, estimate_step_sigmas
 from ..terrain.model import NONE, STAIRS
 from .config import PipelineConfig
 from .fill_steps import camera_sample, fill_faces, fill_faces_later
@@ -293,7 +293,10 @@ class Pipeline:
         if before_planes is None:
             before_planes = _rig_check(cam_sample, fine, prior, cfg.gravity, cfg.orientation.angle_tol_deg)
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
-        planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known)
+        image_lines = None
+        if lines_job is not None and cfg.terrain.nosing_steps:
+            image_lines = _image_lines(lines_job.result().segments, pair, T)
+        planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known, image_lines)
         rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
         terrain = estimate_step_sigmas(
             terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
@@ -333,10 +336,16 @@ class Pipeline:
         return extract_planes_orientation(samples, self.config.orientation)
 
     def _planes_and_terrain(
-        self, planes: PlaneSet, image: np.ndarray, lap: Callable[[str], None], floor_known: bool
+        self,
+        planes: PlaneSet,
+        image: np.ndarray,
+        lap: Callable[[str], None],
+        floor_known: bool,
+        lines: ImageLines | None = None,
     ) -> tuple[PlaneSet, StairModel, str]:
         """The terrain built on ``planes`` (from :meth:`_extract_planes`); ``floor_known``:
-        the frame's origin is on the floor (:func:`build_terrain`).
+        the frame's origin is on the floor, ``lines``: the image's line segments
+        (:func:`build_terrain`).
 
         ``auto`` also runs the contour method; the union (orientation planes plus the
         contour planes that are new) replaces the orientation planes only when its
@@ -345,19 +354,20 @@ class Pipeline:
         cfg = self.config
         if cfg.method == "contour":
             lap("planes")
-            return planes, build_terrain(planes, cfg.terrain, floor_known=floor_known), "contour requested"
+            terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known, lines=lines)
+            return planes, terrain, "contour requested"
         if cfg.method == "orientation":
             lap("planes")
-            terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known)
+            terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known, lines=lines)
             return planes, terrain, "orientation requested (the default)"
         contour = extract_planes_contour(planes.samples, image, cfg.contour)
         combined, added = combine_plane_sets(planes, contour)
         lap("planes")
-        terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known)
+        terrain = build_terrain(planes, cfg.terrain, floor_known=floor_known, lines=lines)
         if added == 0:
             why = "orientation: the contour method found no plane the orientation method missed"
             return planes, terrain, why
-        terrain_c = build_terrain(combined, cfg.terrain, floor_known=floor_known)
+        terrain_c = build_terrain(combined, cfg.terrain, floor_known=floor_known, lines=lines)
         if len(terrain_c.steps) > len(terrain.steps):
             why = (
                 f"combined: {added} contour plane(s) added {len(terrain_c.steps) - len(terrain.steps)} "
@@ -365,6 +375,14 @@ class Pipeline:
             )
             return combined, terrain_c, why
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
+
+
+def _image_lines(segments: np.ndarray, pair: RectifiedPair, T: Transform) -> ImageLines:
+    """The lines' job's segments with the rectified left camera in the yaw frame ``T``
+    (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11)."""
+    rect = pair.rectification
+    h, w = pair.left.shape[:2]
+    return ImageLines(segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix)
 
 
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:

@@ -13,7 +13,8 @@ Package layout (data flows one way, each module imports only those before it):
 ``model`` (:class:`TerrainConfig`, :class:`StairModel`, :class:`Step`, :class:`Polytope`) ->
 ``_kernels`` (compiled inner loop of the riser edges, Numba) -> ``risers`` (riser
 candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices),
-``continuation`` (steps beyond the last riser plane), ``uniform`` (the staircase's common
+``continuation`` (steps beyond the last riser plane), ``nosings`` (steps beyond those
+whose nosings the image's line segments show), ``uniform`` (the staircase's common
 rise and run) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
 first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
 ``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
@@ -23,10 +24,12 @@ from __future__ import annotations
 
 from .build import build_terrain
 from .model import BOX, NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
+from .nosings import ImageLines
 from .sigmas import estimate_step_sigmas
 
 __all__ = [
     "BOX",
+    "ImageLines",
     "NONE",
     "STAIRS",
     "Polytope",

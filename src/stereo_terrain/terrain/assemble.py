@@ -13,6 +13,7 @@ from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
+from .nosings import ImageLines, nosing_steps
 from .polytope import _classify_single_step, _polytope
 from .risers import (
     _LOW_INLIER_PCT,
@@ -36,9 +37,15 @@ def _no_obstacle(planes: PlaneSet, note: str, ground_z: float = 0.0) -> StairMod
 
 
 def _assemble(
-    planes: PlaneSet, config: TerrainConfig, *, tread_first: bool = True, floor_known: bool = True
+    planes: PlaneSet,
+    config: TerrainConfig,
+    *,
+    tread_first: bool = True,
+    floor_known: bool = True,
+    lines: ImageLines | None = None,
 ) -> StairModel:
-    """:func:`build_terrain` for one set of limits (``tread_first``: see :func:`_assemble_along`)."""
+    """:func:`build_terrain` for one set of limits (``tread_first``, ``lines``: see
+    :func:`_assemble_along`)."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
@@ -90,7 +97,15 @@ def _assemble(
         free &= ~keep
         family = [c for c, k in zip(cands, keep, strict=True) if k]
         model = _assemble_along(
-            planes, config, family, yaw, horizontals, h_z, tread_first=tread_first, floor_known=floor_known
+            planes,
+            config,
+            family,
+            yaw,
+            horizontals,
+            h_z,
+            tread_first=tread_first,
+            floor_known=floor_known,
+            lines=lines,
         )
         if best is None or _chained(model) > _chained(best):
             best = model
@@ -164,11 +179,13 @@ def _assemble_along(
     *,
     tread_first: bool = True,
     floor_known: bool = True,
+    lines: ImageLines | None = None,
 ) -> StairModel:
     """The staircase (or box, or nothing) whose risers are ``family`` along the stair axis
     at ``yaw`` (the rest of :func:`_assemble`). ``tread_first``: the first step may stand at
     a tread's front edge when its riser is no plane and a riser plane chains behind it.
-    ``floor_known``: as in :func:`build_terrain`."""
+    ``floor_known``: as in :func:`build_terrain`. ``lines``: the image's line segments, for
+    the steps beyond the last whose nosings they show (:mod:`.nosings`)."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
@@ -394,6 +411,9 @@ def _assemble_along(
     # Before a single step is classified: a riser found beyond it makes it a staircase,
     # though the ground may be seen beyond its top elsewhere (which would make it a box).
     steps, continued = continue_steps(steps, planes, P, u, v, lateral, config)
+    from_lines = 0
+    if lines is not None:
+        steps, from_lines = nosing_steps(steps, planes, P, u, v, lateral, lines, config)
     steps, pooled_rises, pooled_runs = common_steps(steps, ground_z, config)
 
     obstacle = STAIRS
@@ -409,6 +429,11 @@ def _assemble_along(
         note += (
             f"; {continued} more beyond the last riser plane, from their samples' positions"
             " (rise: the median of the others)"
+        )
+    if from_lines:
+        note += (
+            f"; {from_lines} more beyond, where the image's line segments show their nosings"
+            " (at the median rise and run)"
         )
     if pooled_rises:
         note += f"; {pooled_rises} measured rises agree: those steps report their median"

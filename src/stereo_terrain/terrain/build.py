@@ -11,10 +11,15 @@ from ..errors import ConfigError
 from ..planes.orientation import PlaneSet
 from .assemble import _assemble
 from .model import NONE, StairModel, TerrainConfig
+from .nosings import ImageLines
 
 
 def build_terrain(
-    planes: PlaneSet, config: TerrainConfig | None = None, *, floor_known: bool | None = None
+    planes: PlaneSet,
+    config: TerrainConfig | None = None,
+    *,
+    floor_known: bool | None = None,
+    lines: ImageLines | None = None,
 ) -> StairModel:
     """Assemble a staircase, a box, or nothing from unordered planes.
 
@@ -29,6 +34,10 @@ def build_terrain(
         there is no ground to measure a first rise from and nothing is reported. None:
         taken as unknown when the cameras are less than ``min_rise_m`` above the origin
         (the origin left at the cameras).
+    lines : ImageLines, optional
+        The rectified left image's line segments and its camera in the planes' frame:
+        steps beyond the last whose nosings they show are added
+        (``TerrainConfig.nosing_steps``, :mod:`.nosings`). None: not looked for.
 
     Returns
     -------
@@ -39,7 +48,7 @@ def build_terrain(
         raise ConfigError("build_terrain needs planes in a gravity-aligned frame (up = +z)")
     if floor_known is None:
         floor_known = bool(planes.camera_position[2] >= config.min_rise_m)
-    model = _assemble(planes, config, floor_known=floor_known)
+    model = _assemble(planes, config, floor_known=floor_known, lines=lines)
     if model.obstacle != NONE or config.max_obstacle_rise_m <= config.max_rise_m:
         return model
     # Safety net: is there a step too tall for a stair, that the robot cannot climb?

@@ -57,7 +57,7 @@ def continue_steps(
 
     Not at the foot of a wall: a plane across the stairs too tall for a riser within
     ``merge_distance_m`` of the position (the last tread ending at a wall,
-    :func:`_walls_across`).
+    :func:`walls_across`).
 
     Parameters
     ----------
@@ -94,7 +94,7 @@ def continue_steps(
     for seg in planes.segments:
         used[seg.indices] = True
     free = ~used & np.isfinite(s_all) & np.isfinite(thr)
-    wall_s = np.asarray(_walls_across(planes, P, u, config), dtype=np.float64)
+    wall_s = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     out = list(steps)
     added = 0
     while added < config.max_continued_steps:
@@ -194,7 +194,7 @@ def _tread_goes_on(
     return False
 
 
-def _walls_across(planes: PlaneSet, P: np.ndarray, u: np.ndarray, config: TerrainConfig) -> list[float]:
+def walls_across(planes: PlaneSet, P: np.ndarray, u: np.ndarray, config: TerrainConfig) -> list[float]:
     """Positions along the stair axis ``u`` of the vertical planes across it (facing the
     robot within ``axis_spread_deg``) whose samples span more height than a riser can."""
     cos_spread = math.cos(math.radians(config.axis_spread_deg))

@@ -100,6 +100,23 @@ class TerrainConfig:
         staircase, not a box.
     max_continued_steps : int
         At most this many steps are added so.
+    nosing_steps : bool
+        Beyond those, where the pipeline passes the image's line segments
+        (:class:`~stereo_terrain.terrain.nosings.ImageLines`), add the steps whose nosings
+        the segments show at the staircase's rise and run (a far riser whose samples are
+        too few or too noisy for either). Their rise is the median of the measured ones
+        and their position the median run beyond the step before (``rise_inferred``). See
+        :mod:`.nosings`.
+    max_nosing_steps : int
+        At most this many steps are added so.
+    nosing_run_tolerance : float
+        A nosing counts where the segments put it within this fraction of a step (along
+        the staircase's pitch line) from where the median rise and run put it.
+    nosing_min_cover : float
+        Share of the staircase's visible width the segments of one nosing must cover.
+    nosing_min_foot_cover : float
+        Where the cameras are above the last tread, share of the visible width that the
+        segments at the next riser's foot must cover.
     face_bias_correlation : float
         Correlation of the shared disparity error of neighbouring faces (a tread and the
         surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
@@ -159,6 +176,11 @@ class TerrainConfig:
     continue_min_run_m: float = 0.20
     continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
+    nosing_steps: bool = True
+    max_nosing_steps: int = 4
+    nosing_run_tolerance: float = 0.35
+    nosing_min_cover: float = 0.4
+    nosing_min_foot_cover: float = 0.25
     max_steps_below_chain: int = 2
     common_rise_tolerance_m: float = 0.03
     common_run_tolerance_m: float = 0.05
@@ -172,6 +194,7 @@ class TerrainConfig:
             self,
             0,
             "max_continued_steps",
+            "max_nosing_steps",
             "max_steps_below_chain",
             "common_rise_tolerance_m",
             "common_run_tolerance_m",
@@ -183,6 +206,9 @@ class TerrainConfig:
                 "need 0 < continue_min_run_m < continue_max_run_m, got "
                 f"{self.continue_min_run_m}, {self.continue_max_run_m}"
             )
+        for name in ("nosing_run_tolerance", "nosing_min_cover", "nosing_min_foot_cover"):
+            if not 0 < getattr(self, name) < 1:
+                raise ConfigError(f"TerrainConfig.{name} must be in (0, 1), got {getattr(self, name)}")
         if not 0 < self.continue_run_tolerance < 1:
             raise ConfigError(
                 f"TerrainConfig.continue_run_tolerance must be in (0, 1), got {self.continue_run_tolerance}"

@@ -1,0 +1,420 @@
+"""Steps beyond the last one where the image's line segments show their nosings (issue 11).
+
+Far up a staircase the risers are a few pixels of disparity noise tall: they form no plane
+and their samples do not sit at one position (:mod:`.continuation` then finds nothing),
+but their edges are still plain in the image. On realistic rendered stairs a step's nosing
+is a long straight intensity edge (a dark strip, or the shading change between riser and
+tread) where the matcher holds nothing (docs/benchmarks.md, "Twelfth session").
+
+A nosing is a horizontal 3D line along the staircase's lateral direction ``v``. The line
+segments of the rectified left image (LSD, found beside the matcher for gravity and the
+Manhattan fill, :mod:`stereo_terrain.gravity.from_lines`) that are images of such lines are
+those whose plane through the camera centre contains ``v``. Where the chain's last step is
+``(a_k, top_k)`` and its steps' median rise and run are ``R`` and ``L``, the next nosing
+lies on the staircase's pitch line ``(a_k + lam L, top_k + lam R)`` near ``lam = 1``: each
+such segment's plane meets that line at one ``lam``. A height error of the last top, or a
+nosing near the cameras' horizon, would make the segment's own depth (its plane met with
+the tread's height) unreliable; the pitch line's slope keeps the intersection well posed.
+
+The next step is accepted where:
+
+- segments within ``_LAM_GROUP`` of one ``lam`` in ``[1 - tol, 1 + tol]`` (``tol`` =
+  ``nosing_run_tolerance``) cover ``nosing_min_cover`` of the staircase's width as far as
+  it is in view at that depth: texture, grout lines and plank joints are short or broken
+  lines; a nosing spans the staircase;
+- where the cameras are above the last tread (so the foot of the next riser is in view)
+  and see it steeply enough that the foot's line is not the last nosing's, segments on
+  that tread's height at the same position cover ``nosing_min_foot_cover``: a riser has a
+  foot; the grout lines of a landing's tiles or the far edge of a platform have a floor at
+  that height beyond them instead.
+
+A step so found gets the staircase's median run as its position and the median rise (a
+step found beyond the last riser plane by :mod:`.continuation` does the same, and says so
+with ``rise_inferred``): the segment gives where a nosing is, not precisely which of a
+nosing strip's two edges it is. Measured on the same renders, its positions are closer to
+the truth that way (docs/benchmarks.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..msac import Plane
+from ..planes.orientation import OrientationConfig, PlaneSet
+from .continuation import walls_across
+from .model import Step, TerrainConfig
+from .risers import riser_distance
+
+#: Segments whose pitch-line positions are within this (in steps) are one nosing.
+_LAM_GROUP = 0.08
+#: A segment is parallel to the nosings when its plane through the camera is within this
+#: of containing ``v``, plus the angle one pixel of end error makes over its length.
+_PARALLEL_DEG = 2.0
+#: A refined top is taken from segments within this (metres) of each other.
+_TOP_GROUP_M = 0.01
+#: ... and cover this share of the step's visible width.
+_TOP_MIN_COVER = 0.3
+#: The lateral step (metres) at which the visible part of a nosing is measured.
+_LATERAL_STEP_M = 0.02
+#: The least part of a nosing that must be in view (metres) to judge it.
+_MIN_VISIBLE_M = 0.15
+#: The cameras must be this much above a tread to see the foot of the riser behind it.
+_FOOT_VISIBLE_M = 0.03
+#: Samples on the tread's height beyond a would-be riser that make it a landing.
+_MIN_FLOOR_SAMPLES = 5
+#: A sample's inlier threshold is the orientation method's (its default settings: the
+#: terrain stage is not given the plane stage's config), as in :mod:`.continuation`.
+_INLIERS = OrientationConfig()
+
+
+@dataclass(frozen=True)
+class ImageLines:
+    """The rectified left image's line segments and the camera that saw them, for the
+    terrain stage.
+
+    Attributes
+    ----------
+    segments : (N, 4) float64
+        ``x1, y1, x2, y2`` in pixels of the rectified left image.
+    focal_px, cx, cy : float
+        The rectified left camera.
+    image_size : (width, height)
+    T_frame_camera : (4, 4) float64
+        Rectified left camera to the terrain's (gravity-aligned) frame.
+    """
+
+    segments: np.ndarray = field(repr=False)
+    focal_px: float
+    cx: float
+    cy: float
+    image_size: tuple[int, int]
+    T_frame_camera: np.ndarray = field(repr=False)
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The camera centre in the terrain's frame."""
+        return np.asarray(self.T_frame_camera[:3, 3], dtype=np.float64)
+
+    def rays(self, pixels: np.ndarray) -> np.ndarray:
+        """Directions (not unit) of the rays through ``pixels`` ``(N, 2)``, terrain frame."""
+        d = np.column_stack(
+            [
+                (pixels[:, 0] - self.cx) / self.focal_px,
+                (pixels[:, 1] - self.cy) / self.focal_px,
+                np.ones(len(pixels)),
+            ]
+        )
+        out: np.ndarray = d @ self.T_frame_camera[:3, :3].T
+        return out
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels ``(N, 2)`` and depths ``(N,)`` of terrain-frame ``points``."""
+        R = self.T_frame_camera[:3, :3]
+        X = (points - self.centre) @ R  # R^T (p - c), row-wise
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = np.column_stack(
+                [self.focal_px * X[:, 0] / X[:, 2] + self.cx, self.focal_px * X[:, 1] / X[:, 2] + self.cy]
+            )
+        return uv, X[:, 2]
+
+
+@dataclass(frozen=True)
+class _Segments:
+    """The segments parallel to the nosings, with their end rays and planes."""
+
+    d0: np.ndarray
+    d1: np.ndarray
+    normal: np.ndarray
+
+
+def nosing_steps(
+    steps: list[Step],
+    planes: PlaneSet,
+    P: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    lines: ImageLines,
+    config: TerrainConfig,
+) -> tuple[list[Step], int]:
+    """``steps`` with the steps beyond the last one whose nosings the image's segments show
+    (module docstring), and how many.
+
+    Parameters
+    ----------
+    steps : the chain's steps, nearest first; nothing is added without a measured rise and
+        a known run
+    planes : PlaneSet the steps were built from (gravity-aligned frame)
+    P : (N, 3) float64, its samples' points
+    u, v : (3,) float, the stair axis and the lateral direction (terrain frame)
+    lateral : the staircase's lateral extent along ``v``, metres
+    lines : ImageLines
+    config : TerrainConfig (``nosing_steps``, ``max_nosing_steps``,
+        ``nosing_run_tolerance``, ``nosing_min_cover``, ``nosing_min_foot_cover``)
+    """
+    if not config.nosing_steps or config.max_nosing_steps < 1 or not steps:
+        return steps, 0
+    rises = [s.rise_m for s in steps if not s.rise_inferred]
+    runs = [s.run_m for s in steps if s.run_m is not None]
+    if not rises or not runs or len(lines.segments) == 0:
+        return steps, 0
+    rise, run = float(np.median(rises)), float(np.median(runs))
+    margin = 0.1 * (lateral[1] - lateral[0])  # the side edges: stringers, walls
+    lat = (lateral[0] + margin, lateral[1] - margin)
+    segs = _parallel_segments(lines, v)
+    if segs is None:
+        return steps, 0
+    out = list(steps)
+    a, top = out[-1].axis_position_m, out[-1].top_z_m
+    anchor = _refined_top(segs, lines, u, v, lat, a, top, rise)
+    walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
+    added = 0
+    while added < config.max_nosing_steps:
+        lam = _next_nosing(segs, lines, u, v, lat, a, anchor, rise, run, config)
+        if lam is None:
+            break
+        last = out[-1]
+        a_new = a + run
+        if walls.size and float(np.min(np.abs(walls - a_new))) < config.merge_distance_m:
+            break  # a wall across the stairs there: its joints and edges are no nosings
+        if _floor_where_the_riser_would_be(planes, P, lines, u, v, lat, a_new, last.top_z_m, rise):
+            break  # the samples see the last tread go on (a landing's tiles, a platform)
+        plane = Plane(-u, a_new)  # vertical, facing the robot, u . x = a_new
+        out[-1] = dataclasses.replace(last, run_m=run)
+        out.append(
+            Step(
+                rise,
+                None,
+                riser_distance(plane, a_new, u),
+                None,
+                last.top_z_m + rise,
+                a_new,
+                plane,
+                None,
+                rise_inferred=True,
+            )
+        )
+        added += 1
+        a, anchor = a_new, _refined_top(segs, lines, u, v, lat, a_new, anchor + rise, rise)
+    return out, added
+
+
+def _floor_where_the_riser_would_be(
+    planes: PlaneSet,
+    P: np.ndarray,
+    lines: ImageLines,
+    u: np.ndarray,
+    v: np.ndarray,
+    lat: tuple[float, float],
+    s_new: float,
+    top: float,
+    rise: float,
+) -> bool:
+    """Whether the samples in the image of the riser that would stand at ``s_new`` on the
+    tread at ``top`` lie on that tread's height beyond it (at least ``_MIN_FLOOR_SAMPLES``,
+    and more than lie at ``s_new``): the tread goes on, as a landing does. Where the
+    matcher holds the faces (textured stairs) this tells a landing's tile joints from a
+    step; where it holds nothing there (the far faces this module is for) it says nothing."""
+    span = _visible(lines, u, v, lat, s_new, top + 0.5 * rise)
+    if span is None:
+        return False
+    m = 0.1 * (span[1] - span[0])
+    corners = [(span[0] + m, 0.15), (span[1] - m, 0.15), (span[1] - m, 0.85), (span[0] + m, 0.85)]
+    ends = np.array([s_new * u + t * v + [0.0, 0.0, top + f * rise] for t, f in corners])
+    quad, depth = lines.project(ends)
+    if not (depth > 0).all():
+        return False
+    smp = planes.samples
+    inside = _in_convex(quad, smp.cols.astype(np.float64), smp.rows.astype(np.float64))
+    if not inside.any():
+        return False
+    q = P[inside]
+    thr = np.clip(
+        _INLIERS.threshold_sigmas * smp.sigma_m[inside], _INLIERS.min_threshold_m, _INLIERS.max_threshold_m
+    )
+    s = q @ u
+    at_riser = np.abs(s - s_new) < thr
+    on_floor = (np.abs(q[:, 2] - top) < thr) & (s > s_new - thr) & ~at_riser
+    n_floor = int(np.count_nonzero(on_floor))
+    return n_floor >= _MIN_FLOOR_SAMPLES and n_floor > int(np.count_nonzero(at_riser))
+
+
+def _in_convex(quad: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Which points ``(x, y)`` lie inside the convex polygon ``quad`` ``(K, 2)`` (either
+    winding)."""
+    signs = []
+    for k in range(len(quad)):
+        (x0, y0), (x1, y1) = quad[k], quad[(k + 1) % len(quad)]
+        signs.append((x1 - x0) * (y - y0) - (y1 - y0) * (x - x0))
+    cross = np.array(signs)
+    return np.asarray(np.all(cross >= 0, axis=0) | np.all(cross <= 0, axis=0))
+
+
+def _parallel_segments(lines: ImageLines, v: np.ndarray) -> _Segments | None:
+    """The segments that are images of lines along ``v``; None when there are none."""
+    s = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
+    d0, d1 = lines.rays(s[:, :2]), lines.rays(s[:, 2:])
+    n = np.cross(d0, d1)
+    norm = np.linalg.norm(n, axis=1)
+    length = np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1])
+    ok = (norm > 1e-12) & (length > 0)
+    n[ok] /= norm[ok, None]
+    tol = np.sin(np.radians(_PARALLEL_DEG) + 2.0 / np.maximum(length, 1.0))
+    ok &= np.abs(n @ v) < tol
+    if not ok.any():
+        return None
+    return _Segments(d0[ok], d1[ok], n[ok])
+
+
+def _on_height(lines: ImageLines, d: np.ndarray, z: np.ndarray | float) -> np.ndarray:
+    """Where the rays ``d`` meet the horizontal plane at height ``z`` (NaN behind or along)."""
+    c = lines.centre
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (z - c[2]) / d[:, 2]
+    p: np.ndarray = c + t[:, None] * d
+    p[~(t > 0)] = np.nan
+    return p
+
+
+def _visible(
+    lines: ImageLines, u: np.ndarray, v: np.ndarray, lat: tuple[float, float], s: float, z: float
+) -> tuple[float, float] | None:
+    """The part of ``lat`` in view (in the image, in front of the camera) of the line at
+    position ``s`` along ``u`` and height ``z``; None when less than ``_MIN_VISIBLE_M``."""
+    t = np.arange(lat[0], lat[1] + 1e-9, _LATERAL_STEP_M)
+    if len(t) < 2:
+        return None
+    uv, depth = lines.project(s * u + t[:, None] * v + np.array([0.0, 0.0, z]))
+    w, h = lines.image_size
+    with np.errstate(invalid="ignore"):
+        ok = (depth > 0.2) & (uv[:, 0] > 3) & (uv[:, 0] < w - 4) & (uv[:, 1] > 3) & (uv[:, 1] < h - 4)
+    if not ok.any():
+        return None
+    lo, hi = float(t[ok][0]), float(t[ok][-1])
+    return (lo, hi) if hi - lo >= _MIN_VISIBLE_M else None
+
+
+def _cover(lo: np.ndarray, hi: np.ndarray, span: tuple[float, float]) -> float:
+    """The share of ``span`` that the union of the intervals ``[lo, hi]`` covers."""
+    a, b = np.maximum(lo, span[0]), np.minimum(hi, span[1])
+    keep = b > a
+    total, reach = 0.0, -math.inf
+    for x, y in sorted(zip(a[keep], b[keep], strict=True)):
+        if y > reach:
+            total += y - max(x, reach)
+            reach = y
+    return total / (span[1] - span[0])
+
+
+def _lateral_on_height(
+    lines: ImageLines, segs: _Segments, v: np.ndarray, z: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment's lateral extent ``(lo, hi)`` where its end rays meet height ``z`` (one
+    per segment; NaN where a ray misses)."""
+    a = _on_height(lines, segs.d0, z) @ v
+    b = _on_height(lines, segs.d1, z) @ v
+    return np.minimum(a, b), np.maximum(a, b)
+
+
+def _next_nosing(
+    segs: _Segments,
+    lines: ImageLines,
+    u: np.ndarray,
+    v: np.ndarray,
+    lat: tuple[float, float],
+    a_k: float,
+    top_k: float,
+    rise: float,
+    run: float,
+    config: TerrainConfig,
+) -> float | None:
+    """The pitch-line position ``lam`` of the next nosing after the step at ``(a_k, top_k)``,
+    or None when the segments show none (module docstring)."""
+    c = lines.centre
+    span = _visible(lines, u, v, lat, a_k + run, top_k + rise)
+    if span is None:
+        return None
+    anchor = a_k * u + 0.5 * (lat[0] + lat[1]) * v + np.array([0.0, 0.0, top_k])
+    pitch = run * u + np.array([0.0, 0.0, rise])
+    den = segs.normal @ pitch
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = -(segs.normal @ (anchor - c)) / den
+    tol = config.nosing_run_tolerance
+    near = np.isfinite(lam) & (np.abs(den) > 1e-9) & (lam > 1.0 - tol) & (lam < 1.0 + tol)
+    if not near.any():
+        return None
+    lo, hi = _lateral_on_height(lines, segs, v, top_k + lam * rise)
+    near &= np.isfinite(lo) & np.isfinite(hi)
+    best, best_cover = None, 0.0
+    for x in lam[near]:
+        group = near & (np.abs(lam - x) < _LAM_GROUP)
+        cover = _cover(lo[group], hi[group], span)
+        if cover > best_cover:
+            best, best_cover = float(np.median(lam[group])), cover
+    if best is None or best_cover < config.nosing_min_cover:
+        return None
+    if c[2] > top_k + _FOOT_VISIBLE_M:
+        # The last tread is seen from above, so the next riser's foot is in view: it must
+        # show too (a landing's tile joint or far edge has the floor beyond it instead).
+        # The feet lie on the pitch line a rise lower: the same well-posed intersection.
+        # Where the tread is seen so flat that the foot's line and the last nosing's are
+        # one (their pitch positions within twice a group), the foot says nothing.
+        foot_anchor = anchor - np.array([0.0, 0.0, rise])
+        last_nosing = np.cross(anchor - c, v)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam_last = -(last_nosing @ (foot_anchor - c)) / (last_nosing @ pitch)
+        foot_span = _visible(lines, u, v, lat, a_k + best * run, top_k + (best - 1.0) * rise)
+        if foot_span is not None and not abs(lam_last - best) < 2 * _LAM_GROUP:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lam_f = -(segs.normal @ (foot_anchor - c)) / den
+            at = np.isfinite(lam_f) & (np.abs(den) > 1e-9) & (np.abs(lam_f - best) < _LAM_GROUP)
+            flo, fhi = _lateral_on_height(lines, segs, v, top_k + (lam_f - 1.0) * rise)
+            at &= np.isfinite(flo) & np.isfinite(fhi)
+            if _cover(flo[at], fhi[at], foot_span) < config.nosing_min_foot_cover:
+                return None
+    return best
+
+
+def _refined_top(
+    segs: _Segments,
+    lines: ImageLines,
+    u: np.ndarray,
+    v: np.ndarray,
+    lat: tuple[float, float],
+    a_k: float,
+    top_k: float,
+    rise: float,
+) -> float:
+    """The height of the step's nosing as its segments show it on its riser plane
+    ``u . x = a_k`` (of the groups of segments within a third of a rise of ``top_k`` that
+    cover ``_TOP_MIN_COVER`` of its width, the nearest; the top found from the samples is
+    biased low, docs/benchmarks.md "Tenth session"), else ``top_k``."""
+    span = _visible(lines, u, v, lat, a_k, top_k)
+    if span is None:
+        return top_k
+    c = lines.centre
+    n = segs.normal
+    base = a_k * u + 0.5 * (span[0] + span[1]) * v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = -(n @ (base - c)) / n[:, 2]
+    near = np.isfinite(z) & (np.abs(z - top_k) < rise / 3.0)
+    if not near.any():
+        return top_k
+    # The segments' ends on the riser plane, for their lateral extent.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0 = (a_k - c @ u) / (segs.d0 @ u)
+        t1 = (a_k - c @ u) / (segs.d1 @ u)
+    e0 = (c + t0[:, None] * segs.d0) @ v
+    e1 = (c + t1[:, None] * segs.d1) @ v
+    lo, hi = np.minimum(e0, e1), np.maximum(e0, e1)
+    near &= np.isfinite(lo) & np.isfinite(hi)
+    best, best_dz = top_k, math.inf
+    for x in z[near]:
+        group = near & (np.abs(z - x) < _TOP_GROUP_M)
+        if _cover(lo[group], hi[group], span) >= _TOP_MIN_COVER and abs(x - top_k) < best_dz:
+            best, best_dz = float(np.median(z[group])), abs(x - top_k)
+    return best

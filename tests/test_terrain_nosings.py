@@ -1,0 +1,163 @@
+"""Steps beyond the last one where the image's line segments show their nosings
+(terrain/nosings.py): far risers that formed no plane and whose samples say nothing."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.terrain import STAIRS, ImageLines, TerrainConfig, build_terrain
+
+from .test_terrain import CAM
+from .test_terrain_continuation import _leftovers_moved, _unplaned
+
+#: The samples' continuation off: the steps below can come from the lines alone.
+NO_SAMPLES = TerrainConfig(continue_steps=False)
+WIDTH = 1.0
+SIZE = (640, 480)
+
+
+def _camera(height: float = float(CAM[2])) -> np.ndarray:
+    """A level camera at the frame's origin, ``height`` up, looking along +x (camera x
+    right = frame -y, camera y down = frame -z)."""
+    T = np.eye(4)
+    T[:3, :3] = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    T[:3, 3] = [0.0, 0.0, height]
+    return T
+
+
+def _lines(segments: np.ndarray, height: float = float(CAM[2])) -> ImageLines:
+    return ImageLines(
+        np.asarray(segments, dtype=np.float64).reshape(-1, 4), 500.0, 320.0, 240.0, SIZE, _camera(height)
+    )
+
+
+def _segment(
+    lines: ImageLines, s: float, z: float, yaw: float, lateral=(-WIDTH / 2, WIDTH / 2)
+) -> np.ndarray:
+    """The image of the horizontal line at ``s`` along the stair axis and height ``z``."""
+    u = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    ends = np.array([s * u + t * v + [0.0, 0.0, z] for t in lateral])
+    uv, depth = lines.project(ends)
+    assert (depth > 0).all()
+    return uv.reshape(4)
+
+
+def _stair_lines(
+    n_steps: int,
+    rise: float,
+    run: float,
+    distance: float,
+    yaw: float = 0.0,
+    *,
+    feet=True,
+    height=float(CAM[2]),
+) -> np.ndarray:
+    """Segments of every nosing (and riser foot) of the staircase."""
+    blank = _lines(np.empty((0, 4)), height)
+    segs = []
+    for i in range(n_steps):
+        s_i = distance * np.cos(yaw) + i * run
+        segs.append(_segment(blank, s_i, (i + 1) * rise, yaw))
+        if feet:
+            segs.append(_segment(blank, s_i, i * rise, yaw))
+    return np.array(segs)
+
+
+def _planes(n_steps: int, rise: float, run: float, distance: float, yaw: float = 0.0, missing: int = 2):
+    """The staircase whose last ``missing`` risers formed no plane; their samples moved away
+    so that nothing but the lines can show them."""
+    return _leftovers_moved(_unplaned(n_steps, rise, run, distance, yaw, last=missing), 5.0)
+
+
+def test_nosings_in_the_image_continue_the_staircase():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _planes(5, rise, run, distance)
+    before = build_terrain(planes, NO_SAMPLES)
+    assert before.obstacle == STAIRS and len(before.steps) == 3
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(_stair_lines(5, rise, run, distance)))
+    assert model.obstacle == STAIRS and len(model.steps) == 5
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+    assert all(s.rise_inferred and s.tread is None for s in model.steps[3:])
+    assert model.steps[3].rise_m == pytest.approx(rise, abs=0.005)
+    assert model.steps[2].run_m == pytest.approx(run, abs=0.01)
+    assert model.steps[-1].run_m is None
+    assert "line segments show their nosings" in model.note
+    assert len(model.polytope.faces) > len(before.polytope.faces)
+
+
+def test_no_lines_or_lines_only_where_the_steps_were_found_add_nothing():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _planes(5, rise, run, distance)
+    none = build_terrain(planes, NO_SAMPLES, lines=_lines(np.empty((0, 4))))
+    assert len(none.steps) == 3
+    # The first three steps' nosings and feet only (6 segments).
+    known = build_terrain(planes, NO_SAMPLES, lines=_lines(_stair_lines(5, rise, run, distance)[:6]))
+    assert len(known.steps) == 3
+    off = build_terrain(
+        planes,
+        TerrainConfig(continue_steps=False, nosing_steps=False),
+        lines=_lines(_stair_lines(5, rise, run, distance)),
+    )
+    assert len(off.steps) == 3
+
+
+def test_a_short_line_is_texture_not_a_nosing():
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _planes(4, rise, run, distance, missing=1)
+    blank = _lines(np.empty((0, 4)))
+    segs = list(_stair_lines(3, rise, run, distance))
+    # The fourth nosing and foot, a fifth of the staircase's width long.
+    s4 = distance + 3 * run
+    segs.append(_segment(blank, s4, 4 * rise, 0.0, lateral=(0.0, 0.2)))
+    segs.append(_segment(blank, s4, 3 * rise, 0.0, lateral=(0.0, 0.2)))
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(np.array(segs))).steps) == 3
+    segs[-2] = _segment(blank, s4, 4 * rise, 0.0)  # the nosing across the staircase
+    segs[-1] = _segment(blank, s4, 3 * rise, 0.0)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(np.array(segs))).steps) == 4
+
+
+def test_a_line_on_a_landing_without_a_riser_foot_is_no_step():
+    """Cameras above the last tread see the next riser's foot: a line where the nosing
+    would be with the floor (no foot line) under it is a tile joint or a far edge."""
+    rise, run, distance = 0.15, 0.30, 1.2
+    height = 0.9  # well above the treads: the foot of each riser is in view
+    planes = _planes(4, rise, run, distance, missing=1)
+    lines = _stair_lines(4, rise, run, distance, height=height)
+    with_foot = build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height))
+    assert len(with_foot.steps) == 4
+    without_foot = build_terrain(planes, NO_SAMPLES, lines=_lines(lines[:-1], height))
+    assert len(without_foot.steps) == 3
+
+
+def test_nosing_config_is_checked():
+    for name in ("nosing_run_tolerance", "nosing_min_cover", "nosing_min_foot_cover"):
+        for bad in (0.0, 1.0, -0.1):
+            with pytest.raises(ConfigError, match=name):
+                TerrainConfig(**{name: bad})
+    with pytest.raises(ConfigError, match="max_nosing_steps"):
+        TerrainConfig(max_nosing_steps=-1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    yaw=st.floats(-0.7, 0.7),
+    rise=st.floats(0.13, 0.2),
+    run=st.floats(0.25, 0.34),
+    distance=st.floats(1.0, 1.6),
+)
+def test_added_steps_stand_where_the_staircase_does(yaw, rise, run, distance):
+    """Whatever the yaw and size, each step the lines add is a true step (within 2 cm) and
+    no more are added than the staircase has."""
+    planes = _planes(5, rise, run, distance, yaw)
+    base = build_terrain(planes, NO_SAMPLES)
+    if base.obstacle != STAIRS or len(base.steps) != 3:
+        return  # the planes alone did not give the three steps this test extends
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(_stair_lines(5, rise, run, distance, yaw)))
+    assert 3 <= len(model.steps) <= 5
+    s0 = distance * np.cos(yaw)
+    for i, step in enumerate(model.steps):
+        assert step.axis_position_m == pytest.approx(s0 + i * run, abs=0.02)
