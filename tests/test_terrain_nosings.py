@@ -1,6 +1,8 @@
 """Steps beyond the last one where the image's line segments show their nosings
 (terrain/nosings.py): far risers that formed no plane and whose samples say nothing."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -10,7 +12,7 @@ from stereo_terrain.errors import ConfigError
 from stereo_terrain.terrain import STAIRS, ImageLines, TerrainConfig, build_terrain
 
 from .test_terrain import CAM
-from .test_terrain_continuation import _leftovers_moved, _unplaned
+from .test_terrain_continuation import _moved_samples, _unplaned
 
 #: The samples' continuation off: the steps below can come from the lines alone.
 NO_SAMPLES = TerrainConfig(continue_steps=False)
@@ -66,10 +68,27 @@ def _stair_lines(
     return np.array(segs)
 
 
-def _planes(n_steps: int, rise: float, run: float, distance: float, yaw: float = 0.0, missing: int = 2):
-    """The staircase whose last ``missing`` risers formed no plane; their samples moved away
-    so that nothing but the lines can show them."""
-    return _leftovers_moved(_unplaned(n_steps, rise, run, distance, yaw, last=missing), 5.0)
+def _planes(
+    n_steps: int,
+    rise: float,
+    run: float,
+    distance: float,
+    yaw: float = 0.0,
+    missing: int = 2,
+    height=float(CAM[2]),
+):
+    """The staircase whose last ``missing`` risers formed no plane; their samples moved far
+    below the floor (so that nothing but the lines can show them), and every sample at the
+    pixel where the camera sees it (the terrain stage looks for a landing in the image)."""
+    planes = _unplaned(n_steps, rise, run, distance, yaw, last=missing)
+    used = np.zeros(len(planes.samples.points), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    planes = _moved_samples(planes, ~used, np.array([0.0, 0.0, -10.0]))
+    uv, _ = _lines(np.empty((0, 4)), height).project(planes.samples.points.astype(np.float64))
+    pixels = np.nan_to_num(np.round(uv), nan=-1e4).clip(-1e4, 1e4).astype(np.int32)
+    samples = dataclasses.replace(planes.samples, cols=pixels[:, 0], rows=pixels[:, 1])
+    return dataclasses.replace(planes, samples=samples)
 
 
 def test_nosings_in_the_image_continue_the_staircase():
@@ -125,7 +144,7 @@ def test_a_line_on_a_landing_without_a_riser_foot_is_no_step():
     would be with the floor (no foot line) under it is a tile joint or a far edge."""
     rise, run, distance = 0.15, 0.30, 1.2
     height = 0.9  # well above the treads: the foot of each riser is in view
-    planes = _planes(4, rise, run, distance, missing=1)
+    planes = _planes(4, rise, run, distance, missing=1, height=height)
     lines = _stair_lines(4, rise, run, distance, height=height)
     with_foot = build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height))
     assert len(with_foot.steps) == 4
@@ -161,3 +180,29 @@ def test_added_steps_stand_where_the_staircase_does(yaw, rise, run, distance):
     s0 = distance * np.cos(yaw)
     for i, step in enumerate(model.steps):
         assert step.axis_position_m == pytest.approx(s0 + i * run, abs=0.02)
+
+
+def test_a_lone_step_is_continued_only_where_two_nosings_beyond_it_agree_on_a_run():
+    """A single step has no run to say where the next nosing is: the run that puts two
+    nosings beyond it (each line across the staircase) is taken; one line is not enough."""
+    rise, run, distance = 0.16, 0.31, 1.2
+    planes = _planes(4, rise, run, distance, missing=3)
+    alone = build_terrain(planes, NO_SAMPLES)
+    assert len(alone.steps) == 1
+    lines = _stair_lines(4, rise, run, distance)
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(lines))
+    assert model.obstacle == STAIRS and len(model.steps) == 4
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.02)
+    one_more = build_terrain(planes, NO_SAMPLES, lines=_lines(lines[:4]))  # nosing and foot of step 2 only
+    assert len(one_more.steps) == 1
+
+
+def test_lines_on_a_landing_the_samples_see_are_no_step():
+    """Tile joints on a landing where a fourth nosing and its riser's foot would be: the
+    samples in the image of that riser lie on the landing, so no step is added there."""
+    rise, run, distance, height = 0.17, 0.29, 1.3, 0.9
+    planes = _planes(3, rise, run, distance, missing=0, height=height)
+    lines = _stair_lines(4, rise, run, distance, height=height)  # the fourth: tile joints
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height))
+    assert model.obstacle == STAIRS and len(model.steps) == 3

@@ -160,9 +160,9 @@ def nosing_steps(
         return steps, 0
     rises = [s.rise_m for s in steps if not s.rise_inferred]
     runs = [s.run_m for s in steps if s.run_m is not None]
-    if not rises or not runs or len(lines.segments) == 0:
+    if not rises or len(lines.segments) == 0 or not (runs or len(steps) == 1):
         return steps, 0
-    rise, run = float(np.median(rises)), float(np.median(runs))
+    rise = float(np.median(rises))
     margin = 0.1 * (lateral[1] - lateral[0])  # the side edges: stringers, walls
     lat = (lateral[0] + margin, lateral[1] - margin)
     segs = _parallel_segments(lines, v)
@@ -171,6 +171,14 @@ def nosing_steps(
     out = list(steps)
     a, top = out[-1].axis_position_m, out[-1].top_z_m
     anchor = _refined_top(segs, lines, u, v, lat, a, top, rise)
+    if runs:
+        run = float(np.median(runs))
+    else:
+        # A lone step: the run that puts two nosings beyond it (module docstring).
+        found = _run_from_two_nosings(segs, lines, u, v, lat, a, anchor, rise, config)
+        if found is None:
+            return steps, 0
+        run = found
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     added = 0
     while added < config.max_nosing_steps:
@@ -376,6 +384,47 @@ def _next_nosing(
             at &= np.isfinite(flo) & np.isfinite(fhi)
             if _cover(flo[at], fhi[at], foot_span) < config.nosing_min_foot_cover:
                 return None
+    return best
+
+
+def _run_from_two_nosings(
+    segs: _Segments,
+    lines: ImageLines,
+    u: np.ndarray,
+    v: np.ndarray,
+    lat: tuple[float, float],
+    a_k: float,
+    top_k: float,
+    rise: float,
+    config: TerrainConfig,
+) -> float | None:
+    """For a lone step at ``(a_k, top_k)``: of the runs between ``continue_min_run_m`` and
+    ``continue_max_run_m`` (1 cm apart) for which segments cover ``nosing_min_cover`` of
+    the width at both the next nosing and the one after, the one that puts them nearest
+    one and two steps along the pitch line; None when no run has both."""
+    c = lines.centre
+    anchor = a_k * u + 0.5 * (lat[0] + lat[1]) * v + np.array([0.0, 0.0, top_k])
+    lift = segs.normal @ (anchor - c)
+    best, best_err = None, math.inf
+    for run in np.arange(config.continue_min_run_m, config.continue_max_run_m + 1e-9, 0.01):
+        den = segs.normal @ (run * u + np.array([0.0, 0.0, rise]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = -lift / den
+        err = 0.0
+        for k in (1, 2):
+            span = _visible(lines, u, v, lat, a_k + k * run, top_k + k * rise)
+            near = np.isfinite(lam) & (np.abs(den) > 1e-9) & (np.abs(lam - k) < k * _LAM_GROUP)
+            if span is None or not near.any():
+                err = math.inf
+                break
+            lo, hi = _lateral_on_height(lines, segs, v, top_k + lam * rise)
+            near &= np.isfinite(lo) & np.isfinite(hi)
+            if _cover(lo[near], hi[near], span) < config.nosing_min_cover:
+                err = math.inf
+                break
+            err += abs(float(np.median(lam[near])) - k) / k
+        if err < best_err:
+            best, best_err = float(run), err
     return best
 
 
