@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -96,20 +97,17 @@ def _assemble(
         )
         free &= ~keep
         family = [c for c, k in zip(cands, keep, strict=True) if k]
-        model = _assemble_along(
-            planes,
-            config,
-            family,
-            yaw,
-            horizontals,
-            h_z,
-            tread_first=tread_first,
-            floor_known=floor_known,
-            lines=lines,
+        found = _assemble_along(
+            planes, config, family, yaw, horizontals, h_z, tread_first=tread_first, floor_known=floor_known
         )
+        model = found if isinstance(found, StairModel) else _finish(found, config)
         if best is None or _chained(model) > _chained(best):
-            best = model
+            best, best_found = model, found
     assert best is not None
+    if lines is not None and config.nosing_steps and isinstance(best_found, _Chain):
+        # The steps the image's lines show beyond the chain, for the family that won only
+        # (they do not count in the choice: they are inferred).
+        best = _finish(best_found, config, lines)
     return best
 
 
@@ -179,13 +177,12 @@ def _assemble_along(
     *,
     tread_first: bool = True,
     floor_known: bool = True,
-    lines: ImageLines | None = None,
-) -> StairModel:
-    """The staircase (or box, or nothing) whose risers are ``family`` along the stair axis
-    at ``yaw`` (the rest of :func:`_assemble`). ``tread_first``: the first step may stand at
-    a tread's front edge when its riser is no plane and a riser plane chains behind it.
-    ``floor_known``: as in :func:`build_terrain`. ``lines``: the image's line segments, for
-    the steps beyond the last whose nosings they show (:mod:`.nosings`)."""
+) -> StairModel | _Chain:
+    """The chain of steps (continued beyond the last riser plane from the samples) whose
+    risers are ``family`` along the stair axis at ``yaw``, for :func:`_finish`, or the
+    model of no obstacle (the rest of :func:`_assemble`). ``tread_first``: the first step
+    may stand at a tread's front edge when its riser is no plane and a riser plane chains
+    behind it. ``floor_known``: as in :func:`build_terrain`."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
@@ -411,23 +408,63 @@ def _assemble_along(
     # Before a single step is classified: a riser found beyond it makes it a staircase,
     # though the ground may be seen beyond its top elsewhere (which would make it a box).
     steps, continued = continue_steps(steps, planes, P, u, v, lateral, config)
+    return _Chain(
+        planes,
+        P,
+        tuple(steps),
+        tuple(ordered),
+        yaw,
+        ground_z,
+        h_info,
+        lateral,
+        inferred_first,
+        len(below),
+        continued,
+    )
+
+
+@dataclass(frozen=True)
+class _Chain:
+    """A family's steps before they are finished (:func:`_finish`): the chain, its risers,
+    and what the note and the classification need."""
+
+    planes: PlaneSet
+    P: np.ndarray
+    steps: tuple[Step, ...]
+    ordered: tuple[_Riser, ...]
+    yaw: float
+    ground_z: float
+    h_info: list
+    lateral: tuple[float, float]
+    inferred_first: bool
+    below: int
+    continued: int
+
+
+def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = None) -> StairModel:
+    """The model of a family's chain: the steps the image's lines show beyond it
+    (``lines``, :mod:`.nosings`), the staircase's common rise and run, a single step
+    classified, the polytope and the note."""
+    u = np.array([math.cos(chain.yaw), math.sin(chain.yaw), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    steps = list(chain.steps)
     from_lines = 0
     if lines is not None:
-        steps, from_lines = nosing_steps(steps, planes, P, u, v, lateral, lines, config)
-    steps, pooled_rises, pooled_runs = common_steps(steps, ground_z, config)
+        steps, from_lines = nosing_steps(steps, chain.planes, chain.P, u, v, chain.lateral, lines, config)
+    steps, pooled_rises, pooled_runs = common_steps(steps, chain.ground_z, config)
 
     obstacle = STAIRS
-    note = f"{len(steps)} step(s) from {len(ordered)} riser plane(s)"
-    if inferred_first:
+    note = f"{len(steps)} step(s) from {len(chain.ordered)} riser plane(s)"
+    if chain.inferred_first:
         note += "; the first riser's foot is out of view: its rise is the median of the others"
-    if below:
+    if chain.below:
         note += (
-            f"; the {len(below)} step(s) below the lowest riser plane formed none: inferred at the"
+            f"; the {chain.below} step(s) below the lowest riser plane formed none: inferred at the"
             " staircase's rise and run"
         )
-    if continued:
+    if chain.continued:
         note += (
-            f"; {continued} more beyond the last riser plane, from their samples' positions"
+            f"; {chain.continued} more beyond the last riser plane, from their samples' positions"
             " (rise: the median of the others)"
         )
     if from_lines:
@@ -440,9 +477,9 @@ def _assemble_along(
     if pooled_runs:
         note += f"; {pooled_runs} measured runs agree: those steps report their median"
     if len(steps) == 1:
-        obstacle, note, steps = _classify_single_step(steps[0], h_info, ground_z, config, note)
-    poly = _polytope(steps, ordered, u, v, ground_z)
-    return StairModel(obstacle, tuple(steps), yaw, ground_z, poly, planes.frame, note)
+        obstacle, note, steps = _classify_single_step(steps[0], chain.h_info, chain.ground_z, config, note)
+    poly = _polytope(steps, list(chain.ordered), u, v, chain.ground_z)
+    return StairModel(obstacle, tuple(steps), chain.yaw, chain.ground_z, poly, chain.planes.frame, note)
 
 
 def _stands_below(P: np.ndarray, r: _Riser, ground_z: float, config: TerrainConfig) -> bool:

@@ -405,26 +405,30 @@ def _run_from_two_nosings(
     c = lines.centre
     anchor = a_k * u + 0.5 * (lat[0] + lat[1]) * v + np.array([0.0, 0.0, top_k])
     lift = segs.normal @ (anchor - c)
+    runs = np.arange(config.continue_min_run_m, config.continue_max_run_m + 1e-9, 0.01)
+    # Every run at once: each segment's pitch-line position (runs x segments); only the
+    # runs with a segment near both nosings are looked at further.
+    den = (segs.normal @ u)[None, :] * runs[:, None] + (segs.normal[:, 2] * rise)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.where(np.abs(den) > 1e-9, -lift[None, :] / den, np.nan)
+    near = [np.abs(lam - k) < k * _LAM_GROUP for k in (1, 2)]
     best, best_err = None, math.inf
-    for run in np.arange(config.continue_min_run_m, config.continue_max_run_m + 1e-9, 0.01):
-        den = segs.normal @ (run * u + np.array([0.0, 0.0, rise]))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            lam = -lift / den
+    for i in np.flatnonzero(near[0].any(axis=1) & near[1].any(axis=1)):
+        run = float(runs[i])
         err = 0.0
         for k in (1, 2):
             span = _visible(lines, u, v, lat, a_k + k * run, top_k + k * rise)
-            near = np.isfinite(lam) & (np.abs(den) > 1e-9) & (np.abs(lam - k) < k * _LAM_GROUP)
-            if span is None or not near.any():
+            if span is None:
                 err = math.inf
                 break
-            lo, hi = _lateral_on_height(lines, segs, v, top_k + lam * rise)
-            near &= np.isfinite(lo) & np.isfinite(hi)
-            if _cover(lo[near], hi[near], span) < config.nosing_min_cover:
+            lo, hi = _lateral_on_height(lines, segs, v, top_k + lam[i] * rise)
+            at = near[k - 1][i] & np.isfinite(lo) & np.isfinite(hi)
+            if _cover(lo[at], hi[at], span) < config.nosing_min_cover:
                 err = math.inf
                 break
-            err += abs(float(np.median(lam[near])) - k) / k
+            err += abs(float(np.median(lam[i][at])) - k) / k
         if err < best_err:
-            best, best_err = float(run), err
+            best, best_err = run, err
     return best
 
 
