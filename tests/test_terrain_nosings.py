@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.terrain import STAIRS, ImageLines, TerrainConfig, build_terrain
+from stereo_terrain.terrain.nosings import nosing_steps
 
 from .test_terrain import CAM
 from .test_terrain_continuation import _moved_samples, _unplaned
@@ -80,7 +81,12 @@ def _planes(
     """The staircase whose last ``missing`` risers formed no plane; their samples moved far
     below the floor (so that nothing but the lines can show them), and every sample at the
     pixel where the camera sees it (the terrain stage looks for a landing in the image)."""
-    planes = _unplaned(n_steps, rise, run, distance, yaw, last=missing)
+    return _with_pixels(_unplaned(n_steps, rise, run, distance, yaw, last=missing), height)
+
+
+def _with_pixels(planes, height=float(CAM[2])):
+    """``planes`` with the samples no plane took moved far below the floor, and every
+    sample at the pixel where the camera sees it."""
     used = np.zeros(len(planes.samples.points), dtype=bool)
     for seg in planes.segments:
         used[seg.indices] = True
@@ -206,3 +212,32 @@ def test_lines_on_a_landing_the_samples_see_are_no_step():
     lines = _stair_lines(4, rise, run, distance, height=height)  # the fourth: tile joints
     model = build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height))
     assert model.obstacle == STAIRS and len(model.steps) == 3
+
+
+def test_a_double_step_is_split_where_the_image_shows_the_nosing_between():
+    """A riser that formed no plane between two that did makes one step of two: twice the
+    rise after twice the run. The nosing between in the image splits it; without that line
+    it stays a double step."""
+    rise, run, distance = 0.16, 0.30, 1.2
+    planes = _planes(5, rise, run, distance, missing=0)
+    found = list(build_terrain(planes, NO_SAMPLES).steps)
+    assert len(found) == 5
+    # The chain as it is when the third riser formed no plane.
+    double = [
+        found[0],
+        dataclasses.replace(found[1], run_m=2 * run),
+        dataclasses.replace(found[3], rise_m=2 * rise),
+        found[4],
+    ]
+    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    P = planes.samples.points.astype(np.float64)
+    lines = _stair_lines(5, rise, run, distance)
+    steps, added, split = nosing_steps(double, planes, P, u, v, (-0.5, 0.5), _lines(lines), NO_SAMPLES)
+    assert (len(steps), added, split) == (5, 0, 1)
+    for i, step in enumerate(steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+        assert step.rise_m == pytest.approx(rise, abs=0.01)
+    assert steps[2].rise_inferred and steps[3].rise_inferred
+    without = np.delete(lines, [4, 5], axis=0)  # the third nosing and its riser's foot
+    steps, _, split = nosing_steps(double, planes, P, u, v, (-0.5, 0.5), _lines(without), NO_SAMPLES)
+    assert len(steps) == 4 and split == 0

@@ -448,9 +448,11 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     u = np.array([math.cos(chain.yaw), math.sin(chain.yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     steps = list(chain.steps)
-    from_lines = 0
+    from_lines = split = 0
     if lines is not None:
-        steps, from_lines = nosing_steps(steps, chain.planes, chain.P, u, v, chain.lateral, lines, config)
+        steps, from_lines, split = nosing_steps(
+            steps, chain.planes, chain.P, u, v, chain.lateral, lines, config
+        )
     steps, pooled_rises, pooled_runs = common_steps(steps, chain.ground_z, config)
 
     obstacle = STAIRS
@@ -466,6 +468,11 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
         note += (
             f"; {chain.continued} more beyond the last riser plane, from their samples' positions"
             " (rise: the median of the others)"
+        )
+    if split:
+        note += (
+            f"; {split} double step(s) split where the image's line segments show the nosing"
+            " between (each half at half its rise)"
         )
     if from_lines:
         note += (

@@ -140,9 +140,11 @@ def nosing_steps(
     lateral: tuple[float, float],
     lines: ImageLines,
     config: TerrainConfig,
-) -> tuple[list[Step], int]:
-    """``steps`` with the steps beyond the last one whose nosings the image's segments show
-    (module docstring), and how many.
+) -> tuple[list[Step], int, int]:
+    """``steps`` with each double step split where the image shows the nosing between
+    (:func:`_split_double_steps`) and the steps beyond the last one whose nosings the
+    image's segments show (module docstring); how many were added beyond, and how many
+    split.
 
     Parameters
     ----------
@@ -156,19 +158,23 @@ def nosing_steps(
     config : TerrainConfig (``nosing_steps``, ``max_nosing_steps``,
         ``nosing_run_tolerance``, ``nosing_min_cover``, ``nosing_min_foot_cover``)
     """
-    if not config.nosing_steps or config.max_nosing_steps < 1 or not steps:
-        return steps, 0
+    if not config.nosing_steps or not steps:
+        return steps, 0, 0
     rises = [s.rise_m for s in steps if not s.rise_inferred]
     runs = [s.run_m for s in steps if s.run_m is not None]
     if not rises or len(lines.segments) == 0 or not (runs or len(steps) == 1):
-        return steps, 0
+        return steps, 0, 0
     rise = float(np.median(rises))
     margin = 0.1 * (lateral[1] - lateral[0])  # the side edges: stringers, walls
     lat = (lateral[0] + margin, lateral[1] - margin)
     segs = _parallel_segments(lines, v)
     if segs is None:
-        return steps, 0
-    out = list(steps)
+        return steps, 0, 0
+    out, split = _split_double_steps(list(steps), segs, lines, u, v, lat, config)
+    if split:
+        rises = [s.rise_m for s in out if not s.rise_inferred] or rises
+        runs = [s.run_m for s in out if s.run_m is not None]
+        rise = float(np.median(rises))
     a, top = out[-1].axis_position_m, out[-1].top_z_m
     anchor = _refined_top(segs, lines, u, v, lat, a, top, rise)
     if runs:
@@ -177,7 +183,7 @@ def nosing_steps(
         # A lone step: the run that puts two nosings beyond it (module docstring).
         found = _run_from_two_nosings(segs, lines, u, v, lat, a, anchor, rise, config)
         if found is None:
-            return steps, 0
+            return out, 0, split
         run = found
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     added = 0
@@ -208,7 +214,73 @@ def nosing_steps(
         )
         added += 1
         a, anchor = a_new, _refined_top(segs, lines, u, v, lat, a_new, anchor + rise, rise)
-    return out, added
+    return out, added, split
+
+
+def _split_double_steps(
+    steps: list[Step],
+    segs: _Segments,
+    lines: ImageLines,
+    u: np.ndarray,
+    v: np.ndarray,
+    lat: tuple[float, float],
+    config: TerrainConfig,
+) -> tuple[list[Step], int]:
+    """``steps`` with each double step split where the image shows the nosing between, and
+    how many were split.
+
+    A riser that formed no plane between two that did makes one step of two: about twice
+    the staircase's rise, after a run about twice its run (the others' medians; without
+    another run, twice the ordinary range). Where a nosing lies halfway along the pitch
+    from the step before (:func:`_next_nosing`, with half the double rise and run), the
+    step becomes two of half its rise, the run before it halved; both rises are inferred.
+    Not the first step: the ground before it has no nosing to start the pitch from."""
+    out = list(steps)
+    split = 0
+    i = 1
+    while i < len(out):
+        step, prev = out[i], out[i - 1]
+        rises = [s.rise_m for j, s in enumerate(out) if j != i and not s.rise_inferred]
+        runs = [s.run_m for j, s in enumerate(out) if j != i - 1 and s.run_m is not None]
+        run_before = prev.run_m
+        if step.rise_inferred or not rises or run_before is None:
+            i += 1
+            continue
+        rise = float(np.median(rises))
+        if runs:
+            run = float(np.median(runs))
+            double_run = 1.5 * run <= run_before <= 2.5 * run
+        else:
+            double_run = 2 * config.continue_min_run_m <= run_before <= 2 * config.continue_max_run_m
+        if not (double_run and 1.6 * rise <= step.rise_m <= 2.4 * rise):
+            i += 1
+            continue
+        half_rise, half_run = step.rise_m / 2, run_before / 2
+        lam = _next_nosing(
+            segs, lines, u, v, lat, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config
+        )
+        if lam is None:
+            i += 1
+            continue
+        a_mid = prev.axis_position_m + half_run
+        plane = Plane(-u, a_mid)
+        middle = Step(
+            half_rise,
+            half_run,
+            riser_distance(plane, a_mid, u),
+            None,
+            prev.top_z_m + half_rise,
+            a_mid,
+            plane,
+            None,
+            rise_inferred=True,
+        )
+        out[i - 1] = dataclasses.replace(prev, run_m=half_run)
+        out[i] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
+        out.insert(i, middle)
+        split += 1
+        i += 2
+    return out, split
 
 
 def _floor_where_the_riser_would_be(
