@@ -241,3 +241,30 @@ def test_a_double_step_is_split_where_the_image_shows_the_nosing_between():
     without = np.delete(lines, [4, 5], axis=0)  # the third nosing and its riser's foot
     steps, _, split = nosing_steps(double, planes, P, u, v, (-0.5, 0.5), _lines(without), NO_SAMPLES)
     assert len(steps) == 4 and split == 0
+
+
+def test_a_staircase_of_every_other_riser_is_split_where_the_nosings_between_show():
+    """Every other riser formed a plane: three steps of twice the rise and run, taller than a
+    stair rise (``max_rise_m``). With the nosings between in the image each is split, the
+    first with a step in front of it; without them nothing changes."""
+    rise, run, distance = 0.17, 0.28, 1.2
+    planes = _planes(6, rise, run, distance, missing=0)
+    found = list(build_terrain(planes, NO_SAMPLES).steps)
+    assert len(found) == 6
+    doubled = [
+        dataclasses.replace(found[k], rise_m=2 * rise, run_m=None if k == 5 else 2 * run) for k in (1, 3, 5)
+    ]
+    assert all(s.rise_m > NO_SAMPLES.max_rise_m for s in doubled)
+    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    P = planes.samples.points.astype(np.float64)
+    lines = _stair_lines(6, rise, run, distance)
+    steps, added, split = nosing_steps(doubled, planes, P, u, v, (-0.5, 0.5), _lines(lines), NO_SAMPLES)
+    assert (len(steps), added, split) == (6, 0, 3)
+    for i, step in enumerate(steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+        assert step.rise_m == pytest.approx(rise, abs=0.01)
+    # The nosings of the steps found only (their risers' feet, from below, are the nosings
+    # between: the cameras are lower than those treads).
+    odd = lines[[2, 6, 10]]
+    steps, _, split = nosing_steps(doubled, planes, P, u, v, (-0.5, 0.5), _lines(odd), NO_SAMPLES)
+    assert len(steps) == 3 and split == 0

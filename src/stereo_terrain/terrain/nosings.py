@@ -170,11 +170,12 @@ def nosing_steps(
     segs = _parallel_segments(lines, v)
     if segs is None:
         return steps, 0, 0
-    out, split = _split_double_steps(list(steps), segs, lines, u, v, lat, config)
+    out, tall = _split_too_tall(list(steps), segs, lines, u, v, lat, config)
+    out, split = _split_double_steps(out, segs, lines, u, v, lat, config)
+    split += tall
     if split:
-        rises = [s.rise_m for s in out if not s.rise_inferred] or rises
+        rise = float(np.median([s.rise_m for s in out]))
         runs = [s.run_m for s in out if s.run_m is not None]
-        rise = float(np.median(rises))
     a, top = out[-1].axis_position_m, out[-1].top_z_m
     anchor = _refined_top(segs, lines, u, v, lat, a, top, rise)
     if runs:
@@ -215,6 +216,81 @@ def nosing_steps(
         added += 1
         a, anchor = a_new, _refined_top(segs, lines, u, v, lat, a_new, anchor + rise, rise)
     return out, added, split
+
+
+def _split_too_tall(
+    steps: list[Step],
+    segs: _Segments,
+    lines: ImageLines,
+    u: np.ndarray,
+    v: np.ndarray,
+    lat: tuple[float, float],
+    config: TerrainConfig,
+) -> tuple[list[Step], int]:
+    """``steps`` with each step taller than a stair rise (``max_rise_m``) split where the
+    image shows the nosing halfway, and how many were split.
+
+    Where every other riser formed no plane (or the first did not), the chain is one of
+    double steps: twice the rise, twice the run, self-consistent, so
+    :func:`_split_double_steps` has no ordinary step to compare with. A rise above
+    ``max_rise_m`` is no stair's (the samples' continuation carries it on at that rise).
+    A later step is split as a double step is; the first one, the second riser chained
+    from the ground, gets a step of half its rise in front of it, a run before it (half
+    the staircase's median run where every step is too tall, else that run), where that
+    step's nosing shows on the pitch line from the ground. Halves of less than
+    ``min_rise_m`` or runs of less than ``min_run_m`` are not made."""
+    out = list(steps)
+    if not any(s.rise_m > config.max_rise_m for s in out):
+        return out, 0
+    runs = [s.run_m for s in out if s.run_m is not None]
+    all_tall = all(s.rise_m > config.max_rise_m for s in out)
+    split = 0
+    i = 0
+    while i < len(out):
+        step = out[i]
+        half_rise = step.rise_m / 2
+        if step.rise_m <= config.max_rise_m or half_rise < config.min_rise_m:
+            i += 1
+            continue
+        if i == 0:
+            if not runs:
+                break
+            run = float(np.median(runs)) / (2 if all_tall else 1)
+            ground = step.top_z_m - step.rise_m
+            a_before = step.axis_position_m - run
+            if run < config.min_run_m or (
+                _next_nosing(segs, lines, u, v, lat, a_before - run, ground, half_rise, run, config) is None
+            ):
+                i += 1
+                continue
+            before = _inferred_step(u, a_before, ground + half_rise, half_rise, run)
+            out[0] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
+            out.insert(0, before)
+        else:
+            prev = out[i - 1]
+            if prev.run_m is None or prev.run_m / 2 < config.min_run_m:
+                i += 1
+                continue
+            half_run = prev.run_m / 2
+            lam = _next_nosing(
+                segs, lines, u, v, lat, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config
+            )
+            if lam is None:
+                i += 1
+                continue
+            a_mid = prev.axis_position_m + half_run
+            out[i - 1] = dataclasses.replace(prev, run_m=half_run)
+            out[i] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
+            out.insert(i, _inferred_step(u, a_mid, prev.top_z_m + half_rise, half_rise, half_run))
+        split += 1
+        i += 2
+    return out, split
+
+
+def _inferred_step(u: np.ndarray, a: float, top: float, rise: float, run: float | None) -> Step:
+    """A step whose riser formed no plane, at ``a`` along the stair axis ``u`` (inferred rise)."""
+    plane = Plane(-u, a)  # vertical, facing the robot, u . x = a
+    return Step(rise, run, riser_distance(plane, a, u), None, top, a, plane, None, rise_inferred=True)
 
 
 def _split_double_steps(
