@@ -131,6 +131,19 @@ class _Segments:
     normal: np.ndarray
 
 
+@dataclass(frozen=True)
+class _View:
+    """One staircase as the image's lines see it: the camera (``lines``), the segments
+    parallel to its nosings, its axis ``u`` and lateral direction ``v``, and the part of
+    its width looked at (``lat``, metres along ``v``)."""
+
+    lines: ImageLines
+    segs: _Segments
+    u: np.ndarray
+    v: np.ndarray
+    lat: tuple[float, float]
+
+
 def nosing_steps(
     steps: list[Step],
     planes: PlaneSet,
@@ -170,61 +183,45 @@ def nosing_steps(
     segs = _parallel_segments(lines, v)
     if segs is None:
         return steps, 0, 0
-    out, tall = _split_too_tall(list(steps), segs, lines, u, v, lat, config)
-    out, split = _split_double_steps(out, segs, lines, u, v, lat, config)
+    view = _View(lines, segs, u, v, lat)
+    out, tall = _split_too_tall(list(steps), view, config)
+    out, split = _split_double_steps(out, view, config)
     split += tall
     if split:
         rise = float(np.median([s.rise_m for s in out]))
         runs = [s.run_m for s in out if s.run_m is not None]
     a, top = out[-1].axis_position_m, out[-1].top_z_m
-    anchor = _refined_top(segs, lines, u, v, lat, a, top, rise)
+    anchor = _refined_top(view, a, top, rise)
     if runs:
         run = float(np.median(runs))
     else:
         # A lone step: the run that puts two nosings beyond it (module docstring).
-        found = _run_from_two_nosings(segs, lines, u, v, lat, a, anchor, rise, config)
+        found = _run_from_two_nosings(view, a, anchor, rise, config)
         if found is None:
             return out, 0, split
         run = found
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     added = 0
     while added < config.max_nosing_steps:
-        lam = _next_nosing(segs, lines, u, v, lat, a, anchor, rise, run, config)
+        lam = _next_nosing(view, a, anchor, rise, run, config)
         if lam is None:
             break
         last = out[-1]
         a_new = a + run
         if walls.size and float(np.min(np.abs(walls - a_new))) < config.merge_distance_m:
             break  # a wall across the stairs there: its joints and edges are no nosings
-        if _floor_where_the_riser_would_be(planes, P, lines, u, v, lat, a_new, last.top_z_m, rise):
+        if _floor_where_the_riser_would_be(planes, P, view, a_new, last.top_z_m, rise):
             break  # the samples see the last tread go on (a landing's tiles, a platform)
-        plane = Plane(-u, a_new)  # vertical, facing the robot, u . x = a_new
         out[-1] = dataclasses.replace(last, run_m=run)
-        out.append(
-            Step(
-                rise,
-                None,
-                riser_distance(plane, a_new, u),
-                None,
-                last.top_z_m + rise,
-                a_new,
-                plane,
-                None,
-                rise_inferred=True,
-            )
-        )
+        out.append(_inferred_step(u, a_new, last.top_z_m + rise, rise, None))
         added += 1
-        a, anchor = a_new, _refined_top(segs, lines, u, v, lat, a_new, anchor + rise, rise)
+        a, anchor = a_new, _refined_top(view, a_new, anchor + rise, rise)
     return out, added, split
 
 
 def _split_too_tall(
     steps: list[Step],
-    segs: _Segments,
-    lines: ImageLines,
-    u: np.ndarray,
-    v: np.ndarray,
-    lat: tuple[float, float],
+    view: _View,
     config: TerrainConfig,
 ) -> tuple[list[Step], int]:
     """``steps`` with each step taller than a stair rise (``max_rise_m``) split where the
@@ -239,6 +236,7 @@ def _split_too_tall(
     the staircase's median run where every step is too tall, else that run), where that
     step's nosing shows on the pitch line from the ground. Halves of less than
     ``min_rise_m`` or runs of less than ``min_run_m`` are not made."""
+    u = view.u
     out = list(steps)
     if not any(s.rise_m > config.max_rise_m for s in out):
         return out, 0
@@ -259,7 +257,7 @@ def _split_too_tall(
             ground = step.top_z_m - step.rise_m
             a_before = step.axis_position_m - run
             if run < config.min_run_m or (
-                _next_nosing(segs, lines, u, v, lat, a_before - run, ground, half_rise, run, config) is None
+                _next_nosing(view, a_before - run, ground, half_rise, run, config) is None
             ):
                 i += 1
                 continue
@@ -272,9 +270,7 @@ def _split_too_tall(
                 i += 1
                 continue
             half_run = prev.run_m / 2
-            lam = _next_nosing(
-                segs, lines, u, v, lat, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config
-            )
+            lam = _next_nosing(view, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config)
             if lam is None:
                 i += 1
                 continue
@@ -295,11 +291,7 @@ def _inferred_step(u: np.ndarray, a: float, top: float, rise: float, run: float 
 
 def _split_double_steps(
     steps: list[Step],
-    segs: _Segments,
-    lines: ImageLines,
-    u: np.ndarray,
-    v: np.ndarray,
-    lat: tuple[float, float],
+    view: _View,
     config: TerrainConfig,
 ) -> tuple[list[Step], int]:
     """``steps`` with each double step split where the image shows the nosing between, and
@@ -311,6 +303,7 @@ def _split_double_steps(
     from the step before (:func:`_next_nosing`, with half the double rise and run), the
     step becomes two of half its rise, the run before it halved; both rises are inferred.
     Not the first step: the ground before it has no nosing to start the pitch from."""
+    u = view.u
     out = list(steps)
     split = 0
     i = 1
@@ -332,28 +325,14 @@ def _split_double_steps(
             i += 1
             continue
         half_rise, half_run = step.rise_m / 2, run_before / 2
-        lam = _next_nosing(
-            segs, lines, u, v, lat, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config
-        )
+        lam = _next_nosing(view, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config)
         if lam is None:
             i += 1
             continue
         a_mid = prev.axis_position_m + half_run
-        plane = Plane(-u, a_mid)
-        middle = Step(
-            half_rise,
-            half_run,
-            riser_distance(plane, a_mid, u),
-            None,
-            prev.top_z_m + half_rise,
-            a_mid,
-            plane,
-            None,
-            rise_inferred=True,
-        )
         out[i - 1] = dataclasses.replace(prev, run_m=half_run)
         out[i] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
-        out.insert(i, middle)
+        out.insert(i, _inferred_step(u, a_mid, prev.top_z_m + half_rise, half_rise, half_run))
         split += 1
         i += 2
     return out, split
@@ -362,10 +341,7 @@ def _split_double_steps(
 def _floor_where_the_riser_would_be(
     planes: PlaneSet,
     P: np.ndarray,
-    lines: ImageLines,
-    u: np.ndarray,
-    v: np.ndarray,
-    lat: tuple[float, float],
+    view: _View,
     s_new: float,
     top: float,
     rise: float,
@@ -375,7 +351,8 @@ def _floor_where_the_riser_would_be(
     and more than lie at ``s_new``): the tread goes on, as a landing does. Where the
     matcher holds the faces (textured stairs) this tells a landing's tile joints from a
     step; where it holds nothing there (the far faces this module is for) it says nothing."""
-    span = _visible(lines, u, v, lat, s_new, top + 0.5 * rise)
+    lines, u, v = view.lines, view.u, view.v
+    span = _visible(view, s_new, top + 0.5 * rise)
     if span is None:
         return False
     m = 0.1 * (span[1] - span[0])
@@ -436,11 +413,10 @@ def _on_height(lines: ImageLines, d: np.ndarray, z: np.ndarray | float) -> np.nd
     return p
 
 
-def _visible(
-    lines: ImageLines, u: np.ndarray, v: np.ndarray, lat: tuple[float, float], s: float, z: float
-) -> tuple[float, float] | None:
+def _visible(view: _View, s: float, z: float) -> tuple[float, float] | None:
     """The part of ``lat`` in view (in the image, in front of the camera) of the line at
     position ``s`` along ``u`` and height ``z``; None when less than ``_MIN_VISIBLE_M``."""
+    lines, u, v, lat = view.lines, view.u, view.v, view.lat
     t = np.arange(lat[0], lat[1] + 1e-9, _LATERAL_STEP_M)
     if len(t) < 2:
         return None
@@ -466,22 +442,17 @@ def _cover(lo: np.ndarray, hi: np.ndarray, span: tuple[float, float]) -> float:
     return total / (span[1] - span[0])
 
 
-def _lateral_on_height(
-    lines: ImageLines, segs: _Segments, v: np.ndarray, z: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def _lateral_on_height(view: _View, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each segment's lateral extent ``(lo, hi)`` where its end rays meet height ``z`` (one
     per segment; NaN where a ray misses)."""
+    lines, segs, v = view.lines, view.segs, view.v
     a = _on_height(lines, segs.d0, z) @ v
     b = _on_height(lines, segs.d1, z) @ v
     return np.minimum(a, b), np.maximum(a, b)
 
 
 def _next_nosing(
-    segs: _Segments,
-    lines: ImageLines,
-    u: np.ndarray,
-    v: np.ndarray,
-    lat: tuple[float, float],
+    view: _View,
     a_k: float,
     top_k: float,
     rise: float,
@@ -490,8 +461,9 @@ def _next_nosing(
 ) -> float | None:
     """The pitch-line position ``lam`` of the next nosing after the step at ``(a_k, top_k)``,
     or None when the segments show none (module docstring)."""
+    lines, segs, u, v, lat = view.lines, view.segs, view.u, view.v, view.lat
     c = lines.centre
-    span = _visible(lines, u, v, lat, a_k + run, top_k + rise)
+    span = _visible(view, a_k + run, top_k + rise)
     if span is None:
         return None
     anchor = a_k * u + 0.5 * (lat[0] + lat[1]) * v + np.array([0.0, 0.0, top_k])
@@ -503,7 +475,7 @@ def _next_nosing(
     near = np.isfinite(lam) & (np.abs(den) > 1e-9) & (lam > 1.0 - tol) & (lam < 1.0 + tol)
     if not near.any():
         return None
-    lo, hi = _lateral_on_height(lines, segs, v, top_k + lam * rise)
+    lo, hi = _lateral_on_height(view, top_k + lam * rise)
     near &= np.isfinite(lo) & np.isfinite(hi)
     best, best_cover = None, 0.0
     for x in lam[near]:
@@ -523,12 +495,12 @@ def _next_nosing(
         last_nosing = np.cross(anchor - c, v)
         with np.errstate(divide="ignore", invalid="ignore"):
             lam_last = -(last_nosing @ (foot_anchor - c)) / (last_nosing @ pitch)
-        foot_span = _visible(lines, u, v, lat, a_k + best * run, top_k + (best - 1.0) * rise)
+        foot_span = _visible(view, a_k + best * run, top_k + (best - 1.0) * rise)
         if foot_span is not None and not abs(lam_last - best) < 2 * _LAM_GROUP:
             with np.errstate(divide="ignore", invalid="ignore"):
                 lam_f = -(segs.normal @ (foot_anchor - c)) / den
             at = np.isfinite(lam_f) & (np.abs(den) > 1e-9) & (np.abs(lam_f - best) < _LAM_GROUP)
-            flo, fhi = _lateral_on_height(lines, segs, v, top_k + (lam_f - 1.0) * rise)
+            flo, fhi = _lateral_on_height(view, top_k + (lam_f - 1.0) * rise)
             at &= np.isfinite(flo) & np.isfinite(fhi)
             if _cover(flo[at], fhi[at], foot_span) < config.nosing_min_foot_cover:
                 return None
@@ -536,11 +508,7 @@ def _next_nosing(
 
 
 def _run_from_two_nosings(
-    segs: _Segments,
-    lines: ImageLines,
-    u: np.ndarray,
-    v: np.ndarray,
-    lat: tuple[float, float],
+    view: _View,
     a_k: float,
     top_k: float,
     rise: float,
@@ -550,6 +518,7 @@ def _run_from_two_nosings(
     ``continue_max_run_m`` (1 cm apart) for which segments cover ``nosing_min_cover`` of
     the width at both the next nosing and the one after, the one that puts them nearest
     one and two steps along the pitch line; None when no run has both."""
+    lines, segs, u, v, lat = view.lines, view.segs, view.u, view.v, view.lat
     c = lines.centre
     anchor = a_k * u + 0.5 * (lat[0] + lat[1]) * v + np.array([0.0, 0.0, top_k])
     lift = segs.normal @ (anchor - c)
@@ -565,11 +534,11 @@ def _run_from_two_nosings(
         run = float(runs[i])
         err = 0.0
         for k in (1, 2):
-            span = _visible(lines, u, v, lat, a_k + k * run, top_k + k * rise)
+            span = _visible(view, a_k + k * run, top_k + k * rise)
             if span is None:
                 err = math.inf
                 break
-            lo, hi = _lateral_on_height(lines, segs, v, top_k + lam[i] * rise)
+            lo, hi = _lateral_on_height(view, top_k + lam[i] * rise)
             at = near[k - 1][i] & np.isfinite(lo) & np.isfinite(hi)
             if _cover(lo[at], hi[at], span) < config.nosing_min_cover:
                 err = math.inf
@@ -581,11 +550,7 @@ def _run_from_two_nosings(
 
 
 def _refined_top(
-    segs: _Segments,
-    lines: ImageLines,
-    u: np.ndarray,
-    v: np.ndarray,
-    lat: tuple[float, float],
+    view: _View,
     a_k: float,
     top_k: float,
     rise: float,
@@ -594,7 +559,8 @@ def _refined_top(
     ``u . x = a_k`` (of the groups of segments within a third of a rise of ``top_k`` that
     cover ``_TOP_MIN_COVER`` of its width, the nearest; the top found from the samples is
     biased low, docs/benchmarks.md "Tenth session"), else ``top_k``."""
-    span = _visible(lines, u, v, lat, a_k, top_k)
+    lines, segs, u, v = view.lines, view.segs, view.u, view.v
+    span = _visible(view, a_k, top_k)
     if span is None:
         return top_k
     c = lines.centre
