@@ -1,4 +1,5 @@
-"""Steps beyond the last one where the image's line segments show their nosings (issue 11).
+"""Steps the image's line segments show: beyond the last one, and inside double steps
+(issue 11).
 
 Far up a staircase the risers are a few pixels of disparity noise tall: they form no plane
 and their samples do not sit at one position (:mod:`.continuation` then finds nothing),
@@ -28,11 +29,20 @@ The next step is accepted where:
   foot; the grout lines of a landing's tiles or the far edge of a platform have a floor at
   that height beyond them instead.
 
+and it is not added where the samples in the image of its riser lie on the last tread's
+height beyond it (a landing the matcher holds: tile joints are long lines too) or a wall
+stands across the stairs there.
+
 A step so found gets the staircase's median run as its position and the median rise (a
 step found beyond the last riser plane by :mod:`.continuation` does the same, and says so
 with ``rise_inferred``): the segment gives where a nosing is, not precisely which of a
 nosing strip's two edges it is. Measured on the same renders, its positions are closer to
 the truth that way (docs/benchmarks.md).
+
+The same test on other pitch lines serves three more cases: a lone step, whose run is the
+one that puts two nosings beyond it (:func:`_run_from_two_nosings`); a double step, split
+where the nosing halfway shows (:func:`_split_double_steps`); and steps taller than a
+stair rise, a chain of every other riser, split the same way (:func:`_split_too_tall`).
 """
 
 from __future__ import annotations
