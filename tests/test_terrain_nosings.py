@@ -268,3 +268,27 @@ def test_a_staircase_of_every_other_riser_is_split_where_the_nosings_between_sho
     odd = lines[[2, 6, 10]]
     steps, _, split = nosing_steps(doubled, planes, P, u, v, (-0.5, 0.5), _lines(odd), NO_SAMPLES)
     assert len(steps) == 3 and split == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    yaw=st.floats(-3.1, 3.1),
+    pitch=st.floats(-0.5, 0.5),
+    x=st.floats(0.0, 639.0),
+    y=st.floats(0.0, 479.0),
+    depth=st.floats(0.3, 6.0),
+)
+def test_image_lines_rays_and_projection_agree(yaw, pitch, x, y, depth):
+    """A point on the ray through a pixel projects back onto that pixel, whatever the
+    camera's pose in the terrain frame."""
+    cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    T = _camera(0.5)
+    T[:3, :3] = Rz @ Ry @ T[:3, :3]
+    lines = ImageLines(np.empty((0, 4)), 480.0, 320.0, 240.0, SIZE, T)
+    ray = lines.rays(np.array([[x, y]]))[0]
+    point = lines.centre + depth * ray  # the ray's z in the camera is 1: depth is camera z
+    uv, z = lines.project(point[None, :])
+    assert z[0] == pytest.approx(depth, rel=1e-9)
+    assert uv[0] == pytest.approx([x, y], abs=1e-6)
