@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.terrain import STAIRS, ImageLines, TerrainConfig, build_terrain
+from stereo_terrain.terrain import STAIRS, ImageLines, TerrainConfig, build_terrain, estimate_step_sigmas
 from stereo_terrain.terrain.nosings import nosing_steps
 
 from .test_terrain import CAM
@@ -112,6 +112,12 @@ def test_nosings_in_the_image_continue_the_staircase():
     assert model.steps[-1].run_m is None
     assert "line segments show their nosings" in model.note
     assert len(model.polytope.faces) > len(before.polytope.faces)
+    # Placed a run beyond the step before, not measured: no surer than that step.
+    assert [s.position_inferred for s in model.steps] == [False, False, False, True, True]
+    sig = estimate_step_sigmas(model, planes, focal_px=500.0, baseline_m=0.1).steps
+    assert all(np.isfinite(s.distance_sigma_m) for s in sig)
+    distance_sigmas = [s.distance_sigma_m for s in sig]
+    assert distance_sigmas[2] <= distance_sigmas[3] <= distance_sigmas[4]
 
 
 def test_no_lines_or_lines_only_where_the_steps_were_found_add_nothing():

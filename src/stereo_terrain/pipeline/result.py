@@ -84,6 +84,9 @@ class TerrainResult:
                     "distance": r(s.distance_m),
                     "width": r(s.width_m),
                     "rise_inferred": s.rise_inferred,
+                    # issue 11: placed at the staircase's run from the step before, where
+                    # the image's line segments show its nosing (terrain/nosings.py)
+                    "position_inferred": s.position_inferred,
                     # issue 11: the step's own rise (run) where "rise" ("run") is the
                     # staircase's common one
                     "measured_rise": r(s.measured_rise_m),

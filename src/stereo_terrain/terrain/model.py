@@ -265,7 +265,9 @@ class Step:
     rise_inferred : bool
         True for a first step whose foot is out of view (stairs filling the image, no floor
         in front), and for a step found beyond the last riser plane from its samples'
-        positions (:mod:`.continuation`): its rise is the median of the other steps' rises.
+        positions (:mod:`.continuation`) or its nosing's line segments (:mod:`.nosings`):
+        its rise is the median of the other steps' rises; and for both halves of a double
+        step split by :mod:`.nosings` (half the measured double rise).
     rise_sigma_m, run_sigma_m, distance_sigma_m, width_sigma_m : float or None
         1-sigma of ``rise_m``, ``run_m``, ``distance_m`` and ``width_m`` (issue 14,
         :func:`estimate_step_sigmas`); NaN until estimated, None where the value is None.
@@ -273,6 +275,10 @@ class Step:
         The rise (run) measured for this step where ``rise_m`` (``run_m``) is the
         staircase's common one (:mod:`.uniform`); None where it is the step's own (or
         inferred, or not seen).
+    position_inferred : bool
+        True for a step the image's line segments show (:mod:`.nosings`): its riser is
+        placed at the staircase's run from the step before, not measured; its position's
+        sigma is the step before's and the runs' spread (:func:`estimate_step_sigmas`).
     """
 
     rise_m: float
@@ -290,6 +296,7 @@ class Step:
     width_sigma_m: float | None = math.nan
     measured_rise_m: float | None = None
     measured_run_m: float | None = None
+    position_inferred: bool = False
 
     @property
     def own_rise_m(self) -> float:

@@ -296,7 +296,8 @@ def _split_too_tall(
 def _inferred_step(u: np.ndarray, a: float, top: float, rise: float, run: float | None) -> Step:
     """A step whose riser formed no plane, at ``a`` along the stair axis ``u`` (inferred rise)."""
     plane = Plane(-u, a)  # vertical, facing the robot, u . x = a
-    return Step(rise, run, riser_distance(plane, a, u), None, top, a, plane, None, rise_inferred=True)
+    distance = riser_distance(plane, a, u)
+    return Step(rise, run, distance, None, top, a, plane, None, rise_inferred=True, position_inferred=True)
 
 
 def _split_double_steps(

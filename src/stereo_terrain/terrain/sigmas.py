@@ -169,6 +169,14 @@ def estimate_step_sigmas(
     widths: list[float | None] = []
     yaw_info: list[tuple[float, float, float]] = []  # (weight, 1-sigma of the riser's yaw, its yaw)
     s_prev = -np.inf
+    # The runs measured between risers that were found (for the steps placed a run beyond
+    # the step before: terrain/nosings.py).
+    runs_seen = [
+        st.own_run_m
+        for k, st in enumerate(steps[:-1])
+        if st.own_run_m is not None and not st.position_inferred and not steps[k + 1].position_inferred
+    ]
+    run_spread = float(np.std(runs_seen)) if len(runs_seen) > 1 else math.nan
     for i, st in enumerate(steps):
         s_next = steps[i + 1].axis_position_m if i + 1 < len(steps) else np.inf
         s_pos = st.axis_position_m
@@ -213,6 +221,12 @@ def estimate_step_sigmas(
             sig_pos = math.hypot(config.edge_sigma_cells * ground_cell, shift_sigma(tread_face))
         else:
             sig_pos = math.nan
+        if st.position_inferred:
+            # Placed a run beyond the step before, not measured: that step's error and how
+            # much a run may differ from the staircase's (NaN where either is unknown).
+            # Its plane has the staircase's yaw: the step before's lever carries over.
+            sig_pos = math.hypot(positions[i - 1], run_spread) if i > 0 else math.nan
+            lever = levers[i - 1] if i > 0 else math.nan
         positions.append(sig_pos)
         levers.append(lever)
         # Top of the step: the tread plane, else the riser's top edge.
