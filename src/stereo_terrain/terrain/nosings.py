@@ -164,15 +164,16 @@ def nosing_steps(
     lines: ImageLines,
     config: TerrainConfig,
 ) -> tuple[list[Step], int, int]:
-    """``steps`` with each double step split where the image shows the nosing between
-    (:func:`_split_double_steps`) and the steps beyond the last one whose nosings the
+    """``steps`` with each step taller than a stair rise and each double step split where
+    the image shows the nosing between (:func:`_split_too_tall`,
+    :func:`_split_double_steps`), and the steps beyond the last one whose nosings the
     image's segments show (module docstring); how many were added beyond, and how many
     split.
 
     Parameters
     ----------
-    steps : the chain's steps, nearest first; nothing is added without a measured rise and
-        a known run
+    steps : the chain's steps, nearest first; nothing is done without a measured rise, nor
+        without a known run unless the chain is a lone step
     planes : PlaneSet the steps were built from (gravity-aligned frame)
     P : (N, 3) float64, its samples' points
     u, v : (3,) float, the stair axis and the lateral direction (terrain frame)
