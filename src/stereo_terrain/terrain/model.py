@@ -102,7 +102,9 @@ class TerrainConfig:
         At most this many steps are added so.
     nosing_steps : bool
         Beyond those, where the pipeline passes the image's line segments
-        (:class:`~stereo_terrain.terrain.nosings.ImageLines`), add the steps whose nosings
+        (:class:`~stereo_terrain.terrain.nosings.ImageLines`: those its lines' job found
+        for gravity or the Manhattan fill; none with a rig and the fill or its Manhattan
+        step off), add the steps whose nosings
         the segments show at the staircase's rise and run (a far riser whose samples are
         too few or too noisy for either). Their rise is the median of the measured ones
         and their position the median run beyond the step before (``rise_inferred``). See
