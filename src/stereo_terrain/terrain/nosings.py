@@ -276,22 +276,34 @@ def _split_too_tall(
             out[0] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
             out.insert(0, before)
         else:
-            prev = out[i - 1]
-            if prev.run_m is None or prev.run_m / 2 < config.min_run_m:
+            run_before = out[i - 1].run_m
+            if (
+                run_before is None
+                or run_before / 2 < config.min_run_m
+                or not _split_at_nosing(out, i, view, half_rise, run_before / 2, config)
+            ):
                 i += 1
                 continue
-            half_run = prev.run_m / 2
-            lam = _next_nosing(view, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config)
-            if lam is None:
-                i += 1
-                continue
-            a_mid = prev.axis_position_m + half_run
-            out[i - 1] = dataclasses.replace(prev, run_m=half_run)
-            out[i] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
-            out.insert(i, _inferred_step(u, a_mid, prev.top_z_m + half_rise, half_rise, half_run))
         split += 1
         i += 2
     return out, split
+
+
+def _split_at_nosing(
+    out: list[Step], i: int, view: _View, half_rise: float, half_run: float, config: TerrainConfig
+) -> bool:
+    """Split ``out[i]`` in two, in place, where the nosing halfway along the pitch from
+    ``out[i - 1]`` (``half_rise``, ``half_run``) shows (:func:`_next_nosing`): the run
+    before it halved, a step of ``half_rise`` inserted, both rises inferred. Whether it
+    was split."""
+    prev, step = out[i - 1], out[i]
+    if _next_nosing(view, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config) is None:
+        return False
+    a_mid = prev.axis_position_m + half_run
+    out[i - 1] = dataclasses.replace(prev, run_m=half_run)
+    out[i] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
+    out.insert(i, _inferred_step(view.u, a_mid, prev.top_z_m + half_rise, half_rise, half_run))
+    return True
 
 
 def _inferred_step(u: np.ndarray, a: float, top: float, rise: float, run: float | None) -> Step:
@@ -315,7 +327,6 @@ def _split_double_steps(
     from the step before (:func:`_next_nosing`, with half the double rise and run), the
     step becomes two of half its rise, the run before it halved; both rises are inferred.
     Not the first step: the ground before it has no nosing to start the pitch from."""
-    u = view.u
     out = list(steps)
     split = 0
     i = 1
@@ -336,15 +347,9 @@ def _split_double_steps(
         if not (double_run and 1.6 * rise <= step.rise_m <= 2.4 * rise):
             i += 1
             continue
-        half_rise, half_run = step.rise_m / 2, run_before / 2
-        lam = _next_nosing(view, prev.axis_position_m, prev.top_z_m, half_rise, half_run, config)
-        if lam is None:
+        if not _split_at_nosing(out, i, view, step.rise_m / 2, run_before / 2, config):
             i += 1
             continue
-        a_mid = prev.axis_position_m + half_run
-        out[i - 1] = dataclasses.replace(prev, run_m=half_run)
-        out[i] = dataclasses.replace(step, rise_m=half_rise, rise_inferred=True)
-        out.insert(i, _inferred_step(u, a_mid, prev.top_z_m + half_rise, half_rise, half_run))
         split += 1
         i += 2
     return out, split
