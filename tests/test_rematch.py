@@ -146,3 +146,106 @@ def test_what_the_rematch_is_run_for():
     assert _unconvincing(dataclasses.replace(stairs, steps=stairs.steps[:1]))
     assert _unconvincing(dataclasses.replace(stairs, obstacle="none", steps=()))
     assert not _unconvincing(dataclasses.replace(stairs, obstacle="box", steps=stairs.steps[:1]))
+
+
+# The coarse rematch (PipelineConfig.rematch_coarse): when the rematch too finds no
+# staircase, the pair is matched at half size; its staircase is kept when its steps agree.
+
+
+def test_half_size_matching_gives_the_full_size_disparity_at_half_the_precision():
+    from stereo_terrain.rectify import rectify
+    from stereo_terrain.stereo.opencv import OpenCVSGBM, OpenCVSGBMConfig
+
+    scene = render_scene(default_scene_spec())
+    pipeline = Pipeline(scene.calibration, scene.rig, warm_up=False)
+    pair = rectify(scene.left, scene.right, pipeline.rectification)
+    n = pipeline.max_disparity_px
+    full = OpenCVSGBM(OpenCVSGBMConfig()).compute(pair, n).disparity
+    half = OpenCVSGBM(OpenCVSGBMConfig(downsample=2)).compute(pair, n).disparity
+    assert half.shape == full.shape == pair.left.shape
+    both = np.isfinite(full) & np.isfinite(half)
+    assert both.sum() > 0.5 * np.isfinite(full).sum()
+    assert np.median(np.abs(half[both] - full[both])) < 0.5
+    # Half-size sub-pixel steps (1/16 px there) are 1/8 px here, and each value covers 2x2.
+    values = half[np.isfinite(half)]
+    assert np.allclose(values * 8.0, np.round(values * 8.0))
+    h, w = half.shape
+    block = half[: h // 2 * 2 : 2, : w // 2 * 2 : 2]
+    assert np.array_equal(block, half[1 : h // 2 * 2 : 2, 1 : w // 2 * 2 : 2], equal_nan=True)
+
+
+def test_coarse_rematch_config():
+    from stereo_terrain.stereo.opencv import OpenCVSGBMConfig
+
+    with pytest.raises(ConfigError, match="downsample"):
+        OpenCVSGBMConfig(downsample=3)
+    with pytest.raises(ConfigError, match="downsample"):
+        PipelineConfig.from_dict({"sgbm": {"downsample": True}})
+    with pytest.raises(ConfigError, match="rematch_coarse"):
+        PipelineConfig.from_dict({"rematch_coarse": "yes"})
+    scene = render_scene(default_scene_spec())
+    coarse = Pipeline(scene.calibration, scene.rig, warm_up=False)._coarse_rematcher
+    assert coarse is not None
+    assert coarse.config == dataclasses.replace(REMATCH_SGBM, downsample=2)
+    for off in ({"rematch_coarse": False}, {"rematch": False}):
+        pipeline = Pipeline(scene.calibration, scene.rig, PipelineConfig.from_dict(off), warm_up=False)
+        assert pipeline._coarse_rematcher is None
+
+
+def test_what_the_coarse_rematch_keeps():
+    """Two steps or more, measured rises within COARSE_MAX_RISE_RATIO of each other (an
+    inferred rise does not count), runs at most continue_max_run_m."""
+    from stereo_terrain.pipeline.config import COARSE_MAX_RISE_RATIO
+    from stereo_terrain.pipeline.core import _steps_agree
+    from stereo_terrain.terrain import TerrainConfig
+
+    config = TerrainConfig()
+    scene = render_scene(default_scene_spec())
+    stairs = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).terrain
+    steps = list(stairs.steps)
+    assert len(steps) >= 2 and _steps_agree(stairs, config)
+    assert not _steps_agree(dataclasses.replace(stairs, steps=tuple(steps[:1])), config)
+    assert not _steps_agree(dataclasses.replace(stairs, obstacle="box", steps=tuple(steps[:1])), config)
+    tall = dataclasses.replace(
+        steps[1], rise_m=steps[0].rise_m * COARSE_MAX_RISE_RATIO * 1.1, measured_rise_m=None
+    )
+    assert not _steps_agree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
+    inferred = dataclasses.replace(tall, rise_inferred=True)
+    assert _steps_agree(dataclasses.replace(stairs, steps=(steps[0], inferred, *steps[2:])), config)
+    long_run = dataclasses.replace(steps[0], run_m=config.continue_max_run_m + 0.05, measured_run_m=None)
+    assert not _steps_agree(dataclasses.replace(stairs, steps=(long_run, *steps[1:])), config)
+
+
+def _blind_twice(scene, config: PipelineConfig | None = None) -> Pipeline:
+    pipeline = _blind_first(scene, config)
+    pipeline._rematcher = _Blind()  # the coarse rematch keeps the config's own settings
+    return pipeline
+
+
+def test_nothing_from_both_matchers_then_the_coarse_rematch_finds_the_staircase():
+    scene = render_scene(default_scene_spec())
+    result = _blind_twice(scene).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs" and result.rematched
+    assert "coarse rematch" in result.terrain.note
+    assert len(result.terrain.steps) == len(scene.truth["steps"])
+    for got, want in zip(result.terrain.steps, scene.truth["steps"], strict=True):
+        assert abs(got.rise_m - want["rise"]) < 0.02
+    assert result.timing_ms["total"] >= result.timing_ms["rematch"] > 0
+    off = PipelineConfig.from_dict({"rematch_coarse": False})
+    result = _blind_twice(scene, off).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "none" and not result.rematched
+
+
+def test_a_lone_step_from_the_coarse_rematch_is_not_kept():
+    base = default_scene_spec()
+    box = BoxSpec(height_m=0.2, depth_m=0.6, width_m=1.0, distance_m=1.4, yaw_rad=0.1)
+    scene = render_scene(dataclasses.replace(base, obstacle=box))
+    # The coarse rematch's matcher, as the first, finds the box.
+    as_first = PipelineConfig(sgbm=dataclasses.replace(REMATCH_SGBM, downsample=2), rematch=False)
+    assert (
+        Pipeline(scene.calibration, scene.rig, as_first).run(scene.left, scene.right).terrain.obstacle
+        == "box"
+    )
+    result = _blind_twice(scene).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "none" and not result.rematched
+    assert result.timing_ms["rematch"] > 0

@@ -27,6 +27,11 @@ from ..tracking import TrackingConfig
 #: The rematch's matcher (``PipelineConfig.rematch_sgbm``): issue 11, wood seen by webcams.
 REMATCH_SGBM = OpenCVSGBMConfig(match_exposure=True, p1_per_px=24, p2_per_px=96, penalty_width_px=640)
 
+#: A staircase from the coarse rematch (``PipelineConfig.rematch_coarse``) is kept when its
+#: largest measured rise is at most this many times its smallest: a stair's rises are
+#: equal, and steps of 9 and 29 cm are a room's furniture matched too smoothly.
+COARSE_MAX_RISE_RATIO = 1.5
+
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")
 
@@ -88,6 +93,15 @@ class PipelineConfig:
         The second matcher: the right image's exposure matched to the left's and harder
         penalties (``p1_per_px`` 24, ``p2_per_px`` 96, scaled with the image width from
         640 px), which hold the rows of a face with horizontal grain together.
+    rematch_coarse : bool
+        With ``rematch``: when the rematch too finds no staircase of two steps or more,
+        match the pair once more at half size (``rematch_sgbm`` with ``downsample: 2``),
+        whose smoothness reaches twice as far across a texture-poor face. Its staircase
+        is kept only when it is one: two steps or more whose measured rises agree (the
+        largest at most ``COARSE_MAX_RISE_RATIO`` times the smallest) and whose runs are
+        at most ``terrain.continue_max_run_m``; the terrain note says so. Default true
+        (issue 11; docs/benchmarks.md, "Thirteenth session"). A frame with nothing in view
+        pays for a third pass (a half-size match and the later stages).
     """
 
     backend: str = "opencv"
@@ -111,6 +125,7 @@ class PipelineConfig:
     vanishing: VerticalLinesConfig = field(default_factory=VerticalLinesConfig)  # issue 11
     rematch: bool = True  # issue 11
     rematch_sgbm: OpenCVSGBMConfig = field(default_factory=lambda: REMATCH_SGBM)
+    rematch_coarse: bool = True  # issue 11
 
     def __post_init__(self) -> None:
         check_fields(self)

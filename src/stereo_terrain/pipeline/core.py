@@ -36,8 +36,8 @@ from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import ImageLines, StairModel, build_terrain, estimate_step_sigmas
-from ..terrain.model import NONE, STAIRS
-from .config import PipelineConfig
+from ..terrain.model import NONE, STAIRS, TerrainConfig
+from .config import COARSE_MAX_RISE_RATIO, PipelineConfig
 from .fill_steps import camera_sample, fill_faces, fill_faces_later
 from .gravity_steps import (
     _gravity_report,
@@ -113,6 +113,10 @@ class Pipeline:
         self._rematcher: DisparityBackend | None = None
         if custom_backend is None and self.config.backend == "opencv" and self.config.rematch:
             self._rematcher = make_backend("opencv", **dataclasses.asdict(self.config.rematch_sgbm))
+        self._coarse_rematcher: DisparityBackend | None = None
+        if self._rematcher is not None and self.config.rematch_coarse:
+            coarse = dataclasses.replace(self.config.rematch_sgbm, downsample=2)
+            self._coarse_rematcher = make_backend("opencv", **dataclasses.asdict(coarse))
         # Rectified left camera -> yaw frame from the rig (None without one: the floor decides).
         self.T_yaw_camera_rect: Transform | None = (
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
@@ -168,13 +172,23 @@ class Pipeline:
             # kept only when it shows a staircase's own pattern: two steps or more.
             t2 = time.perf_counter()
             second = self._from_pair(pair, self._rematcher, image_jobs, {}, t2)
-            spent = (time.perf_counter() - t2) * 1000.0
+            kept: tuple[TerrainResult, str] | None = None
             if second.terrain.obstacle == STAIRS and len(second.terrain.steps) >= 2:
-                note = f"{second.terrain.note}; {_REMATCH_NOTE}"
-                timing = {**result.timing_ms, **{k: v for k, v in second.timing_ms.items() if k != "total"}}
+                kept = second, _REMATCH_NOTE
+            elif self._coarse_rematcher is not None:
+                # Once more at half size (PipelineConfig.rematch_coarse): its smoothness
+                # reaches further across texture-poor faces, and further across a room's
+                # furniture too, so only a staircase whose steps agree is kept.
+                third = self._from_pair(pair, self._coarse_rematcher, image_jobs, {}, time.perf_counter())
+                if _steps_agree(third.terrain, self.config.terrain):
+                    kept = third, _COARSE_NOTE
+            spent = (time.perf_counter() - t2) * 1000.0
+            if kept is not None:
+                found, why = kept
+                timing = {**result.timing_ms, **{k: v for k, v in found.timing_ms.items() if k != "total"}}
                 result = dataclasses.replace(
-                    second,
-                    terrain=dataclasses.replace(second.terrain, note=note),
+                    found,
+                    terrain=dataclasses.replace(found.terrain, note=f"{found.terrain.note}; {why}"),
                     timing_ms=timing,
                     rematched=True,
                 )
@@ -408,6 +422,26 @@ _REMATCH_NOTE = (
     "found by the rematch (nothing with the first matcher; the right image's exposure matched to "
     "the left's and harder smoothness penalties, PipelineConfig.rematch_sgbm)"
 )
+
+
+#: ... and when the coarse rematch did (``PipelineConfig.rematch_coarse``).
+_COARSE_NOTE = (
+    "found by the coarse rematch (nothing with the first matcher nor the rematch; the pair matched at "
+    "half size with the rematch's settings, its steps' rises and runs a staircase's)"
+)
+
+
+def _steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether ``terrain`` is a staircase as the coarse rematch must find one: two steps or
+    more, the largest measured rise at most :data:`COARSE_MAX_RISE_RATIO` times the smallest
+    (inferred rises do not count), every measured run at most ``continue_max_run_m``."""
+    if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
+        return False
+    rises = [s.own_rise_m for s in terrain.steps if not s.rise_inferred]
+    runs = [s.own_run_m for s in terrain.steps if s.own_run_m is not None]
+    if rises and max(rises) > COARSE_MAX_RISE_RATIO * min(rises):
+        return False
+    return all(r <= config.continue_max_run_m for r in runs)
 
 
 def _unconvincing(terrain: StairModel) -> bool:

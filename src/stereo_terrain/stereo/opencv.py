@@ -56,6 +56,12 @@ class OpenCVSGBMConfig:
         Map the right image's grey levels onto the left's (gain and offset from the two
         images' means and standard deviations over the pixels with a source) before
         matching (default False; see :func:`match_exposure`).
+    downsample : int
+        1 (default): match the pair as given. 2: match it at half size (``cv2.pyrDown``,
+        half the disparity range: an eighth of the work) and give the disparity at full
+        size (doubled, each half-size pixel's value on its 2x2 pixels). The smoothness
+        reaches twice as far across a texture-poor face, at half the sub-pixel precision;
+        the pipeline uses it only as a last rematch (``PipelineConfig.rematch_coarse``).
     """
 
     block_size_px: int = 5
@@ -69,6 +75,7 @@ class OpenCVSGBMConfig:
     pre_filter_cap: int = 63
     mode: str = "sgbm_3way"
     match_exposure: bool = False
+    downsample: int = 1
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -88,6 +95,8 @@ class OpenCVSGBMConfig:
             raise ConfigError(f"need 0 < p1_per_px < p2_per_px, got {self.p1_per_px}, {self.p2_per_px}")
         if self.mode not in _MODES:
             raise ConfigError(f"unknown SGBM mode '{self.mode}'; choose one of {sorted(_MODES)}")
+        if self.downsample not in (1, 2) or isinstance(self.downsample, bool):
+            raise ConfigError(f"downsample must be 1 or 2, got {self.downsample!r}")
 
 
 def create_sgbm(
@@ -140,7 +149,10 @@ class OpenCVSGBM:
         right = pair.right
         if self.config.match_exposure:
             right = match_exposure(pair.left, right, rect.valid_left, rect.valid_right)
-        raw = self._matcher(n, pair.left.shape[1]).compute(pair.left, right)
+        if self.config.downsample == 2:
+            raw = self._half_size(pair.left, right, n)
+        else:
+            raw = self._matcher(n, pair.left.shape[1]).compute(pair.left, right)
         # Scaled, OpenCV's invalid value and the sourceless pixels NaN
         # (invalidate_sourceless) in one compiled pass, the same bits (issue 13).
         disp = disparity_from_fixed_point(
@@ -149,6 +161,16 @@ class OpenCVSGBM:
             _NO_MASK if rect.valid_right is None else rect.valid_right,
         )
         return DisparityMap(disp, n, rect, None, self.name)
+
+    def _half_size(self, left: np.ndarray, right: np.ndarray, n: int) -> np.ndarray:
+        """OpenCV's fixed-point disparity of the full-size pair, matched at half size: the
+        half-size values doubled, each on its 2x2 full-size pixels (invalid stays < 0)."""
+        h, w = left.shape
+        small_left, small_right = cv2.pyrDown(left), cv2.pyrDown(right)
+        n_small = max(16, -(-n // 32) * 16)  # half the range, a multiple of 16
+        raw = self._matcher(n_small, small_left.shape[1]).compute(small_left, small_right)
+        doubled = np.where(raw >= 0, raw * 2, -1).astype(np.int16)
+        return cv2.resize(doubled, (w, h), interpolation=cv2.INTER_NEAREST)
 
 
 def match_exposure(
