@@ -193,9 +193,9 @@ def test_coarse_rematch_config():
 
 
 def test_what_the_coarse_rematch_keeps():
-    """Two steps or more, measured rises within COARSE_MAX_RISE_RATIO of each other (an
+    """Two steps or more, measured rises within AGREEING_RISE_RATIO of each other (an
     inferred rise does not count), runs at most continue_max_run_m."""
-    from stereo_terrain.pipeline.config import COARSE_MAX_RISE_RATIO
+    from stereo_terrain.pipeline.config import AGREEING_RISE_RATIO
     from stereo_terrain.pipeline.core import _steps_agree
     from stereo_terrain.terrain import TerrainConfig
 
@@ -207,7 +207,7 @@ def test_what_the_coarse_rematch_keeps():
     assert not _steps_agree(dataclasses.replace(stairs, steps=tuple(steps[:1])), config)
     assert not _steps_agree(dataclasses.replace(stairs, obstacle="box", steps=tuple(steps[:1])), config)
     tall = dataclasses.replace(
-        steps[1], rise_m=steps[0].rise_m * COARSE_MAX_RISE_RATIO * 1.1, measured_rise_m=None
+        steps[1], rise_m=steps[0].rise_m * AGREEING_RISE_RATIO * 1.1, measured_rise_m=None
     )
     assert not _steps_agree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
     inferred = dataclasses.replace(tall, rise_inferred=True)
@@ -249,3 +249,84 @@ def test_a_lone_step_from_the_coarse_rematch_is_not_kept():
     result = _blind_twice(scene).run(scene.left, scene.right)
     assert result.terrain.obstacle == "none" and not result.rematched
     assert result.timing_ms["rematch"] > 0
+
+
+# A staircase whose rises disagree (PipelineConfig.rematch_disagreeing): matched again, and
+# replaced by a second opinion whose steps agree.
+
+
+def _doctored(pipeline: Pipeline, which, change):
+    """``pipeline._from_pair`` with ``change(terrain)`` applied to the passes whose matcher
+    ``which(backend)`` picks."""
+    real = pipeline._from_pair
+
+    def from_pair(pair, backend, *args, **kwargs):
+        result = real(pair, backend, *args, **kwargs)
+        if which(backend):
+            result = dataclasses.replace(result, terrain=change(result.terrain))
+        return result
+
+    pipeline._from_pair = from_pair  # type: ignore[method-assign]
+    return pipeline
+
+
+def _one_step_doubled(terrain):
+    steps = list(terrain.steps)
+    steps[1] = dataclasses.replace(steps[1], rise_m=2.0 * steps[1].own_rise_m, measured_rise_m=None)
+    return dataclasses.replace(terrain, steps=tuple(steps))
+
+
+def test_steps_that_disagree_are_matched_again_and_replaced_by_steps_that_agree():
+    scene = render_scene(default_scene_spec())
+    pipeline = Pipeline(scene.calibration, scene.rig)
+    first = pipeline.backend
+    _doctored(pipeline, lambda b: b is first, _one_step_doubled)
+    result = pipeline.run(scene.left, scene.right)
+    assert (
+        result.rematched
+        and "disagree" in result.terrain.note
+        and "found by the rematch" in result.terrain.note
+    )
+    assert len(result.terrain.steps) == len(scene.truth["steps"])
+    for got, want in zip(result.terrain.steps, scene.truth["steps"], strict=True):
+        assert abs(got.rise_m - want["rise"]) < 0.01
+    assert result.timing_ms["rematch"] > 0
+    # Off: the first pass's staircase stands, and no second matcher runs.
+    off = Pipeline(scene.calibration, scene.rig, PipelineConfig.from_dict({"rematch_disagreeing": False}))
+    _doctored(off, lambda b: b is off.backend, _one_step_doubled)
+    kept = off.run(scene.left, scene.right)
+    assert not kept.rematched and "rematch" not in kept.timing_ms
+    assert kept.terrain.steps[1].rise_m > 1.5 * kept.terrain.steps[0].rise_m
+
+
+def test_steps_that_disagree_stay_when_no_second_opinion_agrees():
+    """A real staircase with one odd step: every pass measures it, so none replaces it; nor
+    does one that agrees with two steps fewer."""
+    scene = render_scene(default_scene_spec())
+    pipeline = _doctored(Pipeline(scene.calibration, scene.rig), lambda b: True, _one_step_doubled)
+    result = pipeline.run(scene.left, scene.right)
+    assert not result.rematched and result.timing_ms["rematch"] > 0
+    assert result.terrain.steps[1].rise_m > 1.5 * result.terrain.steps[0].rise_m
+
+    # Four steps found, one of them doubled: three that agree replace them, two do not.
+    def four_steps(terrain):
+        terrain = _one_step_doubled(terrain)
+        last = terrain.steps[-1]
+        extra = dataclasses.replace(
+            last, axis_position_m=last.axis_position_m + 0.3, distance_m=last.distance_m + 0.3
+        )
+        return dataclasses.replace(terrain, steps=(*terrain.steps, extra))
+
+    for others, replaced in ((3, True), (2, False)):
+        pipeline = Pipeline(scene.calibration, scene.rig)
+        first = pipeline.backend
+        _doctored(pipeline, lambda b, first=first: b is first, four_steps)
+        _doctored(
+            pipeline,
+            lambda b, first=first: b is not first,
+            lambda t, n=others: dataclasses.replace(t, steps=t.steps[:n]),
+        )
+        result = pipeline.run(scene.left, scene.right)
+        assert len(scene.truth["steps"]) == 3
+        assert result.rematched == replaced
+        assert len(result.terrain.steps) == (others if replaced else 4)

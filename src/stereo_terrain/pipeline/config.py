@@ -27,10 +27,11 @@ from ..tracking import TrackingConfig
 #: The rematch's matcher (``PipelineConfig.rematch_sgbm``): issue 11, wood seen by webcams.
 REMATCH_SGBM = OpenCVSGBMConfig(match_exposure=True, p1_per_px=24, p2_per_px=96, penalty_width_px=640)
 
-#: A staircase from the coarse rematch (``PipelineConfig.rematch_coarse``) is kept when its
-#: largest measured rise is at most this many times its smallest: a stair's rises are
-#: equal, and steps of 9 and 29 cm are a room's furniture matched too smoothly.
-COARSE_MAX_RISE_RATIO = 1.5
+#: A staircase's measured rises agree when the largest is at most this many times the
+#: smallest (a stair's rises are equal; steps of 9 and 29 cm are a wrong match or a room's
+#: furniture): the coarse rematch's staircase must agree (``PipelineConfig.rematch_coarse``),
+#: and one that does not is matched again (``rematch_disagreeing``).
+AGREEING_RISE_RATIO = 1.5
 
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")
@@ -98,10 +99,18 @@ class PipelineConfig:
         match the pair once more at half size (``rematch_sgbm`` with ``downsample: 2``),
         whose smoothness reaches twice as far across a texture-poor face. Its staircase
         is kept only when it is one: two steps or more whose measured rises agree (the
-        largest at most ``COARSE_MAX_RISE_RATIO`` times the smallest) and whose runs are
+        largest at most ``AGREEING_RISE_RATIO`` times the smallest) and whose runs are
         at most ``terrain.continue_max_run_m``; the terrain note says so. Default true
         (issue 11; docs/benchmarks.md, "Thirteenth session"). A frame with nothing in view
         pays for a third pass (a half-size match and the later stages).
+    rematch_disagreeing : bool
+        With ``rematch``: a staircase whose steps disagree (its largest measured rise more
+        than ``AGREEING_RISE_RATIO`` times its smallest, or a run longer than
+        ``terrain.continue_max_run_m``) is matched again too, by the rematch and then the
+        coarse rematch; the first of their staircases whose steps agree, with at most one
+        step fewer, replaces it (the terrain note says so). A real staircase with one odd
+        step keeps it: the other passes measure that step too. Default true (issue 11;
+        docs/benchmarks.md, "Thirteenth session").
     """
 
     backend: str = "opencv"
@@ -126,6 +135,7 @@ class PipelineConfig:
     rematch: bool = True  # issue 11
     rematch_sgbm: OpenCVSGBMConfig = field(default_factory=lambda: REMATCH_SGBM)
     rematch_coarse: bool = True  # issue 11
+    rematch_disagreeing: bool = True  # issue 11
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -37,7 +37,7 @@ from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import ImageLines, StairModel, build_terrain, estimate_step_sigmas
 from ..terrain.model import NONE, STAIRS, TerrainConfig
-from .config import COARSE_MAX_RISE_RATIO, PipelineConfig
+from .config import AGREEING_RISE_RATIO, PipelineConfig
 from .fill_steps import camera_sample, fill_faces, fill_faces_later
 from .gravity_steps import (
     _gravity_report,
@@ -165,35 +165,68 @@ class Pipeline:
         t1 = time.perf_counter()
         image_jobs = self._image_jobs(pair)
         result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
-        if rematch and self._rematcher is not None and _unconvincing(result.terrain):
-            # Nothing found, or a lone step: match the pair again with the rematch settings
-            # (issue 11; see PipelineConfig.rematch). Its harder smoothing can make an
-            # object's front a lone "step" (a real room's motorbike did), so its result is
-            # kept only when it shows a staircase's own pattern: two steps or more.
-            t2 = time.perf_counter()
-            second = self._from_pair(pair, self._rematcher, image_jobs, {}, t2)
-            kept: tuple[TerrainResult, str] | None = None
-            if second.terrain.obstacle == STAIRS and len(second.terrain.steps) >= 2:
-                kept = second, _REMATCH_NOTE
-            elif self._coarse_rematcher is not None:
-                # Once more at half size (PipelineConfig.rematch_coarse): its smoothness
-                # reaches further across texture-poor faces, and further across a room's
-                # furniture too, so only a staircase whose steps agree is kept.
-                third = self._from_pair(pair, self._coarse_rematcher, image_jobs, {}, time.perf_counter())
-                if _steps_agree(third.terrain, self.config.terrain):
-                    kept = third, _COARSE_NOTE
-            spent = (time.perf_counter() - t2) * 1000.0
-            if kept is not None:
-                found, why = kept
-                timing = {**result.timing_ms, **{k: v for k, v in found.timing_ms.items() if k != "total"}}
+        if rematch and self._rematcher is not None and self._wants_rematch(result.terrain):
+            # Nothing found, a lone step, or steps whose rises disagree: match the pair again
+            # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
+            result = self._rematched(pair, image_jobs, result)
+        result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
+        return result
+
+    def _wants_rematch(self, terrain: StairModel) -> bool:
+        """Whether a pass's terrain leaves room for another matcher: nothing convincing
+        (:func:`_unconvincing`), or (``rematch_disagreeing``) a staircase whose measured
+        rises disagree (:func:`_steps_agree`)."""
+        if _unconvincing(terrain):
+            return True
+        return (
+            self.config.rematch_disagreeing
+            and terrain.obstacle == STAIRS
+            and not _steps_agree(terrain, self.config.terrain)
+        )
+
+    def _rematched(self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult) -> TerrainResult:
+        """``first`` or what the second opinions make of ``pair``: the rematch, then (with
+        ``rematch_coarse``) the coarse rematch at half size, each run while the result kept
+        so far still wants one (:meth:`_wants_rematch`). A pass's staircase replaces:
+
+        - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
+          can make an object's front a lone "step", as a real room's motorbike did), with
+          steps that agree (the coarse rematch, whose smoothness reaches further across a
+          room's furniture too: :func:`_steps_agree`);
+        - steps whose rises disagree: with steps that agree, no fewer than one less.
+
+        ``timing_ms["rematch"]`` is the time of every pass run."""
+        t0 = time.perf_counter()
+        result = first
+        passes = [(self._rematcher, _REMATCH_NOTE), (self._coarse_rematcher, _COARSE_NOTE)]
+        for matcher, (name, how) in passes:
+            if matcher is None or not self._wants_rematch(result.terrain):
+                break
+            other = self._from_pair(pair, matcher, jobs, {}, time.perf_counter())
+            terrain, kept = other.terrain, result.terrain
+            if _unconvincing(kept):
+                better = (
+                    terrain.obstacle == STAIRS and len(terrain.steps) >= 2
+                    if matcher is self._rematcher
+                    else _steps_agree(terrain, self.config.terrain)
+                )
+                why = "before it nothing, or a lone step"
+            else:
+                agree = _steps_agree(terrain, self.config.terrain)
+                better = agree and len(terrain.steps) >= len(kept.steps) - 1
+                rises = ", ".join(f"{100.0 * s.own_rise_m:.1f}" for s in kept.steps if not s.rise_inferred)
+                why = f"the steps found before it disagree: rises {rises} cm"
+            if better:
+                timing = {**result.timing_ms, **{k: v for k, v in other.timing_ms.items() if k != "total"}}
                 result = dataclasses.replace(
-                    found,
-                    terrain=dataclasses.replace(found.terrain, note=f"{found.terrain.note}; {why}"),
+                    other,
+                    terrain=dataclasses.replace(
+                        terrain, note=f"{terrain.note}; found by the {name} ({why}; {how})"
+                    ),
                     timing_ms=timing,
                     rematched=True,
                 )
-            result.timing_ms["rematch"] = spent
-        result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
+        result.timing_ms["rematch"] = (time.perf_counter() - t0) * 1000.0
         return result
 
     def _image_jobs(self, pair: RectifiedPair) -> _ImageJobs:
@@ -417,29 +450,25 @@ def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
         )
 
 
-#: What the terrain note says when the rematch found the obstacle.
+#: What the terrain note says of the second opinions (:meth:`Pipeline._rematched`).
 _REMATCH_NOTE = (
-    "found by the rematch (nothing with the first matcher; the right image's exposure matched to "
-    "the left's and harder smoothness penalties, PipelineConfig.rematch_sgbm)"
+    "rematch",
+    "the right image's exposure matched to the left's and harder smoothness penalties, "
+    "PipelineConfig.rematch_sgbm",
 )
-
-
-#: ... and when the coarse rematch did (``PipelineConfig.rematch_coarse``).
-_COARSE_NOTE = (
-    "found by the coarse rematch (nothing with the first matcher nor the rematch; the pair matched at "
-    "half size with the rematch's settings, its steps' rises and runs a staircase's)"
-)
+_COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
 
 
 def _steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
-    """Whether ``terrain`` is a staircase as the coarse rematch must find one: two steps or
-    more, the largest measured rise at most :data:`COARSE_MAX_RISE_RATIO` times the smallest
-    (inferred rises do not count), every measured run at most ``continue_max_run_m``."""
+    """Whether ``terrain`` is a staircase whose steps agree: two steps or more, the largest
+    measured rise at most :data:`AGREEING_RISE_RATIO` times the smallest (inferred rises do
+    not count; a stair's rises are equal), every measured run at most
+    ``continue_max_run_m``."""
     if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
         return False
     rises = [s.own_rise_m for s in terrain.steps if not s.rise_inferred]
     runs = [s.own_run_m for s in terrain.steps if s.own_run_m is not None]
-    if rises and max(rises) > COARSE_MAX_RISE_RATIO * min(rises):
+    if rises and max(rises) > AGREEING_RISE_RATIO * min(rises):
         return False
     return all(r <= config.continue_max_run_m for r in runs)
 
