@@ -183,6 +183,8 @@ def test_coarse_rematch_config():
         PipelineConfig.from_dict({"sgbm": {"downsample": True}})
     with pytest.raises(ConfigError, match="rematch_coarse"):
         PipelineConfig.from_dict({"rematch_coarse": "yes"})
+    with pytest.raises(ConfigError, match="downsample must be 1"):
+        PipelineConfig.from_dict({"rematch_sgbm": {"downsample": 2}})
     scene = render_scene(default_scene_spec())
     coarse = Pipeline(scene.calibration, scene.rig, warm_up=False)._coarse_rematcher
     assert coarse is not None
@@ -196,7 +198,7 @@ def test_what_the_coarse_rematch_keeps():
     """Two steps or more, measured rises within AGREEING_RISE_RATIO of each other (an
     inferred rise does not count), runs at most continue_max_run_m."""
     from stereo_terrain.pipeline.config import AGREEING_RISE_RATIO
-    from stereo_terrain.pipeline.core import _steps_agree
+    from stereo_terrain.pipeline.core import _steps_agree, _steps_disagree
     from stereo_terrain.terrain import TerrainConfig
 
     config = TerrainConfig()
@@ -214,6 +216,14 @@ def test_what_the_coarse_rematch_keeps():
     assert _steps_agree(dataclasses.replace(stairs, steps=(steps[0], inferred, *steps[2:])), config)
     long_run = dataclasses.replace(steps[0], run_m=config.continue_max_run_m + 0.05, measured_run_m=None)
     assert not _steps_agree(dataclasses.replace(stairs, steps=(long_run, *steps[1:])), config)
+    # One measured rise continued at its rise agrees; steps with no measured rise do not.
+    one_measured = (steps[0], dataclasses.replace(steps[1], rise_inferred=True))
+    assert _steps_agree(dataclasses.replace(stairs, steps=one_measured), config)
+    assert not _steps_disagree(dataclasses.replace(stairs, steps=one_measured), config)
+    none_measured = tuple(dataclasses.replace(s, rise_inferred=True) for s in steps)
+    assert not _steps_agree(dataclasses.replace(stairs, steps=none_measured), config)
+    assert _steps_disagree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
+    assert not _steps_disagree(stairs, config)
 
 
 def _blind_twice(scene, config: PipelineConfig | None = None) -> Pipeline:
@@ -327,6 +337,5 @@ def test_steps_that_disagree_stay_when_no_second_opinion_agrees():
             lambda t, n=others: dataclasses.replace(t, steps=t.steps[:n]),
         )
         result = pipeline.run(scene.left, scene.right)
-        assert len(scene.truth["steps"]) == 3
         assert result.rematched == replaced
         assert len(result.terrain.steps) == (others if replaced else 4)

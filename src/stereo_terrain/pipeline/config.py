@@ -142,6 +142,11 @@ class PipelineConfig:
         mdp = self.max_disparity_px
         if mdp is not None and (isinstance(mdp, bool) or not isinstance(mdp, int)):
             raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
+        if self.rematch_sgbm.downsample != 1:
+            raise ConfigError(
+                "rematch_sgbm.downsample must be 1: the coarse rematch is rematch_sgbm at half size "
+                "(rematch_coarse: true)"
+            )
         if self.backend not in ("opencv", "sgm"):
             raise ConfigError(f"unknown backend '{self.backend}'; choose one of: opencv, sgm")
         if self.method not in PLANE_METHODS:

@@ -145,11 +145,11 @@ class Pipeline:
     def run(self, left: np.ndarray, right: np.ndarray, *, rematch: bool = True) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
-        ``rematch``: False skips the second matcher for this frame
-        (``PipelineConfig.rematch``: the live loop runs it on every other pair while
-        nothing is in view). On the main thread the process's BLAS is held to one thread
-        while the frame runs (see :func:`_one_blas_thread`); the caller's setting is back
-        afterwards."""
+        ``rematch``: False skips the second opinions for this frame (the rematch and the
+        coarse rematch, ``PipelineConfig.rematch``: the live loop runs them on every other
+        pair while they keep nothing). On the main thread the process's BLAS is held to one
+        thread while the frame runs (see :func:`_one_blas_thread`); the caller's setting is
+        back afterwards."""
         with _one_blas_thread():
             return self._run(left, right, rematch)
 
@@ -178,11 +178,7 @@ class Pipeline:
         rises disagree (:func:`_steps_agree`)."""
         if _unconvincing(terrain):
             return True
-        return (
-            self.config.rematch_disagreeing
-            and terrain.obstacle == STAIRS
-            and not _steps_agree(terrain, self.config.terrain)
-        )
+        return self.config.rematch_disagreeing and _steps_disagree(terrain, self.config.terrain)
 
     def _rematched(self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult) -> TerrainResult:
         """``first`` or what the second opinions make of ``pair``: the rematch, then (with
@@ -459,18 +455,31 @@ _REMATCH_NOTE = (
 _COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
 
 
-def _steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
-    """Whether ``terrain`` is a staircase whose steps agree: two steps or more, the largest
-    measured rise at most :data:`AGREEING_RISE_RATIO` times the smallest (inferred rises do
-    not count; a stair's rises are equal), every measured run at most
-    ``continue_max_run_m``."""
-    if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
+def _steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether ``terrain`` is a staircase whose steps disagree: its largest measured rise
+    more than :data:`AGREEING_RISE_RATIO` times its smallest (inferred rises do not count;
+    a stair's rises are equal), or a measured run longer than ``continue_max_run_m``."""
+    if terrain.obstacle != STAIRS:
         return False
     rises = [s.own_rise_m for s in terrain.steps if not s.rise_inferred]
     runs = [s.own_run_m for s in terrain.steps if s.own_run_m is not None]
     if rises and max(rises) > AGREEING_RISE_RATIO * min(rises):
+        return True
+    return any(r > config.continue_max_run_m for r in runs)
+
+
+def _steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether ``terrain`` is a staircase whose steps agree, as a second opinion must find
+    one: two steps or more, one measured rise or more, and nothing :func:`_steps_disagree`
+    refuses. (A measured riser continued by steps inferred at its rise counts: on the
+    realistic renders 26 such coarse staircases were all true ones, 12 counted right;
+    asking for two measured rises lost 3-7 points of detection. docs/benchmarks.md,
+    "Thirteenth session".)"""
+    if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
         return False
-    return all(r <= config.continue_max_run_m for r in runs)
+    if all(s.rise_inferred for s in terrain.steps):
+        return False
+    return not _steps_disagree(terrain, config)
 
 
 def _unconvincing(terrain: StairModel) -> bool:

@@ -287,7 +287,7 @@ class LiveLoop:
         self._unusable_run = 0  # consecutive unusable pairs
         self._unusable_detail = ""
         self._last_failure: Exception | None = None
-        self._rematched_nothing = False  # the last pair ran the rematch, which found nothing to keep
+        self._rematched_nothing = False  # the last pair ran the rematch, which kept nothing
 
     def warm_up(self) -> None:
         """Run the pipeline once on a blank pair of the calibration's size so that the first
@@ -390,9 +390,10 @@ class LiveLoop:
             self.pipeline.set_rig(dataclasses.replace(self.pipeline.rig, body_rpy=rpy))
             self._rpy = rpy
         try:
-            # With nothing in view, the pipeline's rematch (a second matcher for frames whose
-            # first finds nothing convincing) runs on every other pair: a flat floor costs
-            # 1.5 passes a pair, not 2, and stairs are seen one pair later at most (issue 11).
+            # While the pipeline's second opinions (the rematch and the coarse rematch, for
+            # frames whose first pass finds nothing convincing or steps that disagree) keep
+            # nothing, they run on every other pair: a flat floor costs 2 passes a pair, not
+            # 3, and stairs are seen one pair later at most (issue 11).
             if self._rematched_nothing:
                 result = self.pipeline.run(frame.left, frame.right, rematch=False)
             else:

@@ -59,9 +59,11 @@ class OpenCVSGBMConfig:
     downsample : int
         1 (default): match the pair as given. 2: match it at half size (``cv2.pyrDown``,
         half the disparity range: an eighth of the work) and give the disparity at full
-        size (doubled, each half-size pixel's value on its 2x2 pixels). The smoothness
-        reaches twice as far across a texture-poor face, at half the sub-pixel precision;
-        the pipeline uses it only as a last rematch (``PipelineConfig.rematch_coarse``).
+        size (doubled, each half-size pixel's value on its 2x2 pixels, within ``[0, n)``).
+        The smoothness reaches twice as far across a texture-poor face, at half the
+        sub-pixel precision; ``penalty_width_px`` scales the penalties to the half-size
+        width as to any other. The pipeline uses it only as a last rematch
+        (``PipelineConfig.rematch_coarse``).
     """
 
     block_size_px: int = 5
@@ -169,7 +171,8 @@ class OpenCVSGBM:
         small_left, small_right = cv2.pyrDown(left), cv2.pyrDown(right)
         n_small = max(16, -(-n // 32) * 16)  # half the range, a multiple of 16
         raw = self._matcher(n_small, small_left.shape[1]).compute(small_left, small_right)
-        doubled = np.where(raw >= 0, raw * 2, -1).astype(np.int16)
+        # Doubled; invalid where the half-size range (rounded up to 16) went past n.
+        doubled = np.where((raw >= 0) & (raw < n * 8), raw * 2, -1).astype(np.int16)
         return cv2.resize(doubled, (w, h), interpolation=cv2.INTER_NEAREST)
 
 
