@@ -69,6 +69,14 @@ def _stair_lines(
     return np.array(segs)
 
 
+def _along_x(steps, planes, segments):
+    """:func:`nosing_steps` for a staircase along x, 1 m wide about y = 0, with ``segments``
+    as the image's lines (the terrain config without the samples' continuation)."""
+    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    P = planes.samples.points.astype(np.float64)
+    return nosing_steps(steps, planes, P, u, v, (-0.5, 0.5), _lines(segments), NO_SAMPLES)
+
+
 def _planes(
     n_steps: int,
     rise: float,
@@ -235,17 +243,15 @@ def test_a_double_step_is_split_where_the_image_shows_the_nosing_between():
         dataclasses.replace(found[3], rise_m=2 * rise),
         found[4],
     ]
-    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    P = planes.samples.points.astype(np.float64)
     lines = _stair_lines(5, rise, run, distance)
-    steps, added, split = nosing_steps(double, planes, P, u, v, (-0.5, 0.5), _lines(lines), NO_SAMPLES)
+    steps, added, split = _along_x(double, planes, lines)
     assert (len(steps), added, split) == (5, 0, 1)
     for i, step in enumerate(steps):
         assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
         assert step.rise_m == pytest.approx(rise, abs=0.01)
     assert steps[2].rise_inferred and steps[3].rise_inferred
     without = np.delete(lines, [4, 5], axis=0)  # the third nosing and its riser's foot
-    steps, _, split = nosing_steps(double, planes, P, u, v, (-0.5, 0.5), _lines(without), NO_SAMPLES)
+    steps, _, split = _along_x(double, planes, without)
     assert len(steps) == 4 and split == 0
 
 
@@ -261,10 +267,8 @@ def test_a_staircase_of_every_other_riser_is_split_where_the_nosings_between_sho
         dataclasses.replace(found[k], rise_m=2 * rise, run_m=None if k == 5 else 2 * run) for k in (1, 3, 5)
     ]
     assert all(s.rise_m > NO_SAMPLES.max_rise_m for s in doubled)
-    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    P = planes.samples.points.astype(np.float64)
     lines = _stair_lines(6, rise, run, distance)
-    steps, added, split = nosing_steps(doubled, planes, P, u, v, (-0.5, 0.5), _lines(lines), NO_SAMPLES)
+    steps, added, split = _along_x(doubled, planes, lines)
     assert (len(steps), added, split) == (6, 0, 3)
     for i, step in enumerate(steps):
         assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
@@ -272,7 +276,7 @@ def test_a_staircase_of_every_other_riser_is_split_where_the_nosings_between_sho
     # The nosings of the steps found only (their risers' feet, from below, are the nosings
     # between: the cameras are lower than those treads).
     odd = lines[[2, 6, 10]]
-    steps, _, split = nosing_steps(doubled, planes, P, u, v, (-0.5, 0.5), _lines(odd), NO_SAMPLES)
+    steps, _, split = _along_x(doubled, planes, odd)
     assert len(steps) == 3 and split == 0
 
 

@@ -147,6 +147,11 @@ class OrientationConfig:
             if getattr(self, name) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
 
+    def inlier_threshold_m(self, sigma_m: np.ndarray) -> np.ndarray:
+        """Each point's inlier threshold: ``threshold_sigmas`` times its depth sigma,
+        clipped to ``[min_threshold_m, max_threshold_m]`` (float64 like ``sigma_m``)."""
+        return np.clip(self.threshold_sigmas * sigma_m, self.min_threshold_m, self.max_threshold_m)
+
 
 @dataclass(frozen=True)
 class PlaneSegment:
@@ -449,9 +454,7 @@ def extract_planes_orientation(
     n_pts = len(samples)
     P = samples.points
     N = samples.normals
-    thr = np.clip(
-        config.threshold_sigmas * samples.sigma_m, config.min_threshold_m, config.max_threshold_m
-    ).astype(np.float32)
+    thr = config.inlier_threshold_m(samples.sigma_m).astype(np.float32)
     lut, gr, gc = grid_lookup(samples)
     cos_tol, sin_tol = np.cos(np.radians(config.angle_tol_deg)), np.sin(np.radians(config.angle_tol_deg))
     # Far samples' normal tests, widened by their noise (None: nothing widens).

@@ -39,7 +39,7 @@ from .risers import riser_distance
 
 #: A sample's inlier threshold is the orientation method's (its default settings: the
 #: terrain stage is not given the plane stage's config).
-_INLIERS = OrientationConfig()
+INLIERS = OrientationConfig()
 #: Offsets tried: the positions with most samples within the threshold, best first.
 _OFFSETS_TRIED = 20
 
@@ -87,9 +87,7 @@ def continue_steps(
     tol = config.continue_run_tolerance
     samples = planes.samples
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
-    thr = np.clip(
-        _INLIERS.threshold_sigmas * samples.sigma_m, _INLIERS.min_threshold_m, _INLIERS.max_threshold_m
-    )
+    thr = INLIERS.inlier_threshold_m(samples.sigma_m)
     used = np.zeros(len(P), dtype=bool)
     for seg in planes.segments:
         used[seg.indices] = True
@@ -106,8 +104,8 @@ def continue_steps(
             lo, hi = s0 + (1.0 - tol) * run, s0 + (1.0 + tol) * run
         band = (
             free
-            & (s_all > lo - _INLIERS.max_threshold_m)
-            & (s_all < hi + _INLIERS.max_threshold_m)
+            & (s_all > lo - INLIERS.max_threshold_m)
+            & (s_all < hi + INLIERS.max_threshold_m)
             & (v_all > lateral[0] - 0.1)
             & (v_all < lateral[1] + 0.1)
             & (z_all > top - config.edge_margin_m)
@@ -190,7 +188,7 @@ def _tread_goes_on(
         if seg.plane is step.tread:
             s, v = s_all[seg.indices], v_all[seg.indices]
             s = s[(v > lateral[0]) & (v < lateral[1]) & np.isfinite(s)]
-            return len(s) > 0 and float(np.mean(s > a0 + _INLIERS.max_threshold_m)) > 0.25
+            return len(s) > 0 and float(np.mean(s > a0 + INLIERS.max_threshold_m)) > 0.25
     return False
 
 

@@ -54,8 +54,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..msac import Plane
-from ..planes.orientation import OrientationConfig, PlaneSet
-from .continuation import walls_across
+from ..planes.orientation import PlaneSet
+from .continuation import INLIERS, walls_across
 from .model import Step, TerrainConfig
 from .risers import riser_distance
 
@@ -76,9 +76,6 @@ _MIN_VISIBLE_M = 0.15
 _FOOT_VISIBLE_M = 0.03
 #: Samples on the tread's height beyond a would-be riser that make it a landing.
 _MIN_FLOOR_SAMPLES = 5
-#: A sample's inlier threshold is the orientation method's (its default settings: the
-#: terrain stage is not given the plane stage's config), as in :mod:`.continuation`.
-_INLIERS = OrientationConfig()
 
 
 @dataclass(frozen=True)
@@ -383,9 +380,7 @@ def _floor_where_the_riser_would_be(
     if not inside.any():
         return False
     q = P[inside]
-    thr = np.clip(
-        _INLIERS.threshold_sigmas * smp.sigma_m[inside], _INLIERS.min_threshold_m, _INLIERS.max_threshold_m
-    )
+    thr = INLIERS.inlier_threshold_m(smp.sigma_m[inside])
     s = q @ u
     at_riser = np.abs(s - s_new) < thr
     on_floor = (np.abs(q[:, 2] - top) < thr) & (s > s_new - thr) & ~at_riser
