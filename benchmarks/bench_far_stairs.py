@@ -7,6 +7,12 @@ pipeline on them, with the rig and without one, as ``evaluation`` scores it.
 
     .venv/bin/python benchmarks/bench_far_stairs.py [--scenes 15] [--profile default]
         [--near 2.0] [--far 3.5] [--baseline 0.075] [--seed 77] [--per-scene] [--config CFG]
+        [--rise M] [--run M] [--steps N] [--wood] [--lab]
+
+``--lab`` draws staircases like the paper's wooden lab stairs of the issue's unseen check
+(realistic profile, wood throughout, 3 steps of 20 cm rise and 31 cm run, the first riser
+1.5-2.5 m ahead, 7 cm baseline): the same as ``--profile realistic --near 1.5 --far 2.5
+--baseline 0.07 --rise 0.2 --run 0.31 --steps 3 --wood``.
 
 At these distances a riser 12-22 cm tall is 15-50 px high at 640x480 and its disparity 9-18
 px, so its samples' normals (from 9x9 box means 4 px apart) are noisy: see
@@ -41,15 +47,36 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=77)
     ap.add_argument("--per-scene", action="store_true", help="one line per scene")
     ap.add_argument("--config", type=Path, help="pipeline config (YAML) instead of the defaults")
+    ap.add_argument("--rise", type=float, help="every staircase's rise, metres (default: drawn)")
+    ap.add_argument("--run", type=float, help="every staircase's run, metres (default: drawn)")
+    ap.add_argument("--steps", type=int, help="every staircase's step count (default: drawn)")
+    ap.add_argument("--wood", action="store_true", help="realistic profile: wooden treads and risers only")
+    ap.add_argument("--lab", action="store_true", help="the wooden lab stairs preset (see the docstring)")
     args = ap.parse_args()
+    if args.lab:
+        args.profile, args.near, args.far, args.baseline = "realistic", 1.5, 2.5, 0.07
+        args.rise, args.run, args.steps, args.wood = 0.2, 0.31, 3, True
+    if args.wood and args.profile != "realistic":
+        ap.error("--wood needs --profile realistic (the default profile has no wood)")
+    drawn = (("rise_m", args.rise), ("run_m", args.run), ("n_steps", args.steps))
+    fixed = {k: v for k, v in drawn if v is not None}
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
     rng = np.random.default_rng(args.seed)
     scores: dict[str, list] = {"rig": [], "no rig": []}
     for i in range(args.scenes):
-        distance = float(rng.uniform(args.near, args.far))
-        spec = random_scene_spec(
-            rng, profile=args.profile, kind="stairs", distance_m=distance, baseline_m=args.baseline
-        )
+        while True:
+            distance = float(rng.uniform(args.near, args.far))
+            spec = random_scene_spec(
+                rng,
+                profile=args.profile,
+                kind="stairs",
+                distance_m=distance,
+                baseline_m=args.baseline,
+                weak_texture=False if args.wood else None,
+                **fixed,
+            )
+            if not args.wood or spec.tread.texture == "planks":  # not carpet
+                break
         scene = render_scene(spec)
         for name, rig in (("rig", scene.rig), ("no rig", None)):
             pipe = Pipeline(scene.calibration, rig, config, warm_up=False)
@@ -63,6 +90,8 @@ def main() -> None:
         f"{args.profile}, {args.scenes} staircases {args.near}-{args.far} m ahead, "
         f"baseline {args.baseline} m, seed {args.seed}"
     )
+    if fixed or args.wood:
+        title += ", " + ", ".join([f"{k} {v}" for k, v in fixed.items()] + (["wood"] if args.wood else []))
     if args.config:
         title += f", config {args.config.name}"
     print_scores(title, "gravity from", scores, first_distance=True)

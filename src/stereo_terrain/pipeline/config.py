@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..checks import check_fields
+from ..checks import check_fields, check_min
 from ..cloud import CloudConfig
 from ..drift import DriftConfig
 from ..errors import ConfigError
@@ -111,6 +111,17 @@ class PipelineConfig:
         step fewer, replaces it (the terrain note says so). A real staircase with one odd
         step keeps it: the other passes measure that step too. Default true (issue 11;
         docs/benchmarks.md, "Thirteenth session").
+    far_planes_sigmas : float
+        When no pass (the first matcher and the second opinions that ran) finds an
+        obstacle, the plane stage runs again on each pass's samples, first pass first, with
+        the normal tests widened by the far samples' noise
+        (``orientation.normal_noise_sigmas`` set to this); the first staircase whose steps
+        agree (as ``rematch_coarse`` asks) is kept, and the terrain note says so. Far
+        away a riser's samples have normals tens of degrees off (2 m at a 7 cm baseline:
+        about 27 deg), which the default test refuses; widened for every frame it also
+        moves staircases that were found without it. Only with ``method: orientation``;
+        0 turns it off. Default 1.1 (issue 11: the wooden lab stairs 1.5-2.5 m ahead;
+        docs/benchmarks.md, "Fourteenth session").
     """
 
     backend: str = "opencv"
@@ -136,12 +147,14 @@ class PipelineConfig:
     rematch_sgbm: OpenCVSGBMConfig = field(default_factory=lambda: REMATCH_SGBM)
     rematch_coarse: bool = True  # issue 11
     rematch_disagreeing: bool = True  # issue 11
+    far_planes_sigmas: float = 1.1  # issue 11
 
     def __post_init__(self) -> None:
         check_fields(self)
         mdp = self.max_disparity_px
         if mdp is not None and (isinstance(mdp, bool) or not isinstance(mdp, int)):
             raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
+        check_min(self, 0, "far_planes_sigmas")
         if self.rematch_sgbm.downsample != 1:
             raise ConfigError(
                 "rematch_sgbm.downsample must be 1: the coarse rematch is rematch_sgbm at half size "

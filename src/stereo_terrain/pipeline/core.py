@@ -29,7 +29,7 @@ from ..gravity import (
 )
 from ..planes.auto import combine_plane_sets
 from ..planes.contour import extract_planes_contour
-from ..planes.orientation import PlaneSet, extract_planes_orientation, transform_planes
+from ..planes.orientation import PlaneSet, extract_planes_orientation, noise_widened, transform_planes
 from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
 from ..stereo.fill import FlatRegions, find_flat_regions
@@ -117,6 +117,8 @@ class Pipeline:
         if self._rematcher is not None and self.config.rematch_coarse:
             coarse = dataclasses.replace(self.config.rematch_sgbm, downsample=2)
             self._coarse_rematcher = make_backend("opencv", **dataclasses.asdict(coarse))
+        # The far planes (issue 11): the orientation method's normal tests only.
+        self._far_planes_on = self.config.far_planes_sigmas > 0 and self.config.method == "orientation"
         # Rectified left camera -> yaw frame from the rig (None without one: the floor decides).
         self.T_yaw_camera_rect: Transform | None = (
             None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
@@ -165,10 +167,15 @@ class Pipeline:
         t1 = time.perf_counter()
         image_jobs = self._image_jobs(pair)
         result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
+        tried = [result]  # each pass's own result
         if rematch and self._rematcher is not None and self._wants_rematch(result.terrain):
             # Nothing found, a lone step, or steps whose rises disagree: match the pair again
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
-            result = self._rematched(pair, image_jobs, result)
+            result = self._rematched(pair, image_jobs, result, tried)
+        if result.terrain.obstacle == NONE and self._far_planes_on:
+            # No pass found an obstacle: their samples' planes with the far normal tests
+            # widened (issue 11; PipelineConfig.far_planes_sigmas).
+            result = self._far_planes(tried, result)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 
@@ -180,10 +187,13 @@ class Pipeline:
             return True
         return self.config.rematch_disagreeing and _steps_disagree(terrain, self.config.terrain)
 
-    def _rematched(self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult) -> TerrainResult:
+    def _rematched(
+        self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult, tried: list[TerrainResult]
+    ) -> TerrainResult:
         """``first`` or what the second opinions make of ``pair``: the rematch, then (with
         ``rematch_coarse``) the coarse rematch at half size, each run while the result kept
-        so far still wants one (:meth:`_wants_rematch`). A pass's staircase replaces:
+        so far still wants one (:meth:`_wants_rematch`); each pass's own result is appended
+        to ``tried``. A pass's staircase replaces:
 
         - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
           can make an object's front a lone "step", as a real room's motorbike did), with
@@ -199,6 +209,7 @@ class Pipeline:
             if matcher is None or not self._wants_rematch(result.terrain):
                 break
             other = self._from_pair(pair, matcher, jobs, {}, time.perf_counter())
+            tried.append(dataclasses.replace(other, rematched=True))
             terrain, kept = other.terrain, result.terrain
             if _unconvincing(kept):
                 better = (
@@ -223,6 +234,52 @@ class Pipeline:
                     rematched=True,
                 )
         result.timing_ms["rematch"] = (time.perf_counter() - t0) * 1000.0
+        return result
+
+    def _far_planes(self, tried: list[TerrainResult], kept: TerrainResult) -> TerrainResult:
+        """``kept`` (no obstacle found), or the first of the passes ``tried`` whose samples, with the
+        plane stage's normal tests widened by the far samples' noise
+        (``PipelineConfig.far_planes_sigmas``), give a staircase whose steps agree
+        (:func:`_steps_agree`) and whose first riser's foot is seen (its rise measured from
+        the ground: the weakest evidence of the pipeline's, it must not stand on an
+        inferred step; a real room's chair did). ``timing_ms["far_planes"]``: the time it
+        took."""
+        t0 = time.perf_counter()
+        cfg = self.config
+        wide = dataclasses.replace(cfg.orientation, normal_noise_sigmas=cfg.far_planes_sigmas)
+        result = kept
+        for i, done in enumerate(tried):
+            samples = done.planes.samples
+            widened = noise_widened(samples, wide, wide.normal_agreement_deg)
+            if widened is None or not np.any(widened > np.radians(wide.normal_agreement_deg)):
+                continue  # nothing far: the same planes as before
+            planes = extract_planes_orientation(
+                samples, wide, up=done.planes.up, camera_position=done.planes.camera_position
+            )
+            lines = done.image_lines
+            terrain = build_terrain(planes, cfg.terrain, floor_known=done.floor_known, lines=lines)
+            if not _steps_agree(terrain, cfg.terrain) or terrain.steps[0].rise_inferred:
+                continue  # steps that agree, the first standing on the ground seen
+            rect = done.rectified.rectification
+            terrain = estimate_step_sigmas(
+                terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
+            )
+            which = ("first matcher", "rematch", "coarse rematch")[min(i, 2)]
+            note = (
+                f"{terrain.note}; found by the far planes (no pass found an obstacle; the {which}'s "
+                f"samples with normal tests widened by the far samples' noise, far_planes_sigmas)"
+            )
+            terrain = dataclasses.replace(terrain, note=note)
+            result = dataclasses.replace(
+                done,
+                terrain=terrain,
+                swing=plan_swing(terrain, cfg.swing),
+                planes=planes,
+                plane_choice="orientation, normal tests widened (far_planes_sigmas)",
+                timing_ms={**kept.timing_ms},
+            )
+            break
+        result.timing_ms["far_planes"] = (time.perf_counter() - t0) * 1000.0
         return result
 
     def _image_jobs(self, pair: RectifiedPair) -> _ImageJobs:
@@ -359,6 +416,8 @@ class Pipeline:
             self.config.cloud,
             choice,
             self.config.method,
+            floor_known=floor_known,
+            image_lines=image_lines,
         )
 
     def _rig_up_camera(self, rig_T: Transform) -> np.ndarray:

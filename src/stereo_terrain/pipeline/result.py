@@ -15,7 +15,7 @@ from ..planes.orientation import PlaneSet
 from ..rectify import RectifiedPair
 from ..stereo import DisparityMap
 from ..swing import SwingPlan
-from ..terrain import StairModel
+from ..terrain import ImageLines, StairModel
 
 RESULT_VERSION = 1
 
@@ -45,6 +45,10 @@ class TerrainResult:
     rematched : bool
         The result is the rematch's (``PipelineConfig.rematch``: the first matcher found
         nothing convincing); ``timing_ms["rematch"]`` is there whenever the rematch ran.
+    floor_known, image_lines
+        What the terrain stage was given besides the planes (the frame's origin is on the
+        floor; the image's line segments), so that it can run again on other planes
+        (``PipelineConfig.far_planes_sigmas``).
     """
 
     terrain: StairModel
@@ -60,6 +64,8 @@ class TerrainResult:
     plane_choice: str = ""
     method_requested: str = "orientation"
     rematched: bool = False
+    floor_known: bool = field(default=False, repr=False)
+    image_lines: ImageLines | None = field(default=None, repr=False)
 
     @functools.cached_property
     def cloud(self) -> PointCloud:
