@@ -3,6 +3,8 @@
 import math
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stereo_terrain._numeric import cross3
 from stereo_terrain.msac import Plane
@@ -207,3 +209,29 @@ def test_floor_inlier_counts_are_the_numpy_passes():
         want = ((np.abs(dots + offsets[:, None]) < thr) & (np.abs(cosines) >= 0.9)).sum(axis=1)
         got = floor_inlier_counts(dots, offsets, thr, cosines, 0.9)
         assert got.tolist() == want.tolist()
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(1, 30),
+    st.lists(
+        st.tuples(st.integers(0, 29), st.floats(-3.0, 3.0, allow_nan=False).map(lambda v: round(v, 2))),
+        max_size=200,
+    ),
+)
+def test_slice_spans_are_the_per_slice_percentiles(n_slices, samples):
+    """A wall's slices' height spans in one sort give what a mask and ``percentile`` per
+    slice give (terrain/risers.py, ``_riser_beside_wall``), ties included."""
+    from stereo_terrain._numeric import percentile
+    from stereo_terrain.terrain.risers import _slice_spans
+
+    which = np.array([w % n_slices for w, _ in samples], dtype=np.int64)
+    z = np.array([v for _, v in samples], dtype=np.float64)
+    spans = _slice_spans(z, which, n_slices)
+    for k in range(n_slices):
+        zk = z[which == k]
+        if len(zk) < 3:
+            assert np.isnan(spans[k])
+        else:
+            lo, hi = percentile(zk, [2, 98])
+            assert spans[k] == hi - lo

@@ -65,6 +65,15 @@ def test_without_the_far_planes_the_same_stairs_are_not_found(lab_scene):
     assert "far_planes" not in result.timing_ms
 
 
+def test_a_frame_without_second_opinions_runs_no_far_planes(lab_scene):
+    """The live loop's every-other-pair frames (``run(rematch=False)``) skip them too."""
+    scene = lab_scene
+    pipeline = Pipeline(scene.calibration, scene.rig, warm_up=False)
+    result = pipeline.run(scene.left, scene.right, rematch=False)
+    assert result.terrain.obstacle == "none"
+    assert "far_planes" not in result.timing_ms and "rematch" not in result.timing_ms
+
+
 def test_a_frame_that_finds_its_staircase_does_not_run_the_far_planes():
     scene = render_scene(default_scene_spec())
     result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
@@ -130,4 +139,4 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
         assert result.terrain.obstacle == "stairs"
         want = "found by the far planes (no pass found an obstacle; the first matcher's"
         assert want in result.terrain.note
-        assert result.swing is not None and not result.rematched
+        assert result.swing is not None and result.rematched  # a second opinion's

@@ -36,8 +36,9 @@ from .rectify import read_image
 #: Files every scene folder must hold.
 SCENE_FILES = ("left.png", "right.png", "calib.yaml")
 #: Stages of ``timing_ms`` reported per stage (the pipeline's laps and its total; and the
-#: rematch, ``PipelineConfig.rematch``, a median over the frames that ran it).
-STAGES = ("rectify", "disparity", "cloud", "gravity", "planes", "polytope", "rematch", "total")
+#: second opinions, ``PipelineConfig.rematch`` and ``far_planes_sigmas``, each a median over
+#: the frames that ran it).
+STAGES = ("rectify", "disparity", "cloud", "gravity", "planes", "polytope", "rematch", "far_planes", "total")
 _OBSTACLES = ("stairs", "box", "none")
 
 

@@ -147,9 +147,10 @@ class Pipeline:
     def run(self, left: np.ndarray, right: np.ndarray, *, rematch: bool = True) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
-        ``rematch``: False skips the second opinions for this frame (the rematch and the
-        coarse rematch, ``PipelineConfig.rematch``: the live loop runs them on every other
-        pair while they keep nothing). On the main thread the process's BLAS is held to one
+        ``rematch``: False skips the second opinions for this frame (the rematch, the
+        coarse rematch and the far planes, ``PipelineConfig.rematch`` and
+        ``far_planes_sigmas``: the live loop runs them on every other pair while they keep
+        nothing). On the main thread the process's BLAS is held to one
         thread while the frame runs (see :func:`_one_blas_thread`); the caller's setting is
         back afterwards."""
         with _one_blas_thread():
@@ -172,9 +173,9 @@ class Pipeline:
             # Nothing found, a lone step, or steps whose rises disagree: match the pair again
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
             result = self._rematched(pair, image_jobs, result, tried)
-        if result.terrain.obstacle == NONE and self._far_planes_on:
+        if rematch and result.terrain.obstacle == NONE and self._far_planes_on:
             # No pass found an obstacle: their samples' planes with the far normal tests
-            # widened (issue 11; PipelineConfig.far_planes_sigmas).
+            # widened, a second opinion too (issue 11; PipelineConfig.far_planes_sigmas).
             result = self._far_planes(tried, result)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
@@ -277,6 +278,7 @@ class Pipeline:
                 planes=planes,
                 plane_choice="orientation, normal tests widened (far_planes_sigmas)",
                 timing_ms={**kept.timing_ms},
+                rematched=True,
             )
             break
         result.timing_ms["far_planes"] = (time.perf_counter() - t0) * 1000.0

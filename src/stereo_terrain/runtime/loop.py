@@ -287,7 +287,7 @@ class LiveLoop:
         self._unusable_run = 0  # consecutive unusable pairs
         self._unusable_detail = ""
         self._last_failure: Exception | None = None
-        self._rematched_nothing = False  # the last pair ran the rematch, which kept nothing
+        self._rematched_nothing = False  # the last pair ran second opinions, which kept nothing
 
     def warm_up(self) -> None:
         """Run the pipeline once on a blank pair of the calibration's size so that the first
@@ -391,9 +391,10 @@ class LiveLoop:
             self._rpy = rpy
         try:
             # While the pipeline's second opinions (the rematch and the coarse rematch, for
-            # frames whose first pass finds nothing convincing or steps that disagree) keep
-            # nothing, they run on every other pair: a flat floor costs 2 passes a pair, not
-            # 3, and stairs are seen one pair later at most (issue 11).
+            # frames whose first pass finds nothing convincing or steps that disagree, and
+            # the far planes where no pass finds anything) keep nothing, they run on every
+            # other pair: a flat floor costs 2 passes a pair, not 3, and stairs are seen one
+            # pair later at most (issue 11).
             if self._rematched_nothing:
                 result = self.pipeline.run(frame.left, frame.right, rematch=False)
             else:
@@ -410,7 +411,8 @@ class LiveLoop:
             self._last_failure = exc
             self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
-        self._rematched_nothing = "rematch" in result.timing_ms and not result.rematched
+        ran = "rematch" in result.timing_ms or "far_planes" in result.timing_ms
+        self._rematched_nothing = ran and not result.rematched
         model, track_state, trig = track_and_trigger(
             self.tracker,
             self.trigger,
