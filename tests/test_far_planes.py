@@ -137,6 +137,6 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
         assert result.terrain.obstacle == "none"
     else:
         assert result.terrain.obstacle == "stairs"
-        want = "found by the far planes (no pass found an obstacle; the first matcher's"
+        want = "found by the far planes (no pass found an obstacle; the coarse rematch's"
         assert want in result.terrain.note
         assert result.swing is not None and result.rematched  # a second opinion's

@@ -113,8 +113,9 @@ class PipelineConfig:
         docs/benchmarks.md, "Thirteenth session").
     far_planes_sigmas : float
         When no pass (the first matcher and the second opinions that ran) finds an
-        obstacle, the plane stage runs again on each pass's samples, first pass first, with
-        the normal tests widened by the far samples' noise
+        obstacle, the plane stage runs again on each pass's samples, the last pass first
+        (the coarse rematch's disparity is the best far away), with the normal tests
+        widened by the far samples' noise
         (``orientation.normal_noise_sigmas`` set to this); the first staircase whose steps
         agree (as ``rematch_coarse`` asks) is kept, and the terrain note says so. Far
         away a riser's samples have normals tens of degrees off (2 m at a 7 cm baseline:
