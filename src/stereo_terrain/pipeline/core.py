@@ -238,9 +238,9 @@ class Pipeline:
         return result
 
     def _far_planes(self, tried: list[TerrainResult], kept: TerrainResult) -> TerrainResult:
-        """``kept`` (no obstacle found), or the last of the passes ``tried`` whose samples, with the
-        plane stage's normal tests widened by the far samples' noise
-        (``PipelineConfig.far_planes_sigmas``), give a staircase whose steps agree
+        """``kept`` (no obstacle found), or the first staircase that a pass of ``tried``, last
+        pass first, gives from its samples with the plane stage's normal tests widened by
+        the far samples' noise (``PipelineConfig.far_planes_sigmas``): one whose steps agree
         (:func:`_steps_agree`) and whose first riser's foot is seen (its rise measured from
         the ground: the weakest evidence of the pipeline's, it must not stand on an
         inferred step; a real room's chair did). ``timing_ms["far_planes"]``: the time it
