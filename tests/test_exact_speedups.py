@@ -235,3 +235,27 @@ def test_slice_spans_are_the_per_slice_percentiles(n_slices, samples):
         else:
             lo, hi = percentile(zk, [2, 98])
             assert spans[k] == hi - lo
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(1, 20),
+    st.lists(st.tuples(st.integers(0, 19), st.floats(-1e3, 1e3, allow_nan=False)), max_size=150),
+    st.lists(st.floats(0.0, 100.0), min_size=1, max_size=4),
+    st.integers(1, 4),
+)
+def test_group_percentile_is_np_percentile_per_group(n_groups, samples, qs, min_count):
+    """The same values as ``np.percentile`` group by group (compared with ``==``: a zero's
+    sign may differ, equal values being ordered by a sort rather than a partition)."""
+    from stereo_terrain._numeric import group_percentile
+
+    groups = np.array([g % n_groups for g, _ in samples], dtype=np.int64)
+    values = np.array([v for _, v in samples], dtype=np.float64)
+    got = group_percentile(values, groups, n_groups, qs, min_count=min_count)
+    assert got.shape == (len(qs), n_groups)
+    for k in range(n_groups):
+        vk = values[groups == k]
+        if len(vk) < min_count or len(vk) == 0:
+            assert np.isnan(got[:, k]).all()
+        else:
+            assert np.array_equal(got[:, k], np.percentile(vk, qs))

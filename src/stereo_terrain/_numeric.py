@@ -62,6 +62,35 @@ def percentile(values: Sequence[float] | np.ndarray, q: Any) -> Any:
     return np.float64(out[0]) if scalar else np.array(out)
 
 
+def group_percentile(
+    values: np.ndarray, groups: np.ndarray, n_groups: int, q: Sequence[float], min_count: int = 1
+) -> np.ndarray:
+    """``percentile(values[groups == k], q)`` for every group ``k`` in ``0 .. n_groups - 1``
+    at once, as a ``(len(q), n_groups)`` array (NaN for a group of fewer than
+    ``min_count`` values, at least 1): one sort instead of a mask and a call per group.
+    ``values`` 1-D float64 without NaN, ``q`` within ``[0, 100]``; the same arithmetic as
+    :func:`percentile` (NumPy's virtual index and two-sided interpolation), so the same
+    values; only the sign of a zero may differ (equal values are ordered by a sort here,
+    by NumPy's partition there)."""
+    counts = np.bincount(groups, minlength=n_groups)
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    ok = counts >= max(min_count, 1)
+    out = np.full((len(q), n_groups), np.nan)
+    if not ok.any():
+        return out
+    ordered = values[np.lexsort((values, groups))]  # by group, then value
+    n = counts[ok].astype(np.float64)
+    for row, qi in enumerate(q):
+        vi = (n - 1) * (float(qi) / 100.0)
+        last = vi >= n - 1  # NumPy's index -1 (the last value); b - a is 0 there
+        lo = np.where(last, n - 1, np.floor(vi)).astype(np.int64)
+        t = np.where(last, 1.0, vi - np.floor(vi))
+        x, y = ordered[starts[ok] + lo], ordered[starts[ok] + np.where(last, lo, lo + 1)]
+        d = y - x
+        out[row, ok] = np.where(t >= 0.5, y - d * (1.0 - t), x + d * t)  # NumPy's _lerp
+    return out
+
+
 def median(values: Sequence[float] | np.ndarray, axis: int | None = None) -> Any:
     """``np.median(values, axis)`` for a float64 array, 1-D (``axis`` None or 0) or 2-D
     along ``axis=0``, or a 1-D float32 one.

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
+from .._numeric import group_percentile, median, percentile  # NumPy's bits, a fraction of its time (issue 13)
 from ..cloud import GridSample
 from ..msac import Plane
 from ..planes.orientation import PlaneSegment
@@ -161,31 +161,10 @@ _MIN_OPENING_M = 0.5
 def _slice_spans(z: np.ndarray, which: np.ndarray, n_slices: int) -> np.ndarray:
     """Per slice (``which``: each sample's, ``0 .. n_slices - 1``), the 98th minus the 2nd
     percentile of the heights ``z`` (float64) of its samples; NaN where it has fewer than
-    three. The same values as ``percentile(z[which == k], [2, 98])`` slice by slice (NumPy's
-    linear method: virtual index ``(n - 1) q / 100``, its two-sided interpolation), in one
-    sort instead of a mask and a call per slice (a wide wall has 20-30 slices; issue 13)."""
-    counts = np.bincount(which, minlength=n_slices)
-    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
-    ok = counts >= 3
-    spans = np.full(n_slices, np.nan)
-    if not ok.any():
-        return spans
-    ordered = z[np.lexsort((z, which))]  # by slice, then height
-    n = counts[ok].astype(np.float64)
-    base = starts[ok]
-
-    def at(q: float) -> np.ndarray:
-        vi = (n - 1) * (q / 100.0)
-        last = vi >= n - 1
-        lo = np.where(last, n - 1, np.floor(vi)).astype(np.int64)
-        t = np.where(last, 1.0, vi - np.floor(vi))
-        hi = np.where(last, lo, lo + 1)
-        x, y = ordered[base + lo], ordered[base + hi]
-        d = y - x
-        return np.where(t >= 0.5, y - d * (1.0 - t), x + d * t)
-
-    spans[ok] = at(98.0) - at(2.0)
-    return spans
+    three: ``percentile(z[which == k], [2, 98])`` slice by slice, in one sort for all of
+    them (a wide wall has 20-30 slices; issue 13)."""
+    low, high = group_percentile(z, which, n_slices, [2.0, 98.0], min_count=3)
+    return high - low
 
 
 def _riser_beside_wall(
