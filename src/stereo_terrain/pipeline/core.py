@@ -50,6 +50,10 @@ from .gravity_steps import (
 from .result import TerrainResult
 from .warm_up import warm_up_kernels
 
+#: The passes a frame ran, in order: each one's name and own result (the first matcher's,
+#: the rematch's, the coarse rematch's), for the far planes.
+_Passes = list[tuple[str, TerrainResult]]
+
 
 class Pipeline:
     """Runs every stage on stereo pairs from one calibrated rig.
@@ -150,9 +154,9 @@ class Pipeline:
         ``rematch``: False skips the second opinions for this frame (the rematch, the
         coarse rematch and the far planes, ``PipelineConfig.rematch`` and
         ``far_planes_sigmas``: the live loop runs them on every other pair while they keep
-        nothing). On the main thread the process's BLAS is held to one
-        thread while the frame runs (see :func:`_one_blas_thread`); the caller's setting is
-        back afterwards."""
+        nothing). On the main thread the process's BLAS is held to one thread while the
+        frame runs (see :func:`_one_blas_thread`); the caller's setting is back
+        afterwards."""
         with _one_blas_thread():
             return self._run(left, right, rematch)
 
@@ -168,7 +172,7 @@ class Pipeline:
         t1 = time.perf_counter()
         image_jobs = self._image_jobs(pair)
         result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
-        tried = [result]  # each pass's own result
+        tried = [("first matcher", result)]  # each pass's name and own result
         if rematch and self._rematcher is not None and self._wants_rematch(result.terrain):
             # Nothing found, a lone step, or steps whose rises disagree: match the pair again
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
@@ -189,12 +193,12 @@ class Pipeline:
         return self.config.rematch_disagreeing and _steps_disagree(terrain, self.config.terrain)
 
     def _rematched(
-        self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult, tried: list[TerrainResult]
+        self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult, tried: _Passes
     ) -> TerrainResult:
         """``first`` or what the second opinions make of ``pair``: the rematch, then (with
         ``rematch_coarse``) the coarse rematch at half size, each run while the result kept
-        so far still wants one (:meth:`_wants_rematch`); each pass's own result is appended
-        to ``tried``. A pass's staircase replaces:
+        so far still wants one (:meth:`_wants_rematch`); each pass's name and own result
+        are appended to ``tried``. A pass's staircase replaces:
 
         - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
           can make an object's front a lone "step", as a real room's motorbike did), with
@@ -210,7 +214,7 @@ class Pipeline:
             if matcher is None or not self._wants_rematch(result.terrain):
                 break
             other = self._from_pair(pair, matcher, jobs, {}, time.perf_counter())
-            tried.append(dataclasses.replace(other, rematched=True))
+            tried.append((name, other))
             terrain, kept = other.terrain, result.terrain
             if _unconvincing(kept):
                 better = (
@@ -237,7 +241,7 @@ class Pipeline:
         result.timing_ms["rematch"] = (time.perf_counter() - t0) * 1000.0
         return result
 
-    def _far_planes(self, tried: list[TerrainResult], kept: TerrainResult) -> TerrainResult:
+    def _far_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
         """``kept`` (no obstacle found), or the first staircase that a pass of ``tried``, last
         pass first, gives from its samples with the plane stage's normal tests widened by
         the far samples' noise (``PipelineConfig.far_planes_sigmas``): one whose steps agree
@@ -252,7 +256,7 @@ class Pipeline:
         # The last pass first: the coarse rematch's disparity is the best far away (on
         # wooden stairs 1.5-2.5 m ahead, risers within 0.5 px: 57% against the first
         # matcher's 32%; docs/benchmarks.md, "Fourteenth session").
-        for i, done in reversed(list(enumerate(tried))):
+        for which, done in reversed(tried):
             samples = done.planes.samples
             widened = noise_widened(samples, wide, wide.normal_agreement_deg)
             if widened is None or not np.any(widened > np.radians(wide.normal_agreement_deg)):
@@ -268,7 +272,6 @@ class Pipeline:
             terrain = estimate_step_sigmas(
                 terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
             )
-            which = ("first matcher", "rematch", "coarse rematch")[min(i, 2)]
             note = (
                 f"{terrain.note}; found by the far planes (no pass found an obstacle; the {which}'s "
                 f"samples with normal tests widened by the far samples' noise, far_planes_sigmas)"
