@@ -103,6 +103,21 @@ class PipelineConfig:
         at most ``terrain.continue_max_run_m``; the terrain note says so. Default true
         (issue 11; docs/benchmarks.md, "Thirteenth session"). A frame with nothing in view
         pays for a third pass (a half-size match and the later stages).
+    rematch_focus : bool
+        With ``rematch``: when every opinion before it (the rematch, the coarse rematch,
+        the far planes) leaves the frame wanting one (as above), and one camera's image
+        is blurrier than the other's by :data:`stereo_terrain.stereo.blur.MIN_BLUR_PX`
+        or more (two webcams focus apart), the sharper image is blurred to the other's
+        focus and the pair matched once more with ``rematch_sgbm``
+        (:func:`stereo_terrain.stereo.blur.match_blur`), then its own far planes. Its
+        staircase is kept as the coarse rematch's is (steps that agree). Last, so that it
+        changes nothing the others found (blurring in the rematch itself found more
+        staircases and lost others). Default false (issue 11): on the realistic renders
+        it adds 0-9 points of detection, but a control pass that blurs the wrong image
+        adds nearly as much, so the gain is mostly a fourth pass's second chance, and a
+        frame with nothing in view and cameras focused apart pays for that pass (empty
+        realistic views 1.45x, docs/benchmarks.md, "Fifteenth session"). For webcams
+        whose images look differently sharp.
     rematch_disagreeing : bool
         With ``rematch``: a staircase whose steps disagree (its largest measured rise more
         than ``AGREEING_RISE_RATIO`` times its smallest, or a run longer than
@@ -147,6 +162,7 @@ class PipelineConfig:
     rematch: bool = True  # issue 11
     rematch_sgbm: OpenCVSGBMConfig = field(default_factory=lambda: REMATCH_SGBM)
     rematch_coarse: bool = True  # issue 11
+    rematch_focus: bool = False  # issue 11
     rematch_disagreeing: bool = True  # issue 11
     far_planes_sigmas: float = 1.1  # issue 11
 

@@ -32,6 +32,7 @@ from ..planes.contour import extract_planes_contour
 from ..planes.orientation import PlaneSet, extract_planes_orientation, noise_widened, transform_planes
 from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
+from ..stereo.blur import match_blur
 from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
@@ -152,7 +153,7 @@ class Pipeline:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
         ``rematch``: False skips the second opinions for this frame (the rematch, the
-        coarse rematch and the far planes, ``PipelineConfig.rematch`` and
+        coarse and focus rematches and the far planes, ``PipelineConfig.rematch`` and
         ``far_planes_sigmas``: the live loop runs them on every other pair while they keep
         nothing). On the main thread the process's BLAS is held to one thread while the
         frame runs (see :func:`_one_blas_thread`); the caller's setting is back
@@ -173,14 +174,33 @@ class Pipeline:
         image_jobs = self._image_jobs(pair)
         result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
         tried = [("first matcher", result)]  # each pass's name and own result
-        if rematch and self._rematcher is not None and self._wants_rematch(result.terrain):
+        second = rematch and self._rematcher is not None
+        if second and self._wants_rematch(result.terrain):
             # Nothing found, a lone step, or steps whose rises disagree: match the pair again
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
-            result = self._rematched(pair, image_jobs, result, tried)
+            passes = [(self._rematcher, _REMATCH_NOTE), (self._coarse_rematcher, _COARSE_NOTE)]
+            result = self._rematched(pair, image_jobs, result, tried, passes)
         if rematch and result.terrain.obstacle == NONE and self._far_planes_on:
             # No pass found an obstacle: their samples' planes with the far normal tests
             # widened, a second opinion too (issue 11; PipelineConfig.far_planes_sigmas).
             result = self._far_planes(tried, result)
+        if second and self.config.rematch_focus and self._wants_rematch(result.terrain):
+            # Every opinion so far leaves the frame wanting: where one camera's image is
+            # blurrier, the pair once more with the two focused alike, and its own far
+            # planes (issue 11; PipelineConfig.rematch_focus). Last, so that it changes
+            # nothing the others found.
+            left, right, sigma = match_blur(
+                pair.left, pair.right, pair.rectification.valid_left, pair.rectification.valid_right
+            )
+            if left is not pair.left or right is not pair.right:
+                side = "left" if sigma > 0 else "right"
+                name, how = _FOCUS_NOTE
+                how = f"the {side} image blurred by {abs(sigma):.2f} px to the other's focus; {how}"
+                focused = dataclasses.replace(pair, left=left, right=right)
+                before = len(tried)
+                result = self._rematched(focused, image_jobs, result, tried, [(self._rematcher, (name, how))])
+                if result.terrain.obstacle == NONE and self._far_planes_on:
+                    result = self._far_planes(tried[before:], result)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 
@@ -193,23 +213,28 @@ class Pipeline:
         return self.config.rematch_disagreeing and _steps_disagree(terrain, self.config.terrain)
 
     def _rematched(
-        self, pair: RectifiedPair, jobs: _ImageJobs, first: TerrainResult, tried: _Passes
+        self,
+        pair: RectifiedPair,
+        jobs: _ImageJobs,
+        first: TerrainResult,
+        tried: _Passes,
+        passes: list[tuple[DisparityBackend | None, tuple[str, str]]],
     ) -> TerrainResult:
-        """``first`` or what the second opinions make of ``pair``: the rematch, then (with
-        ``rematch_coarse``) the coarse rematch at half size, each run while the result kept
-        so far still wants one (:meth:`_wants_rematch`); each pass's name and own result
-        are appended to ``tried``. A pass's staircase replaces:
+        """``first`` or what the second opinions ``passes`` (matcher, and the name and how
+        of the note) make of ``pair``: the rematch, then (with ``rematch_coarse``) the
+        coarse rematch at half size; or the focus rematch alone. Each runs while the
+        result kept so far still wants one (:meth:`_wants_rematch`); each pass's name and
+        own result are appended to ``tried``. A pass's staircase replaces:
 
         - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
           can make an object's front a lone "step", as a real room's motorbike did), with
-          steps that agree (the coarse rematch, whose smoothness reaches further across a
-          room's furniture too: :func:`_steps_agree`);
+          steps that agree (the coarse and focus rematches; the coarse one's smoothness
+          reaches further across a room's furniture too: :func:`_steps_agree`);
         - steps whose rises disagree: with steps that agree, no fewer than one less.
 
-        ``timing_ms["rematch"]`` is the time of every pass run."""
+        ``timing_ms["rematch"]`` is the time of every pass run (in the frame)."""
         t0 = time.perf_counter()
         result = first
-        passes = [(self._rematcher, _REMATCH_NOTE), (self._coarse_rematcher, _COARSE_NOTE)]
         for matcher, (name, how) in passes:
             if matcher is None or not self._wants_rematch(result.terrain):
                 break
@@ -219,7 +244,7 @@ class Pipeline:
             if _unconvincing(kept):
                 better = (
                     terrain.obstacle == STAIRS and len(terrain.steps) >= 2
-                    if matcher is self._rematcher
+                    if name == _REMATCH_NOTE[0]
                     else _steps_agree(terrain, self.config.terrain)
                 )
                 why = "before it nothing, or a lone step"
@@ -238,7 +263,9 @@ class Pipeline:
                     timing_ms=timing,
                     rematched=True,
                 )
-        result.timing_ms["rematch"] = (time.perf_counter() - t0) * 1000.0
+        # added to what earlier second opinions of the frame took (the focus rematch)
+        took = (time.perf_counter() - t0) * 1000.0
+        result.timing_ms["rematch"] = first.timing_ms.get("rematch", 0.0) + took
         return result
 
     def _far_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
@@ -248,7 +275,8 @@ class Pipeline:
         (:func:`_steps_agree`) and whose first riser's foot is seen (its rise measured from
         the ground: the weakest evidence of the pipeline's, it must not stand on an
         inferred step; a real room's chair did). ``timing_ms["far_planes"]``: the time it
-        took."""
+        took, added to the far planes' earlier in the frame (those of the focus rematch
+        come after the others')."""
         t0 = time.perf_counter()
         cfg = self.config
         wide = dataclasses.replace(cfg.orientation, normal_noise_sigmas=cfg.far_planes_sigmas)
@@ -287,7 +315,8 @@ class Pipeline:
                 rematched=True,
             )
             break
-        result.timing_ms["far_planes"] = (time.perf_counter() - t0) * 1000.0
+        took = (time.perf_counter() - t0) * 1000.0
+        result.timing_ms["far_planes"] = kept.timing_ms.get("far_planes", 0.0) + took  # the focus pass's too
         return result
 
     def _image_jobs(self, pair: RectifiedPair) -> _ImageJobs:
@@ -520,6 +549,7 @@ _REMATCH_NOTE = (
     "PipelineConfig.rematch_sgbm",
 )
 _COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
+_FOCUS_NOTE = ("focus rematch", "matched with the rematch's settings")
 
 
 def _steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:

@@ -1,0 +1,81 @@
+"""The focus rematch (PipelineConfig.rematch_focus, issue 11, off by default): when every
+other opinion leaves a frame wanting one and one webcam's image is blurrier than the
+other's, the sharper image is blurred to match and the pair matched again."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import cv2
+import numpy as np
+import pytest
+
+from stereo_terrain.pipeline import Pipeline, PipelineConfig, core
+
+from .test_bad_input_corpus import _calib
+from .test_blur import _texture
+from .test_far_planes import _lab_stairs
+
+
+@pytest.fixture(scope="module")
+def lab_scene():
+    """Wooden lab-like stairs 1.5 m ahead whose right camera is the blurrier (raw blur 1.06
+    against 0.78 px): only the focus rematch finds them."""
+    return _lab_stairs(3)
+
+
+def test_stairs_seen_by_cameras_focused_apart_are_found(lab_scene):
+    scene = lab_scene
+    config = PipelineConfig(rematch_focus=True)
+    result = Pipeline(scene.calibration, scene.rig, config, warm_up=False).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs"
+    assert "found by the focus rematch" in result.terrain.note
+    assert scene.spec.right_blur_sigma_px > scene.spec.blur_sigma_px
+    assert "the left image blurred" in result.terrain.note
+    assert result.rematched
+    truth = scene.truth["steps"]
+    assert len(result.terrain.steps) == len(truth)
+    for got, want in zip(result.terrain.steps, truth, strict=True):
+        assert abs(got.distance_m - want["distance"]) < 0.1
+    rises = [s.rise_m for s in result.terrain.steps]
+    assert abs(float(np.median(rises)) - truth[0]["rise"]) < 0.025
+
+
+def test_without_the_focus_rematch_they_are_not(lab_scene):
+    scene = lab_scene
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)  # the default
+    assert result.terrain.obstacle == "none"
+
+
+def _passes(monkeypatch, pipeline: Pipeline, left: np.ndarray, right: np.ndarray) -> int:
+    """How many matcher passes a frame of ``left``/``right`` runs."""
+    calls = []
+    original = core.Pipeline._from_pair
+
+    def counted(self, *args, **kwargs):
+        calls.append(1)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(core.Pipeline, "_from_pair", counted)
+    result = pipeline.run(left, right)
+    assert result.terrain.obstacle == "none"
+    return len(calls)
+
+
+def test_the_pass_runs_only_for_cameras_focused_apart(monkeypatch):
+    calib = _calib(640, 480)  # two identical cameras side by side: rectification resamples nothing
+    image = cv2.resize(_texture(9), (640, 480))  # a textured wall at infinity: nothing to find
+    blurrier = cv2.GaussianBlur(image, (0, 0), 1.2)
+    pipeline = Pipeline(calib, None, PipelineConfig(rematch_focus=True), warm_up=False)
+    assert _passes(monkeypatch, pipeline, image, image) == 3  # first, rematch, coarse
+    assert _passes(monkeypatch, pipeline, image, blurrier) == 4  # and the focus rematch
+    off = Pipeline(calib, None, warm_up=False)  # the default
+    assert _passes(monkeypatch, off, image, blurrier) == 3
+    no_second = Pipeline(calib, None, PipelineConfig(rematch=False, rematch_focus=True), warm_up=False)
+    assert _passes(monkeypatch, no_second, image, blurrier) == 1
+
+
+def test_the_config_reads_it():
+    assert PipelineConfig().rematch_focus is False
+    assert PipelineConfig.from_dict({"rematch_focus": True}).rematch_focus is True
+    assert dataclasses.replace(PipelineConfig(), rematch_focus=True).rematch_focus is True
