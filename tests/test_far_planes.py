@@ -140,3 +140,56 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
         want = "found by the far planes (no pass found an obstacle; the coarse rematch's"
         assert want in result.terrain.note
         assert result.swing is not None and result.rematched  # a second opinion's
+
+
+def test_the_wider_level_runs_only_where_the_first_keeps_nothing(monkeypatch):
+    """On an empty view the far planes run at 1.1 sigmas (the usual 35 deg cap) and then,
+    having kept nothing, at 1.6 sigmas capped at 40 deg; ``far_planes_wider_sigmas: 0``
+    leaves the first level alone."""
+    calls = []
+    real_extract = core.extract_planes_orientation
+
+    def extract(samples, config, **kwargs):
+        if config.normal_noise_sigmas > 0:
+            calls.append((config.normal_noise_sigmas, config.max_noise_tolerance_deg))
+        return real_extract(samples, config, **kwargs)
+
+    monkeypatch.setattr(core, "extract_planes_orientation", extract)
+    empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
+    Pipeline(empty.calibration, empty.rig, warm_up=False).run(empty.left, empty.right)
+    assert calls and {c[0] for c in calls} == {1.1, 1.6}
+    first = [c for c in calls if c[0] == 1.1]
+    assert calls[: len(first)] == first  # every pass at 1.1 before any at 1.6
+    assert {c[1] for c in calls if c[0] == 1.6} == {40.0} and {c[1] for c in first} == {35.0}
+    calls.clear()
+    off = PipelineConfig(far_planes_wider_sigmas=0.0)
+    Pipeline(empty.calibration, empty.rig, off, warm_up=False).run(empty.left, empty.right)
+    assert calls and {c[0] for c in calls} == {1.1}
+
+
+def test_wider_far_planes_config():
+    config = PipelineConfig()
+    assert (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg) == (1.6, 40.0)
+    assert PipelineConfig.from_dict({"far_planes_wider_sigmas": 0}).far_planes_wider_sigmas == 0
+    with pytest.raises(ConfigError, match="far_planes_wider_sigmas"):
+        PipelineConfig(far_planes_wider_sigmas=-1.0)
+    with pytest.raises(ConfigError, match="far_planes_wider_max_deg"):
+        PipelineConfig(far_planes_wider_max_deg=45.0)
+    with pytest.raises(ConfigError, match="far_planes_wider_max_deg"):
+        PipelineConfig(far_planes_wider_max_deg=10.0)
+    assert PipelineConfig(far_planes_wider_sigmas=0.0, far_planes_wider_max_deg=50.0)  # off: not checked
+
+
+def test_far_wooden_stairs_found_by_the_wider_level():
+    scene = _lab_stairs(43)
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs"
+    assert "widened further" in result.terrain.note and "far_planes_wider_sigmas" in result.terrain.note
+    assert result.plane_choice == "orientation, normal tests widened further (far_planes_wider_sigmas)"
+    truth = scene.truth["steps"]
+    assert len(result.terrain.steps) == len(truth)
+    for got, want in zip(result.terrain.steps, truth, strict=True):
+        assert abs(got.rise_m - want["rise"]) < 0.025
+        assert abs(got.distance_m - want["distance"]) < 0.1
+    off = Pipeline(scene.calibration, scene.rig, PipelineConfig(far_planes_wider_sigmas=0.0), warm_up=False)
+    assert off.run(scene.left, scene.right).terrain.obstacle == "none"

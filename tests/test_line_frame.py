@@ -228,7 +228,9 @@ def test_realistic_renders_where_the_vertical_lines_are_too_few(index, note):
 def test_realistic_renders_where_the_planes_are_tilted_as_a_whole(seed, index, note):
     scene = _realistic(index, seed)
     pipeline = Pipeline(scene.calibration)
-    result = pipeline.run(scene.left, scene.right)
+    # The first matcher's gravity (seed 23 scene 16's staircase is found by the far planes
+    # of the coarse rematch since the wider far planes, with that pass's own gravity).
+    result = pipeline.run(scene.left, scene.right, rematch=False)
     assert result.gravity_source == "scene"
     assert note in result.gravity.note
     assert _gravity_error(scene, pipeline, result.gravity.up_camera) < RENDERED_TOL_DEG

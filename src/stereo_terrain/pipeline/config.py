@@ -138,6 +138,14 @@ class PipelineConfig:
         moves staircases that were found without it. Only with ``method: orientation``;
         0 turns it off. Default 1.1 (issue 11: the wooden lab stairs 1.5-2.5 m ahead;
         docs/benchmarks.md, "Fourteenth session").
+    far_planes_wider_sigmas, far_planes_wider_max_deg : float
+        With the far planes on: where they keep nothing, they run once more with the
+        normal tests widened further (``normal_noise_sigmas`` set to
+        ``far_planes_wider_sigmas``, capped at ``far_planes_wider_max_deg`` instead of
+        ``orientation.max_noise_tolerance_deg``: at 1.6 sigmas the usual 35 deg cap is
+        reached from 2 m and would widen nothing beyond it). Same acceptance, and the note
+        says "widened further". Defaults 1.6 and 40 deg; ``far_planes_wider_sigmas: 0``
+        turns it off (issue 11; docs/benchmarks.md, "Fifteenth session").
     """
 
     backend: str = "opencv"
@@ -165,13 +173,22 @@ class PipelineConfig:
     rematch_focus: bool = False  # issue 11
     rematch_disagreeing: bool = True  # issue 11
     far_planes_sigmas: float = 1.1  # issue 11
+    far_planes_wider_sigmas: float = 1.6  # issue 11
+    far_planes_wider_max_deg: float = 40.0  # issue 11
 
     def __post_init__(self) -> None:
         check_fields(self)
         mdp = self.max_disparity_px
         if mdp is not None and (isinstance(mdp, bool) or not isinstance(mdp, int)):
             raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
-        check_min(self, 0, "far_planes_sigmas")
+        check_min(self, 0, "far_planes_sigmas", "far_planes_wider_sigmas")
+        if self.far_planes_wider_sigmas > 0 and not (
+            self.orientation.normal_agreement_deg <= self.far_planes_wider_max_deg < 45
+        ):
+            raise ConfigError(
+                "far_planes_wider_max_deg must be at least orientation.normal_agreement_deg and below 45 "
+                f"(a wider test lets every normal seed both families), got {self.far_planes_wider_max_deg}"
+            )
         if self.rematch_sgbm.downsample != 1:
             raise ConfigError(
                 "rematch_sgbm.downsample must be 1: the coarse rematch is rematch_sgbm at half size "

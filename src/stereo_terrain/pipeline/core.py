@@ -29,7 +29,13 @@ from ..gravity import (
 )
 from ..planes.auto import combine_plane_sets
 from ..planes.contour import extract_planes_contour
-from ..planes.orientation import PlaneSet, extract_planes_orientation, noise_widened, transform_planes
+from ..planes.orientation import (
+    OrientationConfig,
+    PlaneSet,
+    extract_planes_orientation,
+    noise_widened,
+    transform_planes,
+)
 from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
 from ..stereo.blur import match_blur
@@ -271,16 +277,36 @@ class Pipeline:
     def _far_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
         """``kept`` (no obstacle found), or the first staircase that a pass of ``tried``, last
         pass first, gives from its samples with the plane stage's normal tests widened by
-        the far samples' noise (``PipelineConfig.far_planes_sigmas``): one whose steps agree
-        (:func:`_steps_agree`) and whose first riser's foot is seen (its rise measured from
-        the ground: the weakest evidence of the pipeline's, it must not stand on an
-        inferred step; a real room's chair did). ``timing_ms["far_planes"]``: the time it
-        took, added to the far planes' earlier in the frame (those of the focus rematch
-        come after the others')."""
+        the far samples' noise (``PipelineConfig.far_planes_sigmas``; where none does, once
+        more widened further, ``far_planes_wider_sigmas`` up to
+        ``far_planes_wider_max_deg``): one whose steps agree (:func:`_steps_agree`) and
+        whose first riser's foot is seen (its rise measured from the ground: the weakest
+        evidence of the pipeline's, it must not stand on an inferred step; a real room's
+        chair did). ``timing_ms["far_planes"]``: the time it took, added to the far planes'
+        earlier in the frame (those of the focus rematch come after the others')."""
         t0 = time.perf_counter()
         cfg = self.config
-        wide = dataclasses.replace(cfg.orientation, normal_noise_sigmas=cfg.far_planes_sigmas)
+        first = (cfg.far_planes_sigmas, cfg.orientation.max_noise_tolerance_deg, "far_planes_sigmas")
+        wider = (cfg.far_planes_wider_sigmas, cfg.far_planes_wider_max_deg, "far_planes_wider_sigmas")
         result = kept
+        for sigmas, max_deg, option in [first, wider] if wider[0] > 0 else [first]:
+            wide = dataclasses.replace(
+                cfg.orientation, normal_noise_sigmas=sigmas, max_noise_tolerance_deg=max_deg
+            )
+            found = self._far_planes_with(tried, kept, wide, option)
+            if found is not None:
+                result = found
+                break
+        took = (time.perf_counter() - t0) * 1000.0
+        result.timing_ms["far_planes"] = kept.timing_ms.get("far_planes", 0.0) + took  # the focus pass's too
+        return result
+
+    def _far_planes_with(
+        self, tried: _Passes, kept: TerrainResult, wide: OrientationConfig, option: str
+    ) -> TerrainResult | None:
+        """:meth:`_far_planes` at one widening, ``wide`` (the plane stage's config), named
+        ``option`` in the note; None when no pass's staircase is kept."""
+        cfg = self.config
         # The last pass first: the coarse rematch's disparity is the best far away (on
         # wooden stairs 1.5-2.5 m ahead, risers within 0.5 px: 57% against the first
         # matcher's 32%; docs/benchmarks.md, "Fourteenth session").
@@ -300,24 +326,22 @@ class Pipeline:
             terrain = estimate_step_sigmas(
                 terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=cfg.terrain
             )
+            further = " further" if option != "far_planes_sigmas" else ""
             note = (
                 f"{terrain.note}; found by the far planes (no pass found an obstacle; the {which}'s "
-                f"samples with normal tests widened by the far samples' noise, far_planes_sigmas)"
+                f"samples with normal tests widened{further} by the far samples' noise, {option})"
             )
             terrain = dataclasses.replace(terrain, note=note)
-            result = dataclasses.replace(
+            return dataclasses.replace(
                 done,
                 terrain=terrain,
                 swing=plan_swing(terrain, cfg.swing),
                 planes=planes,
-                plane_choice="orientation, normal tests widened (far_planes_sigmas)",
+                plane_choice=f"orientation, normal tests widened{further} ({option})",
                 timing_ms={**kept.timing_ms},
                 rematched=True,
             )
-            break
-        took = (time.perf_counter() - t0) * 1000.0
-        result.timing_ms["far_planes"] = kept.timing_ms.get("far_planes", 0.0) + took  # the focus pass's too
-        return result
+        return None
 
     def _image_jobs(self, pair: RectifiedPair) -> _ImageJobs:
         """The work that needs only the rectified left image, started on the other core while
