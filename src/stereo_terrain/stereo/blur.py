@@ -80,14 +80,19 @@ def relative_blur_px(
     sharp, c_sharp, target, sign = (
         (grey_left, c_left, e_right, 1.0) if e_left > e_right else (grey_right, c_right, e_left, -1.0)
     )
-    if at_least_px > 0.0 and _energy(sharp, math.hypot(SCALE_PX, at_least_px), mask) / c_sharp <= target:
+
+    def sharper_after(blur_px: float) -> bool:
+        """Whether the sharper image blurred by ``blur_px`` is still the sharper."""
+        return _energy(sharp, math.hypot(SCALE_PX, blur_px), mask) / c_sharp > target
+
+    if at_least_px > 0.0 and not sharper_after(at_least_px):
         return 0.0  # less than at_least_px apart
-    if _energy(sharp, math.hypot(SCALE_PX, MAX_BLUR_PX), mask) / c_sharp > target:
+    if sharper_after(MAX_BLUR_PX):
         return 0.0
     lo, hi = at_least_px, MAX_BLUR_PX
     while hi - lo > _TOLERANCE_PX:
         mid = 0.5 * (lo + hi)
-        if _energy(sharp, math.hypot(SCALE_PX, mid), mask) / c_sharp > target:
+        if sharper_after(mid):
             lo = mid
         else:
             hi = mid
@@ -133,7 +138,7 @@ def _energy(image: np.ndarray, sigma_px: float, mask: np.ndarray | None) -> floa
     smooth = cv2.GaussianBlur(image, (0, 0), sigma_px)
     gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0)
     gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
-    return float(cv2.mean(cv2.magnitude(gx, gy) ** 2, mask=mask)[0])
+    return float(cv2.mean(gx * gx + gy * gy, mask=mask)[0])
 
 
 def _contrast(image: np.ndarray, mask: np.ndarray | None) -> float:
