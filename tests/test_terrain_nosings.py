@@ -9,7 +9,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.terrain import STAIRS, ImageLines, TerrainConfig, build_terrain, estimate_step_sigmas
+from stereo_terrain.terrain import (
+    STAIRS,
+    ImageLines,
+    TerrainConfig,
+    build_terrain,
+    estimate_step_sigmas,
+    nosings,
+)
 from stereo_terrain.terrain.nosings import nosing_steps
 
 from .test_terrain import CAM
@@ -170,6 +177,67 @@ def test_a_line_on_a_landing_without_a_riser_foot_is_no_step():
     assert len(with_foot.steps) == 4
     without_foot = build_terrain(planes, NO_SAMPLES, lines=_lines(lines[:-1], height))
     assert len(without_foot.steps) == 3
+
+
+def _clipped_to_view(segments: np.ndarray, margin: float = 8.0) -> np.ndarray:
+    """Each segment cut to the image less ``margin`` pixels (as the lines' job clips those
+    that reach the border); none of these runs along the border."""
+    out = []
+    lo = np.array([margin, margin])
+    hi = np.array([SIZE[0] - 1 - margin, SIZE[1] - 1 - margin])
+    for x1, y1, x2, y2 in segments:
+        a, b = np.array([x1, y1]), np.array([x2, y2])
+        t0, t1 = 0.0, 1.0
+        for k in range(2):
+            d = b[k] - a[k]
+            if abs(d) < 1e-12:
+                continue
+            ta, tb = sorted(((lo[k] - a[k]) / d, (hi[k] - a[k]) / d))
+            t0, t1 = max(t0, ta), min(t1, tb)
+        if t1 > t0:
+            out.append(np.concatenate([a + t0 * (b - a), a + t1 * (b - a)]))
+    return np.array(out)
+
+
+def test_a_staircase_wider_than_the_view_is_continued_by_its_clipped_nosings():
+    """Nosings that run out of the image on both sides reach the lines' job only clipped at
+    the border (``ImageLines.at_border``); they continue the staircase as whole ones do."""
+    rise, run, distance = 0.17, 0.29, 1.3
+    planes = _planes(5, rise, run, distance)
+    blank = _lines(np.empty((0, 4)))
+    wide = []
+    for i in range(5):
+        s_i = distance + i * run
+        for z in ((i + 1) * rise, i * rise):
+            wide.append(_segment(blank, s_i, z, 0.0, lateral=(-4.0, 4.0)))
+    clipped = _clipped_to_view(np.array(wide))
+    assert len(clipped) == 10
+    assert (clipped[:, [0, 2]].min() < 10) and (clipped[:, [0, 2]].max() > SIZE[0] - 11)
+    at_border = dataclasses.replace(_lines(np.empty((0, 4))), at_border=clipped)
+    model = build_terrain(planes, NO_SAMPLES, lines=at_border)
+    assert model.obstacle == STAIRS and len(model.steps) == 5
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+
+
+def test_a_line_across_the_view_at_the_cameras_height_is_no_nosing(monkeypatch):
+    """A nosing a centimetre below the cameras is a line through the view less than a
+    degree from their horizon, where the horizon or a far wall's foot draw the same line.
+    Reaching the border, it is not taken for a nosing; whole (the staircase's sides in
+    view), it is."""
+    rise, run, distance = 0.17, 0.29, 1.3
+    height = 4 * rise + 0.01  # the fourth nosing 1 cm below the cameras, 2.2 m away
+    planes = _planes(4, rise, run, distance, missing=1, height=height)
+    lines = _stair_lines(4, rise, run, distance, height=height)
+    fourth = lines[6]
+    assert abs(fourth[1] - 240.0) < 3 and abs(fourth[3] - 240.0) < 3
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height)).steps) == 4
+    across = _clipped_to_view(np.array([[-2000.0, fourth[1], 3000.0, fourth[3]]]))
+    border = dataclasses.replace(_lines(np.delete(lines, 6, axis=0), height), at_border=across)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=border).steps) == 3
+    # It is the horizon's rule that leaves it out: without it the clipped line is taken.
+    monkeypatch.setattr(nosings, "_HORIZON_DEG", 0.0)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=border).steps) == 4
 
 
 def test_nosing_config_is_checked():

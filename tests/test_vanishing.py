@@ -21,6 +21,7 @@ from stereo_terrain.gravity import (
     combine_with_lines,
     up_from_vertical_lines,
 )
+from stereo_terrain.gravity.from_lines import scene_lines
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import compute_rectification
 from stereo_terrain.synthetic import random_scene_spec, render_scene
@@ -194,3 +195,51 @@ def test_realistic_render_where_the_planes_alone_go_wrong():
     assert result.gravity_source == "scene"
     assert "vanishing point" in result.gravity.note
     assert angle_deg(result.gravity.up_camera, true_up) < RENDERED_TOL_DEG
+
+
+def _bar_image(lines: list[tuple[float, float, float, float]]) -> np.ndarray:
+    """Dark 3-px lines (x1, y1, x2, y2, ends may lie outside) on a noisy grey image."""
+    img = np.random.default_rng(0).normal(150.0, 2.0, (H, W))
+    for x1, y1, x2, y2 in lines:
+        cv2.line(img, (int(round(x1)), int(round(y1))), (int(round(x2)), int(round(y2))), 30.0, 3)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_segments_reaching_the_border_are_clipped_for_the_nosings_only():
+    """A line that runs out of the view comes back clipped at the border band, apart from
+    the whole segments the estimates use (issue 11: a staircase wider than the view)."""
+    img = _bar_image([(150, 200, 2 * W, 200), (100, 250, 100, 400)])
+    found = scene_lines(img, _rectification(), VerticalLinesConfig(), known_up=np.array([0.0, -1.0, 0.0]))
+    whole, border = found.segments, found.at_border
+    assert len(border) >= 1 and len(whole) >= 1
+    # The horizontal bar: clipped, from its start to within the 6-px band of the right edge.
+    assert np.all(np.abs(border[:, [1, 3]] - 200) < 4)
+    assert border[:, [0, 2]].max() == pytest.approx(W - 7, abs=1.5)
+    assert border[:, [0, 2]].min() == pytest.approx(150, abs=4)
+    # The vertical bar is whole, and only there.
+    assert np.all(np.abs(whole[:, [0, 2]] - 100) < 4)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    x=st.floats(-200.0, W + 200.0),
+    y=st.floats(-200.0, H + 200.0),
+    angle=st.floats(0.0, math.pi),
+)
+def test_clipped_segments_stay_off_the_border_and_on_their_line(x, y, angle):
+    """Whatever line is drawn, every segment returned lies inside the border band, and a
+    clipped one lies on the drawn line."""
+    c, s = math.cos(angle), math.sin(angle)
+    line = (x - 2000 * c, y - 2000 * s, x + 2000 * c, y + 2000 * s)
+    found = scene_lines(
+        _bar_image([line]), _rectification(), VerticalLinesConfig(), known_up=np.array([0.0, -1.0, 0.0])
+    )
+    for seg in np.concatenate([found.segments, found.at_border]):
+        ends = seg.reshape(2, 2)
+        assert np.all(ends >= 5.5) and np.all(ends[:, 0] <= W - 6.5) and np.all(ends[:, 1] <= H - 6.5)
+    # The line as drawn (its ends rounded to pixels) and the distance of each clipped end
+    # from its centre line (the bar's edges about 2 px off, and the drawing's own rounding).
+    a, b = np.round(line[:2]), np.round(line[2:])
+    normal = np.array([a[1] - b[1], b[0] - a[0]]) / np.hypot(*(b - a))
+    for seg in found.at_border:
+        assert np.all(np.abs((seg.reshape(2, 2) - a) @ normal) < 5.0)

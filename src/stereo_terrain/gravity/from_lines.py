@@ -28,7 +28,7 @@ returned with ``ok=False``: two segments always meet somewhere.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -170,15 +170,22 @@ class VerticalLinesConfig:
                 raise ConfigError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
-def _segments(image: np.ndarray, valid: np.ndarray | None, min_length_px: float, scale: float) -> np.ndarray:
+def _segments(
+    image: np.ndarray, valid: np.ndarray | None, min_length_px: float, scale: float
+) -> tuple[np.ndarray, np.ndarray]:
     """LSD segments ``(N, 4)`` (x1, y1, x2, y2, pixels of ``image``) found on ``image``
-    resized by ``scale``, at least ``min_length_px`` long, with both ends and the middle on
-    valid pixels away from the border of the valid region (whose outline is a straight
-    edge of the rectified image, not of the scene)."""
+    resized by ``scale``, each clipped to its longest part on valid pixels away from the
+    border of the valid region (whose outline is a straight edge of the rectified image,
+    not of the scene) and at least ``min_length_px`` long after that; and which of them
+    were whole (both ends and the middle there, not clipped).
+
+    A segment along the valid region's outline lies wholly in the border band and is
+    dropped. One that runs out of the view is a line of the scene up to the border: a
+    staircase wider than the view has all its nosings so (issue 11, :func:`scene_lines`)."""
     small = image if scale == 1 else cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
     found = cv2.createLineSegmentDetector().detect(small)[0]
     if found is None:
-        return np.empty((0, 4))
+        return np.empty((0, 4)), np.zeros(0, dtype=bool)
     # Pixel centres: x_small = (x + 0.5) * scale - 0.5.
     s = (found.reshape(-1, 4).astype(np.float64) + 0.5) / scale - 0.5
     s = s[np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1]) >= min_length_px]
@@ -187,12 +194,38 @@ def _segments(image: np.ndarray, valid: np.ndarray | None, min_length_px: float,
     inside[:3, :] = inside[-3:, :] = 0
     inside[:, :3] = inside[:, -3:] = 0
     inside = cv2.erode(inside, np.ones((7, 7), np.uint8)).astype(bool)
-    ok = np.ones(len(s), bool)
-    for x, y in ((s[:, 0], s[:, 1]), (s[:, 2], s[:, 3]), ((s[:, 0] + s[:, 2]) / 2, (s[:, 1] + s[:, 3]) / 2)):
+
+    def on(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         xi = np.clip(np.round(x).astype(int), 0, w - 1)
         yi = np.clip(np.round(y).astype(int), 0, h - 1)
-        ok &= inside[yi, xi]
-    return s[ok]
+        ok: np.ndarray = inside[yi, xi]
+        return ok
+
+    whole = on(s[:, 0], s[:, 1]) & on(s[:, 2], s[:, 3]) & on((s[:, 0] + s[:, 2]) / 2, (s[:, 1] + s[:, 3]) / 2)
+    keep = whole.copy()
+    cut = np.flatnonzero(~whole)
+    if len(cut):
+        # Each cut segment's longest run of inside pixels, one pixel apart (all at once:
+        # sample k of segment i at t = k / (n_i - 1), none past its own end).
+        a, b = s[cut, :2], s[cut, 2:]
+        length = np.hypot(*(b - a).T)
+        n = np.ceil(length).astype(int) + 1
+        k = np.arange(int(n.max()))
+        t = k[None, :] / (n[:, None] - 1)
+        along = t < 1.0 + 1e-9
+        t = np.minimum(t, 1.0)
+        flags = on(a[:, :1] + t * (b[:, :1] - a[:, :1]), a[:, 1:] + t * (b[:, 1:] - a[:, 1:])) & along
+        last_out = np.maximum.accumulate(np.where(flags, -1, k[None, :]), axis=1)
+        run = np.where(flags, k[None, :] - last_out, 0)  # length of the run ending here
+        end = np.argmax(run, axis=1)
+        longest = run[np.arange(len(cut)), end]
+        t0 = (end - longest + 1) / (n - 1)
+        t1 = end / (n - 1)
+        ok = (longest > 0) & ((t1 - t0) * length >= min_length_px)
+        lo, hi = a + t0[:, None] * (b - a), a + t1[:, None] * (b - a)
+        s[cut[ok]] = np.column_stack([lo, hi])[ok]
+        keep[cut[ok]] = True
+    return s[keep], whole[keep]
 
 
 def _tilt_deg(segments: np.ndarray) -> np.ndarray:
@@ -222,9 +255,15 @@ def line_segments(
 ) -> np.ndarray:
     """LSD segments ``(N, 4)`` (x1, y1, x2, y2 in pixels of ``image``, the rectified left
     image) found at ``scale``, at least ``config.min_length_px`` long (in pixels of a
-    640-pixel-wide raw image), away from the border of the valid region."""
-    length = config.min_length_px * rectification.raw_size[0] / 640.0
-    return _segments(image, rectification.valid_left, length, scale)
+    640-pixel-wide raw image), away from the border of the valid region (whole ones: not
+    those that reach it)."""
+    s, whole = _segments(image, rectification.valid_left, _min_length(rectification, config), scale)
+    return s[whole]
+
+
+def _min_length(rectification: Rectification, config: VerticalLinesConfig) -> float:
+    """``config.min_length_px`` in pixels of this raw image (it is given for 640 wide)."""
+    return config.min_length_px * rectification.raw_size[0] / 640.0
 
 
 def up_from_vertical_lines(
@@ -439,12 +478,20 @@ class SceneLines:
         :func:`horizontal_direction` in the rectified left camera (None when asked for and
         not found, or not asked for).
     segments : (N, 4) float64
-        The LSD segments behind them (for :func:`horizontal_direction` with another up).
+        The LSD segments behind them (for :func:`horizontal_direction` with another up):
+        whole ones, away from the border of the valid region.
+    at_border : (M, 4) float64
+        The same pass's segments that reach that border, clipped there (for the terrain's
+        nosings, :mod:`stereo_terrain.terrain.nosings`: a staircase wider than the view has
+        all its nosings so). The estimates above keep to whole segments: with these too,
+        the Manhattan fill and the rematches moved and lost as many staircases as the
+        nosings gained (docs/benchmarks.md, "Sixteenth session").
     """
 
     up: GravityEstimate | None
     horizontal: np.ndarray | None
     segments: np.ndarray
+    at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
 
 
 def scene_lines(
@@ -461,20 +508,21 @@ def scene_lines(
     ``want_up`` is False) and the dominant horizontal direction (``want_horizontal``; with
     the given up, else with the lines' when they fix it), from one LSD pass."""
     up_est = None
+    length = _min_length(rectification, config)
+    found, whole = np.empty((0, 4)), np.zeros(0, dtype=bool)
     if known_up is None and want_up:
-        segments = line_segments(image, rectification, config, config.detect_scale)
+        found, whole = _segments(image, rectification.valid_left, length, config.detect_scale)
+        segments = found[whole]
         up_est = up_from_vertical_lines(
             image, rectification, config, prior_cone_deg=prior_cone_deg, segments=segments
         )
         up = up_est.up if up_est.ok else None
     else:
         up = known_up
-        segments = (
-            line_segments(image, rectification, config, config.horizontal_scale)
-            if want_horizontal and up is not None
-            else np.empty((0, 4))
-        )
+        if want_horizontal and up is not None:
+            found, whole = _segments(image, rectification.valid_left, length, config.horizontal_scale)
+        segments = found[whole]
     horizontal = None
     if want_horizontal and up is not None:
         horizontal = horizontal_direction(segments, rectification, up, config)
-    return SceneLines(up_est, horizontal, segments)
+    return SceneLines(up_est, horizontal, segments, found[~whole])

@@ -456,7 +456,7 @@ class Pipeline:
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
         image_lines = None
         if lines_job is not None and cfg.terrain.nosing_steps:
-            image_lines = _image_lines(lines_job.result().segments, pair, T)
+            image_lines = _image_lines(lines_job.result(), pair, T)
         planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known, image_lines)
         rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
         terrain = estimate_step_sigmas(
@@ -540,12 +540,12 @@ class Pipeline:
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
 
 
-def _image_lines(segments: np.ndarray, pair: RectifiedPair, T: Transform) -> ImageLines:
+def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageLines:
     """The lines' job's segments with the rectified left camera in the yaw frame ``T``
     (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11)."""
     rect = pair.rectification
     h, w = pair.left.shape[:2]
-    return ImageLines(segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix)
+    return ImageLines(lines.segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix, lines.at_border)
 
 
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:

@@ -64,6 +64,9 @@ _LAM_GROUP = 0.08
 #: A segment is parallel to the nosings when its plane through the camera is within this
 #: of containing ``v``, plus the angle one pixel of end error makes over its length.
 _PARALLEL_DEG = 2.0
+#: Segments reaching the image's border whose plane through the camera is within this of
+#: horizontal are not taken for nosings (:func:`_parallel_segments`).
+_HORIZON_DEG = 1.0
 #: A refined top is taken from segments within this (metres) of each other.
 _TOP_GROUP_M = 0.01
 #: ... and cover this share of the step's visible width.
@@ -92,6 +95,9 @@ class ImageLines:
     image_size : (width, height)
     T_frame_camera : (4, 4) float64
         Rectified left camera to the terrain's (gravity-aligned) frame.
+    at_border : (M, 4) float64
+        Segments that reach the border of the image's valid region, clipped there (a
+        staircase wider than the view has all its nosings so); ``segments`` are whole.
     """
 
     segments: np.ndarray = field(repr=False)
@@ -100,6 +106,7 @@ class ImageLines:
     cy: float
     image_size: tuple[int, int]
     T_frame_camera: np.ndarray = field(repr=False)
+    at_border: np.ndarray = field(repr=False, default_factory=lambda: np.empty((0, 4)))
 
     @property
     def centre(self) -> np.ndarray:
@@ -183,7 +190,7 @@ def nosing_steps(
         return steps, 0, 0
     rises = [s.rise_m for s in steps if not s.rise_inferred]
     runs = [s.run_m for s in steps if s.run_m is not None]
-    if not rises or len(lines.segments) == 0 or not (runs or len(steps) == 1):
+    if not rises or len(lines.segments) + len(lines.at_border) == 0 or not (runs or len(steps) == 1):
         return steps, 0, 0
     rise = float(np.median(rises))
     margin = 0.1 * (lateral[1] - lateral[0])  # the side edges: stringers, walls
@@ -400,8 +407,16 @@ def _in_convex(quad: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _parallel_segments(lines: ImageLines, v: np.ndarray) -> _Segments | None:
-    """The segments that are images of lines along ``v``; None when there are none."""
-    s = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
+    """The segments that are images of lines along ``v``; None when there are none.
+
+    Of those that reach the image's border, not the ones whose plane through the camera is
+    within ``_HORIZON_DEG`` of horizontal: a line across the view at the cameras' height is
+    as likely the horizon or a far wall's foot as a nosing (one made a step beyond a
+    landing on a default-profile render). A whole one there is kept: the nosings of a
+    staircase whose top is at the cameras' height are such segments."""
+    whole = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
+    border = np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4)
+    s = np.concatenate([whole, border])
     d0, d1 = lines.rays(s[:, :2]), lines.rays(s[:, 2:])
     n = np.cross(d0, d1)
     norm = np.linalg.norm(n, axis=1)
@@ -410,6 +425,7 @@ def _parallel_segments(lines: ImageLines, v: np.ndarray) -> _Segments | None:
     n[ok] /= norm[ok, None]
     tol = np.sin(np.radians(_PARALLEL_DEG) + 2.0 / np.maximum(length, 1.0))
     ok &= np.abs(n @ v) < tol
+    ok[len(whole) :] &= np.abs(n[len(whole) :, 2]) < math.cos(math.radians(_HORIZON_DEG))
     if not ok.any():
         return None
     return _Segments(d0[ok], d1[ok], n[ok])
