@@ -13,7 +13,8 @@ Package layout (data flows one way, each module imports only those before it):
 ``model`` (:class:`TerrainConfig`, :class:`StairModel`, :class:`Step`, :class:`Polytope`) ->
 ``_kernels`` (compiled inner loop of the riser edges, Numba) -> ``risers`` (riser
 candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices),
-``continuation`` (steps beyond the last riser plane), ``nosings`` (steps beyond those
+``continuation`` (steps beyond the last riser plane) -> ``below`` (steps between a known
+floor and a chain that starts above it), ``nosings`` (steps beyond those
 whose nosings the image's line segments show), ``uniform`` (the staircase's common
 rise and run) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
 first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);

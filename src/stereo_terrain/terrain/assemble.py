@@ -12,6 +12,7 @@ import numpy as np
 from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
 from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
 from .nosings import ImageLines, nosing_steps
@@ -343,7 +344,7 @@ def _assemble_along(
     # are equal), and said so.
     # Which steps' tops are their riser's own top edge (for the edge bias below).
     own_edge = [c is not None and tread is None and top == c.z_hi for c, top, _, tread, _ in chain]
-    inferred_first = False
+    inferred_first = first_cut_off = False
     if chain and chain[0][0] is not None:
         first_s = chain[0][4]
         # The same when the first riser's foot is in view but the floor in front of it formed
@@ -357,6 +358,7 @@ def _assemble_along(
             and not _ground_before(s_h, v_h, h_z, ground_z, r, config)
         ]
         if cut_off:
+            first_cut_off = True
             r0 = max(cut_off, key=lambda r: r.s)  # the one just before the chain
             ground_tread = _tread_between(horizontals, h_z, s_h, ground_z, r0.s, first_s)
             chain.insert(0, (r0, ground_z, r0.plane, ground_tread, r0.s))
@@ -373,6 +375,17 @@ def _assemble_along(
         # 16.7: left alone. Steps inferred below a chain took their rise from its edges.)
         bias = edge_bias([(c[0], c[1]) for c in chain], cam[2], config)
         chain = [(c, top + bias, rp, tp, sp) for c, top, rp, tp, sp in chain]
+    if floor_known and chain and not below and not first_cut_off and ground_z >= config.min_rise_m:
+        # The frame's origin is on the floor, yet the chain starts above it: from the tread
+        # of a step whose riser formed no plane, or the foot of the riser above that step,
+        # the floor before it no plane either (a level camera sees a strip of it; issue 11).
+        ground_k = [k for k, z in enumerate(h_z) if abs(z - ground_z) < 1e-9]
+        ground_tread = horizontals[ground_k[0]].plane if ground_k else None
+        lower = steps_below(chain, ground_z, ground_tread, planes, P, u, v, (v_lo_all, v_hi_all), config)
+        if lower:
+            chain = lower + chain
+            below = set(range(len(lower))) if len(lower) > 1 else set()
+            ground_z = 0.0
     rises_seen = [chain[i][1] - chain[i - 1][1] for i in range(1, len(chain))]
     if inferred_first:
         ground_z = ground_z - float(median(rises_seen)) if rises_seen else ground_z - config.min_rise_m

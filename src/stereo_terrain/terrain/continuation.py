@@ -87,11 +87,7 @@ def continue_steps(
     tol = config.continue_run_tolerance
     samples = planes.samples
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
-    thr = INLIERS.inlier_threshold_m(samples.sigma_m)
-    used = np.zeros(len(P), dtype=bool)
-    for seg in planes.segments:
-        used[seg.indices] = True
-    free = ~used & np.isfinite(s_all) & np.isfinite(thr)
+    free, thr = free_samples(planes, s_all)
     wall_s = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     out = list(steps)
     added = 0
@@ -145,6 +141,16 @@ def continue_steps(
         if run is None:
             run = a0 - s0
     return out, added
+
+
+def free_samples(planes: PlaneSet, s_all: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples no plane took (with a finite position ``s_all`` along the stair axis and
+    a finite inlier threshold), and every sample's inlier threshold (:data:`INLIERS`)."""
+    thr = INLIERS.inlier_threshold_m(planes.samples.sigma_m)
+    used = np.zeros(len(s_all), dtype=bool)
+    for seg in planes.segments:
+        used[seg.indices] = True
+    return ~used & np.isfinite(s_all) & np.isfinite(thr), thr
 
 
 def _a_riser_there(

@@ -129,7 +129,8 @@ class TerrainConfig:
         starts this many of its rises or fewer above the ground (a whole number, within
         ``chain_tolerance_m``) and whose risers stand a run apart is the staircase, the
         steps below it inferred at its rise and run (``rise_inferred``): realistic stairs
-        whose first riser formed no plane. 0 = off.
+        whose first riser formed no plane. Also the most steps put between a known floor
+        and a chain that starts above it (:mod:`.below`). 0 = off.
     common_rise_tolerance_m, common_run_tolerance_m : float
         A staircase's rises are equal, and so are its runs (building codes allow about a
         centimetre between the largest and the smallest); what differs between measured

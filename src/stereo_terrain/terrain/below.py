@@ -1,0 +1,142 @@
+"""Steps below a chain that starts above a known floor (issue 11).
+
+With a rig, the frame's origin is on the floor the robot stands on. When the realistic
+stairs' first riser forms no plane and the floor before it forms none either (a level
+camera sees only a strip of it), the lowest surface the terrain stage finds is the first
+tread, or the foot of the second riser: the chain of steps starts there, a step (or two)
+above the floor, and the robot would be told of a first step a run beyond the real one, of
+the wrong height. The floor is known, so those steps are there. Their risers are placed
+where the samples show them:
+
+1. the front edge of the horizontal plane the chain stands on, when it is one (a tread
+   ends at its riser's top);
+2. else a band of the samples no plane took, at one position along the stair axis between
+   the floor and that height, a run before the chain (as :mod:`.continuation` finds a
+   riser beyond the last one);
+
+and, for a second step below, a run before that. The steps' rises split the height evenly
+(a staircase's rises are equal); their number is the height over the chain's rise, which
+must be a whole number of them within ``chain_tolerance_m``. Nothing is added where the
+position is not seen: a step reported a run away from where it is would be worse than the
+one reported late.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._numeric import median, percentile
+from ..msac import Plane
+from ..planes.orientation import PlaneSet
+from .continuation import INLIERS, _riser_patch, free_samples
+from .model import TerrainConfig
+from .risers import _Riser, _tread_front
+
+#: A link of the chain of steps: (riser candidate or None, top height, riser plane, tread
+#: plane or None, position along the stair axis); as in :mod:`.assemble`.
+Link = tuple[_Riser | None, float, Plane, Plane | None, float]
+
+
+def steps_below(
+    chain: list[Link],
+    ground_z: float,
+    ground_tread: Plane | None,
+    planes: PlaneSet,
+    P: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    config: TerrainConfig,
+) -> list[Link]:
+    """The links of the steps between the floor (height 0) and a chain that starts at
+    ``ground_z`` above it (module docstring), nearest first; empty where their number or
+    their place is not clear.
+
+    Parameters
+    ----------
+    chain : the chain from ``ground_z`` (at least one link)
+    ground_z : the height the chain starts from, metres above the floor
+    ground_tread : the horizontal plane at ``ground_z``, when it is one
+    planes, P : the plane set and its samples' points (gravity-aligned frame)
+    u, v : the stair axis and the lateral direction
+    lateral : the staircase's lateral extent along ``v``
+    config : TerrainConfig (``max_steps_below_chain``, ``chain_tolerance_m``,
+        ``min_rise_m``, ``max_rise_m``, ``min_run_m``, ``continue_min_run_m``,
+        ``continue_max_run_m``, ``continue_run_tolerance``, ``min_riser_points``,
+        ``min_riser_width_m``, ``edge_margin_m``, ``edge_band_m``)
+    """
+    if config.max_steps_below_chain < 1 or not chain or ground_z < config.min_rise_m:
+        return []
+    tops = [link[1] for link in chain]
+    rise = float(median(np.diff([ground_z] + tops)))
+    if rise < config.min_rise_m:
+        return []
+    n = int(round(ground_z / rise))
+    if not 1 <= n <= config.max_steps_below_chain or abs(ground_z - n * rise) > config.chain_tolerance_m:
+        return []
+    step_rise = ground_z / n
+    if not config.min_rise_m <= step_rise <= config.max_rise_m:
+        return []
+    s0 = chain[0][4]
+    runs = np.diff([link[4] for link in chain])
+    run = float(median(runs)) if len(runs) else None
+    front = _front(chain, ground_z, step_rise, ground_tread, planes, P, u, v, lateral, run, config)
+    if front is None:
+        return []
+    run_below = s0 - front
+    if not config.min_run_m <= run_below <= config.continue_max_run_m:
+        return []
+    links: list[Link] = []
+    for k in range(1, n + 1):
+        s_k = front - (n - k) * run_below
+        links.append((None, k * step_rise, Plane(-u, s_k), ground_tread if k == n else None, s_k))
+    return links
+
+
+def _front(
+    chain: list[Link],
+    ground_z: float,
+    step_rise: float,
+    ground_tread: Plane | None,
+    planes: PlaneSet,
+    P: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    run: float | None,
+    config: TerrainConfig,
+) -> float | None:
+    """Position along the stair axis of the riser just below the chain: the front edge of
+    the plane it stands on, else a band of free samples a run before it; None if neither."""
+    samples = planes.samples
+    if ground_tread is not None:
+        front = _tread_front(
+            P, samples.normals, ground_tread, u, v, lateral[0], lateral[1], thr=config.edge_band_m
+        )
+        if front is not None:
+            return front
+    s0 = chain[0][4]
+    if run is None:
+        lo, hi = s0 - config.continue_max_run_m, s0 - config.continue_min_run_m
+    else:
+        tol = config.continue_run_tolerance
+        lo, hi = s0 - (1.0 + tol) * run, s0 - (1.0 - tol) * run
+    s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
+    free, thr = free_samples(planes, s_all)
+    band = (
+        free
+        & (s_all > lo - INLIERS.max_threshold_m)
+        & (s_all < hi + INLIERS.max_threshold_m)
+        & (v_all > lateral[0] - 0.1)
+        & (v_all < lateral[1] + 0.1)
+        & (z_all > ground_z - step_rise - config.edge_margin_m)
+        & (z_all < ground_z + config.edge_margin_m)
+    )
+    patch = _riser_patch(np.flatnonzero(band), s_all, thr, samples, lo, hi, config)
+    if patch is None:
+        return None
+    z_lo, z_hi = percentile(z_all[patch], [5.0, 95.0])
+    v_lo, v_hi = percentile(v_all[patch], [5.0, 95.0])
+    if z_hi - z_lo < 0.5 * step_rise or v_hi - v_lo < config.min_riser_width_m:
+        return None
+    return float(median(s_all[patch]))

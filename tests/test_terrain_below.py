@@ -1,0 +1,138 @@
+"""Steps below a chain that starts above a known floor (terrain/below.py, issue 11)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain
+
+from .test_terrain import _stairs
+
+
+def _without(planes: PlaneSet, *, floor=True, risers=(), treads=()) -> PlaneSet:
+    """``planes`` less the floor plane, the riser planes at ``risers`` (positions along x)
+    and the tread planes at ``treads`` (heights); their samples stay, in no plane."""
+
+    def dropped(seg) -> bool:
+        if seg.kind == HORIZONTAL:
+            z = -seg.plane.offset
+            return (floor and abs(z) < 1e-6) or any(abs(z - t) < 1e-6 for t in treads)
+        return seg.kind == VERTICAL and any(abs(seg.plane.offset - r) < 1e-6 for r in risers)
+
+    keep = tuple(seg for seg in planes.segments if not dropped(seg))
+    assert len(keep) == len(planes.segments) - int(floor) - len(risers) - len(treads)
+    return dataclasses.replace(planes, segments=keep)
+
+
+def test_the_first_tread_is_no_floor_when_the_floor_is_known():
+    """The first riser and the floor formed no plane: the chain starts from the first tread.
+    With a rig the floor is at the origin, so that tread is a step up, its riser at the
+    tread's front edge."""
+    planes = _without(_stairs(n_steps=4, rise=0.17, run=0.29, distance=1.3), risers=[1.3])
+    unknown = build_terrain(planes, floor_known=False)
+    # without the floor the tread is taken for the ground: the first step is the second
+    assert len(unknown.steps) == 3 and unknown.steps[0].distance_m == pytest.approx(1.59, abs=0.01)
+    model = build_terrain(planes, floor_known=True)
+    assert model.obstacle == STAIRS and len(model.steps) == 4, model.note
+    assert [s.distance_m for s in model.steps] == pytest.approx([1.3, 1.59, 1.88, 2.17], abs=0.01)
+    assert [s.top_z_m for s in model.steps] == pytest.approx([0.17, 0.34, 0.51, 0.68], abs=0.01)
+    assert model.steps[0].rise_m == pytest.approx(0.17, abs=0.01)
+    assert not model.steps[0].rise_inferred  # one step: its rise is the tread's height
+    assert model.steps[0].run_m == pytest.approx(0.29, abs=0.01)
+
+
+def test_two_steps_below_the_chain_split_its_height():
+    """Two steps formed no riser and the first tread no plane: the second tread is two
+    rises above the floor, the two steps below it split that height and stand a run apart."""
+    planes = _without(
+        _stairs(n_steps=5, rise=0.16, run=0.28, distance=1.2), risers=[1.2, 1.48], treads=[0.16]
+    )
+    model = build_terrain(planes, floor_known=True)
+    assert len(model.steps) == 5, model.note
+    # (the synthetic tread starts 1 cm behind its riser)
+    assert [s.distance_m for s in model.steps[:3]] == pytest.approx([1.2, 1.48, 1.76], abs=0.025)
+    assert [s.rise_m for s in model.steps[:2]] == pytest.approx([0.16, 0.16], abs=0.01)
+    assert model.steps[0].rise_inferred and model.steps[1].rise_inferred
+    assert "below the lowest riser plane" in model.note
+
+
+def test_a_riser_below_the_chain_from_its_samples():
+    """No horizontal plane at all below the second riser: the chain starts at that riser's
+    foot, and the first riser is found from its samples a run before it."""
+    planes = _without(
+        _stairs(n_steps=4, rise=0.17, run=0.29, distance=1.3), risers=[1.3], treads=[0.17, 0.34, 0.51, 0.68]
+    )
+    model = build_terrain(planes, floor_known=True)
+    assert len(model.steps) == 4, model.note
+    assert model.steps[0].distance_m == pytest.approx(1.3, abs=0.03)
+    assert model.steps[0].top_z_m == pytest.approx(0.17, abs=0.02)
+    # and its samples removed: nothing shows where it stands, so nothing is added
+    samples = planes.samples
+    keep = ~((np.abs(samples.points[:, 0] - 1.3) < 0.02) & (samples.points[:, 2] < 0.17))
+    bare = PlaneSet(
+        tuple(dataclasses.replace(s, indices=_reindex(s.indices, keep)) for s in planes.segments),
+        dataclasses.replace(samples, **_subset(samples, keep)),
+        planes.up,
+        planes.stop_reason,
+        planes.camera_position,
+    )
+    assert len(build_terrain(bare, floor_known=True).steps) == 3
+
+
+def _reindex(indices: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    new = np.cumsum(keep) - 1
+    return new[indices[keep[indices]]]
+
+
+def _subset(samples, keep: np.ndarray) -> dict:
+    n = len(keep)
+    return {
+        f.name: getattr(samples, f.name)[keep]
+        for f in dataclasses.fields(samples)
+        if isinstance(getattr(samples, f.name), np.ndarray) and getattr(samples, f.name).shape[:1] == (n,)
+    }
+
+
+def test_a_raised_floor_before_the_stairs_is_no_step_a_run_before_them():
+    """A platform a step high that reaches a metre before the stairs is not the tread of a
+    step below them: its front edge is no run before the first riser."""
+    planes = _without(_stairs(n_steps=3, rise=0.17, run=0.29, distance=1.3), risers=[1.3])
+    # the first tread made 1.2 m deep toward the robot
+    pts = planes.samples.points.copy()
+    tread = next(s for s in planes.segments if s.kind == HORIZONTAL and abs(s.plane.offset + 0.17) < 1e-6)
+    on = tread.indices
+    pts[on, 0] = 0.39 + (pts[on, 0] - 1.31) * (1.2 / 0.27)
+    planes = dataclasses.replace(planes, samples=dataclasses.replace(planes.samples, points=pts))
+    model = build_terrain(planes, floor_known=True)
+    assert model.steps and model.steps[0].distance_m == pytest.approx(1.59, abs=0.01), model.note
+    # (what refuses it: a stair's run is at most continue_max_run_m)
+    wide = build_terrain(planes, TerrainConfig(continue_max_run_m=1.5), floor_known=True)
+    assert wide.steps[0].distance_m == pytest.approx(0.39, abs=0.02), wide.note
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    rise=st.floats(0.12, 0.21),
+    run=st.floats(0.24, 0.36),
+    distance=st.floats(0.9, 1.8),
+    n_steps=st.integers(2, 5),
+)
+def test_a_first_step_without_riser_or_floor_is_found_where_its_tread_starts(rise, run, distance, n_steps):
+    planes = _without(_stairs(n_steps=n_steps, rise=rise, run=run, distance=distance), risers=[distance])
+    model = build_terrain(planes, floor_known=True)
+    assert len(model.steps) == n_steps, model.note
+    assert model.steps[0].distance_m == pytest.approx(distance, abs=0.02)
+    assert model.steps[0].rise_m == pytest.approx(rise, abs=0.01)
+    assert [s.top_z_m for s in model.steps] == pytest.approx(
+        [rise * (k + 1) for k in range(n_steps)], abs=0.02
+    )
+
+
+def test_off_without_steps_below():
+    planes = _without(_stairs(n_steps=4), risers=[1.3])
+    model = build_terrain(planes, TerrainConfig(max_steps_below_chain=0), floor_known=True)
+    assert len(model.steps) == 3
