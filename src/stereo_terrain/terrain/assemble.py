@@ -12,6 +12,7 @@ import numpy as np
 from .._numeric import median, percentile  # NumPy's bits, a fraction of its time (issue 13)
 from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
+from .below import Link as _Link
 from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
@@ -116,11 +117,6 @@ def _chained(model: StairModel) -> int:
     """The steps a model chained from riser planes and treads: not those continued beyond
     the last riser plane (:mod:`.continuation`; inferred, never first)."""
     return len(model.steps) - sum(1 for s in model.steps[1:] if s.rise_inferred)
-
-
-#: One link of a chain: (riser candidate or None, top height, riser plane, tread plane or
-#: None, position along the stair axis).
-_Link = tuple[_Riser | None, float, Plane, Plane | None, float]
 
 
 def _chain_above_ground(

@@ -25,10 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._numeric import median, percentile
+from .._numeric import median
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .continuation import INLIERS, _riser_patch, free_samples
+from .continuation import free_samples, riser_band
 from .model import TerrainConfig
 from .risers import _Riser, _tread_front
 
@@ -80,7 +80,7 @@ def steps_below(
     s0 = chain[0][4]
     runs = np.diff([link[4] for link in chain])
     run = float(median(runs)) if len(runs) else None
-    front = _front(chain, ground_z, step_rise, ground_tread, planes, P, u, v, lateral, run, config)
+    front = _front(s0, ground_z, step_rise, ground_tread, planes, P, u, v, lateral, run, config)
     if front is None:
         return []
     run_below = s0 - front
@@ -94,7 +94,7 @@ def steps_below(
 
 
 def _front(
-    chain: list[Link],
+    s0: float,
     ground_z: float,
     step_rise: float,
     ground_tread: Plane | None,
@@ -107,7 +107,8 @@ def _front(
     config: TerrainConfig,
 ) -> float | None:
     """Position along the stair axis of the riser just below the chain: the front edge of
-    the plane it stands on, else a band of free samples a run before it; None if neither."""
+    the plane it stands on, else a band of free samples a run before the chain's first at
+    ``s0``; None if neither."""
     samples = planes.samples
     if ground_tread is not None:
         front = _tread_front(
@@ -115,7 +116,6 @@ def _front(
         )
         if front is not None:
             return front
-    s0 = chain[0][4]
     if run is None:
         lo, hi = s0 - config.continue_max_run_m, s0 - config.continue_min_run_m
     else:
@@ -123,20 +123,6 @@ def _front(
         lo, hi = s0 - (1.0 + tol) * run, s0 - (1.0 - tol) * run
     s_all, v_all, z_all = P @ u, P @ v, P[:, 2]
     free, thr = free_samples(planes, s_all)
-    band = (
-        free
-        & (s_all > lo - INLIERS.max_threshold_m)
-        & (s_all < hi + INLIERS.max_threshold_m)
-        & (v_all > lateral[0] - 0.1)
-        & (v_all < lateral[1] + 0.1)
-        & (z_all > ground_z - step_rise - config.edge_margin_m)
-        & (z_all < ground_z + config.edge_margin_m)
-    )
-    patch = _riser_patch(np.flatnonzero(band), s_all, thr, samples, lo, hi, config)
-    if patch is None:
-        return None
-    z_lo, z_hi = percentile(z_all[patch], [5.0, 95.0])
-    v_lo, v_hi = percentile(v_all[patch], [5.0, 95.0])
-    if z_hi - z_lo < 0.5 * step_rise or v_hi - v_lo < config.min_riser_width_m:
-        return None
-    return float(median(s_all[patch]))
+    heights = (ground_z - step_rise, ground_z)
+    found = riser_band(free, s_all, v_all, z_all, thr, samples, (lo, hi), heights, step_rise, lateral, config)
+    return None if found is None else found[1]

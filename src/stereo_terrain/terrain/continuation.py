@@ -98,23 +98,11 @@ def continue_steps(
             lo, hi = s0 + config.continue_min_run_m, s0 + config.continue_max_run_m
         else:
             lo, hi = s0 + (1.0 - tol) * run, s0 + (1.0 + tol) * run
-        band = (
-            free
-            & (s_all > lo - INLIERS.max_threshold_m)
-            & (s_all < hi + INLIERS.max_threshold_m)
-            & (v_all > lateral[0] - 0.1)
-            & (v_all < lateral[1] + 0.1)
-            & (z_all > top - config.edge_margin_m)
-            & (z_all < top + rise + config.edge_margin_m)
-        )
-        patch = _riser_patch(np.flatnonzero(band), s_all, thr, samples, lo, hi, config)
-        if patch is None:
+        heights = (top, top + rise)
+        found = riser_band(free, s_all, v_all, z_all, thr, samples, (lo, hi), heights, rise, lateral, config)
+        if found is None:
             break
-        z_lo, z_hi = percentile(z_all[patch], [5.0, 95.0])
-        v_lo, v_hi = percentile(v_all[patch], [5.0, 95.0])
-        if z_hi - z_lo < 0.5 * rise or v_hi - v_lo < config.min_riser_width_m:
-            break
-        a0 = float(median(s_all[patch]))
+        patch, a0, v_lo, v_hi = found
         if wall_s.size and float(np.min(np.abs(wall_s - a0))) < config.merge_distance_m:
             break
         if not _a_riser_there(a0, (v_lo, v_hi), top, rise, len(patch), s_all, v_all, z_all, thr, config):
@@ -151,6 +139,44 @@ def free_samples(planes: PlaneSet, s_all: np.ndarray) -> tuple[np.ndarray, np.nd
     for seg in planes.segments:
         used[seg.indices] = True
     return ~used & np.isfinite(s_all) & np.isfinite(thr), thr
+
+
+def riser_band(
+    free: np.ndarray,
+    s_all: np.ndarray,
+    v_all: np.ndarray,
+    z_all: np.ndarray,
+    thr: np.ndarray,
+    samples: GridSample,
+    span: tuple[float, float],
+    heights: tuple[float, float],
+    rise: float,
+    lateral: tuple[float, float],
+    config: TerrainConfig,
+) -> tuple[np.ndarray, float, float, float] | None:
+    """A riser from the samples' positions: of the ``free`` samples within ``lateral`` (10
+    cm beside it too), between ``heights`` (``edge_margin_m`` beyond each) and about the
+    positions ``span`` along the stair axis, the patch at one position (:func:`_riser_patch`)
+    at least half of ``rise`` tall and ``min_riser_width_m`` wide: ``(patch, its median
+    position, its lateral extent v_lo, v_hi)``; None where there is none."""
+    lo, hi = span
+    band = (
+        free
+        & (s_all > lo - INLIERS.max_threshold_m)
+        & (s_all < hi + INLIERS.max_threshold_m)
+        & (v_all > lateral[0] - 0.1)
+        & (v_all < lateral[1] + 0.1)
+        & (z_all > heights[0] - config.edge_margin_m)
+        & (z_all < heights[1] + config.edge_margin_m)
+    )
+    patch = _riser_patch(np.flatnonzero(band), s_all, thr, samples, lo, hi, config)
+    if patch is None:
+        return None
+    z_lo, z_hi = percentile(z_all[patch], [5.0, 95.0])
+    v_lo, v_hi = percentile(v_all[patch], [5.0, 95.0])
+    if z_hi - z_lo < 0.5 * rise or v_hi - v_lo < config.min_riser_width_m:
+        return None
+    return patch, float(median(s_all[patch])), float(v_lo), float(v_hi)
 
 
 def _a_riser_there(
