@@ -220,6 +220,26 @@ def test_a_staircase_wider_than_the_view_is_continued_by_its_clipped_nosings():
         assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
 
 
+def test_the_nosing_nearest_where_the_next_one_should_be_is_taken():
+    """Two lines across the staircase within the run's tolerance: the next nosing, and a
+    line three tenths of a step beyond it (a tread's far edge, a strip on the landing),
+    listed first. The nearer to where the next nosing should be is the one tested; the
+    other, with no riser foot under it, would stop the staircase."""
+    rise, run, distance = 0.15, 0.30, 1.2
+    height = 0.9  # above the treads: each riser's foot is in view and must show
+    planes = _planes(5, rise, run, distance, missing=2, height=height)
+    blank = _lines(np.empty((0, 4)), height)
+    beyond = _segment(blank, distance + 3.3 * run, 4.3 * rise, 0.0)  # 1.3 steps after the 3rd
+    lines = np.vstack([beyond[None], _stair_lines(5, rise, run, distance, height=height)])
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height))
+    assert len(model.steps) == 5
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+    # Without the next nosing and its foot, the line beyond is no step.
+    alone = np.vstack([beyond[None], _stair_lines(3, rise, run, distance, height=height)])
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(alone, height)).steps) == 3
+
+
 def test_a_line_across_the_view_at_the_cameras_height_is_no_nosing(monkeypatch):
     """A nosing a centimetre below the cameras is a line through the view less than a
     degree from their horizon, where the horizon or a far wall's foot draw the same line.

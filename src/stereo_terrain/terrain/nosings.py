@@ -22,7 +22,10 @@ The next step is accepted where:
 - segments within ``_LAM_GROUP`` of one ``lam`` in ``[1 - tol, 1 + tol]`` (``tol`` =
   ``nosing_run_tolerance``) cover ``nosing_min_cover`` of the staircase's width as far as
   it is in view at that depth: texture, grout lines and plank joints are short or broken
-  lines; a nosing spans the staircase;
+  lines; a nosing spans the staircase. The group that covers most is the candidate; of
+  groups that cover as much (each across the whole staircase), the one nearest ``lam =
+  1`` (with a run measured a few centimetres long, the next nosing and a line beyond it
+  both fall within the tolerance);
 - where the cameras are above the last tread (so the foot of the next riser is in view)
   and see it steeply enough that the foot's line is not the last nosing's, segments on
   that tread's height at the same position cover ``nosing_min_foot_cover``: a riser has a
@@ -505,34 +508,60 @@ def _next_nosing(
         return None
     lo, hi = _lateral_on_height(view, top_k + lam * rise)
     near &= np.isfinite(lo) & np.isfinite(hi)
-    best, best_cover = None, 0.0
+    # The group of segments that covers most of the staircase's width; of groups that
+    # cover as much (lines across the whole staircase cover all of it), the nearest to
+    # the expected position: with a run measured a few centimetres long, the next nosing
+    # and a line beyond it (the tread's far edge, the nosing after) both fall within the
+    # tolerance.
+    found: dict[float, float] = {}
     for x in lam[near]:
         group = near & (np.abs(lam - x) < _LAM_GROUP)
-        cover = _cover(lo[group], hi[group], span)
-        if cover > best_cover:
-            best, best_cover = float(np.median(lam[group])), cover
-    if best is None or best_cover < config.nosing_min_cover:
+        at = float(np.median(lam[group]))
+        if at not in found:
+            found[at] = _cover(lo[group], hi[group], span)
+    widest = max(found.values(), default=0.0)
+    if widest < config.nosing_min_cover:
         return None
-    if c[2] > top_k + _FOOT_VISIBLE_M:
-        # The last tread is seen from above, so the next riser's foot is in view: it must
-        # show too (a landing's tile joint or far edge has the floor beyond it instead).
-        # The feet lie on the pitch line a rise lower: the same well-posed intersection.
-        # Where the tread is seen so flat that the foot's line and the last nosing's are
-        # one (their pitch positions within twice a group), the foot says nothing.
-        foot_anchor = anchor - np.array([0.0, 0.0, rise])
-        last_nosing = np.cross(anchor - c, v)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            lam_last = -(last_nosing @ (foot_anchor - c)) / (last_nosing @ pitch)
-        foot_span = _visible(view, a_k + best * run, top_k + (best - 1.0) * rise)
-        if foot_span is not None and not abs(lam_last - best) < 2 * _LAM_GROUP:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                lam_f = -(segs.normal @ (foot_anchor - c)) / den
-            at = np.isfinite(lam_f) & (np.abs(den) > 1e-9) & (np.abs(lam_f - best) < _LAM_GROUP)
-            flo, fhi = _lateral_on_height(view, top_k + (lam_f - 1.0) * rise)
-            at &= np.isfinite(flo) & np.isfinite(fhi)
-            if _cover(flo[at], fhi[at], foot_span) < config.nosing_min_foot_cover:
-                return None
-    return best
+    best = min((at for at, cover in found.items() if cover == widest), key=lambda at: abs(at - 1.0))
+    return best if _foot_shows(view, segs, anchor, pitch, den, a_k, top_k, rise, run, best, config) else None
+
+
+def _foot_shows(
+    view: _View,
+    segs: _Segments,
+    anchor: np.ndarray,
+    pitch: np.ndarray,
+    den: np.ndarray,
+    a_k: float,
+    top_k: float,
+    rise: float,
+    run: float,
+    best: float,
+    config: TerrainConfig,
+) -> bool:
+    """Whether the foot of the riser below a nosing found at pitch position ``best`` is
+    in the image where it must be (:func:`_next_nosing`)."""
+    c = view.lines.centre
+    if not c[2] > top_k + _FOOT_VISIBLE_M:
+        return True
+    # The last tread is seen from above, so the next riser's foot is in view: it must
+    # show too (a landing's tile joint or far edge has the floor beyond it instead).
+    # The feet lie on the pitch line a rise lower: the same well-posed intersection.
+    # Where the tread is seen so flat that the foot's line and the last nosing's are
+    # one (their pitch positions within twice a group), the foot says nothing.
+    foot_anchor = anchor - np.array([0.0, 0.0, rise])
+    last_nosing = np.cross(anchor - c, view.v)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam_last = -(last_nosing @ (foot_anchor - c)) / (last_nosing @ pitch)
+    foot_span = _visible(view, a_k + best * run, top_k + (best - 1.0) * rise)
+    if foot_span is None or abs(lam_last - best) < 2 * _LAM_GROUP:
+        return True
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam_f = -(segs.normal @ (foot_anchor - c)) / den
+    at = np.isfinite(lam_f) & (np.abs(den) > 1e-9) & (np.abs(lam_f - best) < _LAM_GROUP)
+    flo, fhi = _lateral_on_height(view, top_k + (lam_f - 1.0) * rise)
+    at &= np.isfinite(flo) & np.isfinite(fhi)
+    return _cover(flo[at], fhi[at], foot_span) >= config.nosing_min_foot_cover
 
 
 def _run_from_two_nosings(
