@@ -3,6 +3,7 @@
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -390,3 +391,47 @@ def test_image_lines_rays_and_projection_agree(yaw, pitch, x, y, depth):
     uv, z = lines.project(point[None, :])
     assert z[0] == pytest.approx(depth, rel=1e-9)
     assert uv[0] == pytest.approx([x, y], abs=1e-6)
+
+
+def _stair_image(n_steps, rise, run, distance, height, *, tread=150.0, riser=110.0, seed=0):
+    """A grey image of the staircase (1 m wide about y = 0, along x) from the level camera
+    ``height`` up: treads and risers of two shades, the rest mid grey, sensor noise."""
+    rng = np.random.default_rng(seed)
+    img = 130.0 + rng.normal(0.0, 2.0, (SIZE[1], SIZE[0]))
+    blank = _lines(np.empty((0, 4)), height)
+    w = WIDTH / 2
+    for i in reversed(range(n_steps)):  # far first: nearer faces are drawn over them
+        s, z = distance + i * run, i * rise
+        faces = (
+            ([[s + run, -w, z + rise], [s, -w, z + rise], [s, w, z + rise], [s + run, w, z + rise]], tread),
+            ([[s, -w, z], [s, -w, z + rise], [s, w, z + rise], [s, w, z]], riser),
+        )
+        for quad, grey in faces:
+            uv, depth = blank.project(np.array(quad, dtype=np.float64))
+            if (depth > 0).all():
+                cv2.fillPoly(img, [np.round(uv * 16).astype(np.int32)], grey, cv2.LINE_AA, 4)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_a_nosing_no_segment_shows_is_found_as_an_edge_in_the_image():
+    """LSD keeps only lines it is sure of: a faint nosing may give it none. The image's
+    grey levels still show each nosing as a step edge: with the rectified image and no
+    segments at all, the staircase is continued to its five steps; with a noise image
+    (no edges), or the edge search off, it is not."""
+    rise, run, distance = 0.17, 0.29, 1.3
+    height = 1.2  # well above the treads: each riser foot shows apart from the nosings
+    planes = _planes(5, rise, run, distance, height=height)
+    none = np.empty((0, 4))
+    image = _stair_image(5, rise, run, distance, height)
+    lines = dataclasses.replace(_lines(none, height), image=image)
+    model = build_terrain(planes, NO_SAMPLES, lines=lines)
+    assert model.obstacle == STAIRS and len(model.steps) == 5
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+    off = dataclasses.replace(NO_SAMPLES, nosing_edge_contrast=0.0)
+    assert len(build_terrain(planes, off, lines=lines).steps) == 3
+    noise = np.random.default_rng(1).normal(128.0, 12.0, image.shape).clip(0, 255).astype(np.uint8)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=dataclasses.replace(lines, image=noise)).steps) == 3
+    # A landing beyond the third step (no riser): its far edge is no step.
+    flat = _stair_image(3, rise, run, distance, height)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=dataclasses.replace(lines, image=flat)).steps) == 3

@@ -545,7 +545,9 @@ def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageL
     (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11)."""
     rect = pair.rectification
     h, w = pair.left.shape[:2]
-    return ImageLines(lines.segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix, lines.at_border)
+    return ImageLines(
+        lines.segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix, lines.at_border, pair.left
+    )
 
 
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:

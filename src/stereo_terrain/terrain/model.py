@@ -119,6 +119,12 @@ class TerrainConfig:
     nosing_min_foot_cover : float
         Where the cameras are above the last tread, share of the visible width that the
         segments at the next riser's foot must cover.
+    nosing_edge_contrast : float
+        Where no segments show the next nosing, it is looked for in the rectified image's
+        grey levels (smoothed): a step edge along the predicted line, the two sides
+        differing by at least this many grey levels over ``nosing_min_cover`` of the
+        width, and its foot likewise (:func:`~stereo_terrain.terrain.nosings._edge_nosing`).
+        0 turns it off.
     face_bias_correlation : float
         Correlation of the shared disparity error of neighbouring faces (a tread and the
         surface below it), in [0, 1]: most of it moves both alike and cancels in a rise.
@@ -184,6 +190,7 @@ class TerrainConfig:
     nosing_run_tolerance: float = 0.35
     nosing_min_cover: float = 0.4
     nosing_min_foot_cover: float = 0.25
+    nosing_edge_contrast: float = 4.0
     max_steps_below_chain: int = 2
     common_rise_tolerance_m: float = 0.03
     common_run_tolerance_m: float = 0.05
@@ -202,6 +209,7 @@ class TerrainConfig:
             "common_rise_tolerance_m",
             "common_run_tolerance_m",
             "max_edge_bias_m",
+            "nosing_edge_contrast",
         )
         check_min(self, 2, "common_min_steps")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:
