@@ -435,3 +435,22 @@ def test_a_nosing_no_segment_shows_is_found_as_an_edge_in_the_image():
     # A landing beyond the third step (no riser): its far edge is no step.
     flat = _stair_image(3, rise, run, distance, height)
     assert len(build_terrain(planes, NO_SAMPLES, lines=dataclasses.replace(lines, image=flat)).steps) == 3
+
+
+def test_a_foot_no_segment_shows_is_found_as_an_edge_in_the_image():
+    """The next nosing's segment is there and its riser's foot gave LSD none: without the
+    image that is a landing's edge (no step); with it, the foot shows as the opposite
+    edge and the step is added; an image of a landing there (three steps drawn) adds
+    none."""
+    rise, run, distance = 0.15, 0.30, 1.2
+    height = 0.9
+    planes = _planes(4, rise, run, distance, missing=1, height=height)
+    segs = _stair_lines(4, rise, run, distance, height=height)[:-1]  # the last foot missing
+    lines = _lines(segs, height)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=lines).steps) == 3
+    image = _stair_image(4, rise, run, distance, height)
+    model = build_terrain(planes, NO_SAMPLES, lines=dataclasses.replace(lines, image=image))
+    assert len(model.steps) == 4
+    assert model.steps[3].distance_m == pytest.approx(distance + 3 * run, abs=0.01)
+    landing = _stair_image(3, rise, run, distance, height)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=dataclasses.replace(lines, image=landing)).steps) == 3

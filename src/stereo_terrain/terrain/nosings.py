@@ -244,11 +244,11 @@ def nosing_steps(
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     added = 0
     while added < config.max_nosing_steps:
-        lam = _next_nosing(view, a, anchor, rise, run, config)
-        if lam is None and edges:
-            smoothed = smoothed_image(lines) if smoothed is None else smoothed
-            if smoothed is not None:
-                lam = _edge_nosing(view, smoothed, a, anchor, rise, run, config)
+        if edges and smoothed is None:
+            smoothed = smoothed_image(lines)
+        lam = _next_nosing(view, a, anchor, rise, run, config, smoothed)
+        if lam is None and smoothed is not None:
+            lam = _edge_nosing(view, smoothed, a, anchor, rise, run, config)
         if lam is None:
             break
         last = out[-1]
@@ -516,6 +516,7 @@ def _next_nosing(
     rise: float,
     run: float,
     config: TerrainConfig,
+    smoothed: np.ndarray | None = None,
 ) -> float | None:
     """The pitch-line position ``lam`` of the next nosing after the step at ``(a_k, top_k)``,
     or None when the segments show none (module docstring)."""
@@ -550,7 +551,23 @@ def _next_nosing(
     if widest < config.nosing_min_cover:
         return None
     best = min((at for at, cover in found.items() if cover == widest), key=lambda at: abs(at - 1.0))
-    return best if _foot_shows(view, segs, anchor, pitch, den, a_k, top_k, rise, run, best, config) else None
+    if _foot_shows(view, segs, anchor, pitch, den, a_k, top_k, rise, run, best, config):
+        return best
+    # No segments at the foot: with the image, its grey levels may still show it.
+    if smoothed is None:
+        return None
+    width = _visible(view, a_k + best * run, top_k + best * rise)
+    if width is None:
+        return None
+    nosing = _line_pixels(view, a_k + best * run, top_k + best * rise, width)
+    if nosing is None:
+        return None
+    edge = _edge_cover(smoothed, nosing, config.nosing_edge_contrast)
+    if abs(edge) < config.nosing_min_cover:
+        return None
+    return (
+        best if _edge_foot_shows(view, smoothed, a_k, top_k, rise, run, best, edge, width, config) else None
+    )
 
 
 def _foot_shows(
@@ -823,19 +840,40 @@ def _edge_nosing(
     best, best_cover = float(lam[pick]), float(cover[pick])
     if abs(best_cover) < config.nosing_min_cover:
         return None
-    if c[2] > top_k + _FOOT_VISIBLE_M:
-        foot = _line_pixels(view, a_k + best * run, top_k, span)
-        nosing = _line_pixels(view, a_k + best * run, top_k + best * rise, span)
-        if foot is None or nosing is None or last is None:
-            return None
-        if min(_apart_px(foot, nosing), _apart_px(foot, last)) < _FOOT_APART_PX:
-            return None
-        if (
-            -math.copysign(1.0, best_cover) * _edge_cover(smoothed, foot, contrast)
-            < config.nosing_min_foot_cover
-        ):
-            return None
+    if c[2] > top_k + _FOOT_VISIBLE_M and not _edge_foot_shows(
+        view, smoothed, a_k, top_k, rise, run, best, best_cover, span, config
+    ):
+        return None
     return best
+
+
+def _edge_foot_shows(
+    view: _View,
+    smoothed: np.ndarray,
+    a_k: float,
+    top_k: float,
+    rise: float,
+    run: float,
+    best: float,
+    nosing_cover: float,
+    span: tuple[float, float],
+    config: TerrainConfig,
+) -> bool:
+    """Whether the foot of the riser under the nosing found at pitch position ``best``
+    (its edge's signed cover ``nosing_cover``) shows in the image's grey levels: the
+    opposite edge (riser over tread) over ``nosing_min_foot_cover`` of the width, at least
+    ``_FOOT_APART_PX`` from that nosing and from the last one in the image (a tread seen
+    so flat that its two ends are one edge does not tell a step from a landing's far
+    end)."""
+    foot = _line_pixels(view, a_k + best * run, top_k, span)
+    nosing = _line_pixels(view, a_k + best * run, top_k + best * rise, span)
+    last = _line_pixels(view, a_k, top_k, span)
+    if foot is None or nosing is None or last is None:
+        return False
+    if min(_apart_px(foot, nosing), _apart_px(foot, last)) < _FOOT_APART_PX:
+        return False
+    opposite = -math.copysign(1.0, nosing_cover) * _edge_cover(smoothed, foot, config.nosing_edge_contrast)
+    return opposite >= config.nosing_min_foot_cover
 
 
 def _apart_px(a: np.ndarray, b: np.ndarray) -> float:
