@@ -224,7 +224,7 @@ def nosing_steps(
             return steps, 0, 0
         segs = _Segments(np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)))
     view = _View(lines, segs, u, v, lat)
-    smoothed = None  # the image's, smoothed once a nosing is looked for there
+    smoothed = None  # the image smoothed for the edges, on the first pass of the loop below
     out, tall = _split_too_tall(list(steps), view, config)
     out, split = _split_double_steps(out, view, config)
     split += tall
