@@ -62,8 +62,10 @@ stair rise, a chain of every other riser, split the same way (:func:`_split_too_
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import cv2
@@ -224,7 +226,8 @@ def nosing_steps(
             return steps, 0, 0
         segs = _Segments(np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)))
     view = _View(lines, segs, u, v, lat)
-    smoothed = None  # the image smoothed for the edges, on the first pass of the loop below
+    # The image smoothed for the edges, once and only when a nosing is looked for there.
+    smoothed = functools.cache(lambda: smoothed_image(lines)) if edges else None
     out, tall = _split_too_tall(list(steps), view, config)
     out, split = _split_double_steps(out, view, config)
     split += tall
@@ -244,11 +247,9 @@ def nosing_steps(
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     added = 0
     while added < config.max_nosing_steps:
-        if edges and smoothed is None:
-            smoothed = smoothed_image(lines)
         lam = _next_nosing(view, a, anchor, rise, run, config, smoothed)
         if lam is None and smoothed is not None:
-            lam = _edge_nosing(view, smoothed, a, anchor, rise, run, config)
+            lam = _edge_nosing(view, smoothed(), a, anchor, rise, run, config)
         if lam is None:
             break
         last = out[-1]
@@ -516,10 +517,12 @@ def _next_nosing(
     rise: float,
     run: float,
     config: TerrainConfig,
-    smoothed: np.ndarray | None = None,
+    smoothed: Callable[[], np.ndarray] | None = None,
 ) -> float | None:
     """The pitch-line position ``lam`` of the next nosing after the step at ``(a_k, top_k)``,
-    or None when the segments show none (module docstring)."""
+    or None when the segments show none (module docstring). ``smoothed`` gives the smoothed
+    image (:func:`smoothed_image`) where a foot the segments do not show may be looked for
+    in it."""
     lines, segs, u, v, lat = view.lines, view.segs, view.u, view.v, view.lat
     c = lines.centre
     span = _visible(view, a_k + run, top_k + rise)
@@ -562,12 +565,11 @@ def _next_nosing(
     nosing = _line_pixels(view, a_k + best * run, top_k + best * rise, width)
     if nosing is None:
         return None
-    edge = _edge_cover(smoothed, nosing, config.nosing_edge_contrast)
+    image = smoothed()
+    edge = _edge_cover(image, nosing, config.nosing_edge_contrast)
     if abs(edge) < config.nosing_min_cover:
         return None
-    return (
-        best if _edge_foot_shows(view, smoothed, a_k, top_k, rise, run, best, edge, width, config) else None
-    )
+    return best if _edge_foot_shows(view, image, a_k, top_k, rise, run, best, edge, width, config) else None
 
 
 def _foot_shows(
@@ -709,11 +711,9 @@ _EDGE_MIN_PX = 12
 _FOOT_APART_PX = 8.0
 
 
-def smoothed_image(lines: ImageLines) -> np.ndarray | None:
-    """The rectified left image, float32 and smoothed, for :func:`_edge_cover`; None
-    without one."""
-    if lines.image is None:
-        return None
+def smoothed_image(lines: ImageLines) -> np.ndarray:
+    """The rectified left image (``lines.image``, which must be there), float32 and
+    smoothed, for :func:`_edge_cover`."""
     img = np.asarray(lines.image, dtype=np.float32)
     if img.ndim == 3:
         img = img.mean(axis=2, dtype=np.float32)
