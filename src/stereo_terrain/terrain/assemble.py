@@ -16,7 +16,7 @@ from .below import Link as _Link
 from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
-from .nosings import ImageLines, nosing_steps
+from .nosings import ImageLines, nosing_heights, nosing_steps
 from .polytope import _classify_single_step, _polytope
 from .risers import (
     _LOW_INLIER_PCT,
@@ -28,7 +28,7 @@ from .risers import (
     edge_bias,
     riser_distance,
 )
-from .uniform import common_steps
+from .uniform import common_steps, rise_from_nosings
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
 #: orientation method's tolerance) was two different faces.
@@ -106,9 +106,9 @@ def _assemble(
         if best is None or _chained(model) > _chained(best):
             best, best_found = model, found
     assert best is not None
-    if lines is not None and config.nosing_steps and isinstance(best_found, _Chain):
-        # The steps the image's lines show beyond the chain, for the family that won only
-        # (they do not count in the choice: they are inferred).
+    if lines is not None and (config.nosing_steps or config.nosing_rise) and isinstance(best_found, _Chain):
+        # The steps the image's lines show beyond the chain and the rise their nosings show,
+        # for the family that won only (they do not count in the choice: they are inferred).
         best = _finish(best_found, config, lines)
     return best
 
@@ -458,11 +458,19 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     v = np.array([-u[1], u[0], 0.0])
     steps = list(chain.steps)
     from_lines = split = 0
-    if lines is not None:
+    if lines is not None and config.nosing_steps:
         steps, from_lines, split = nosing_steps(
             steps, chain.planes, chain.P, u, v, chain.lateral, lines, config
         )
-    steps, pooled_rises, pooled_runs = common_steps(steps, chain.ground_z, config)
+    fit = None
+    if lines is not None and config.nosing_rise:
+        heights = nosing_heights(steps, u, v, chain.lateral, lines)
+        known = not (chain.inferred_first or chain.below)  # else the ground is a guess
+        fit = rise_from_nosings(heights, chain.ground_z if known else None, config)
+    nosing_rise, fits = fit if fit is not None else (None, [])
+    steps, pooled_rises, pooled_runs = common_steps(
+        steps, chain.ground_z, config, rise_m=nosing_rise, fits=fits
+    )
 
     obstacle = STAIRS
     note = f"{len(steps)} step(s) from {len(chain.ordered)} riser plane(s)"
@@ -488,7 +496,12 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             f"; {from_lines} more beyond, where the image's line segments show their nosings"
             " (at the median rise and run)"
         )
-    if pooled_rises:
+    if pooled_rises and nosing_rise is not None and any(s.rise_m == nosing_rise for s in steps):
+        note += (
+            f"; {pooled_rises} measured rise(s) agree with the rise that puts the nosings the"
+            " image's line segments show at their heights: those steps report it"
+        )
+    elif pooled_rises:
         note += f"; {pooled_rises} measured rises agree: those steps report their median"
     if pooled_runs:
         note += f"; {pooled_runs} measured runs agree: those steps report their median"

@@ -151,6 +151,12 @@ class TerrainConfig:
     common_min_steps : int
         Measured rises (runs) that must agree for a common one (with two, neither can be
         told to be the odd one).
+    nosing_rise : bool
+        Where the image's line segments show two or more of a staircase's nosings, its
+        common rise is the one that puts them at their heights (a least-squares fit from
+        the ground, each within ``common_rise_tolerance_m``), not the median of the
+        measured rises; the measured rises within ``common_rise_tolerance_m`` of it report
+        it. See :mod:`.uniform`.
     max_edge_bias_m : float
         A riser's top edge, found from the samples nearest it, lies low, and its bottom
         edge high, by about the same amount. In a staircase whose every top is its riser's
@@ -195,6 +201,7 @@ class TerrainConfig:
     common_rise_tolerance_m: float = 0.03
     common_run_tolerance_m: float = 0.05
     common_min_steps: int = 3
+    nosing_rise: bool = True
     max_edge_bias_m: float = 0.04
 
     def __post_init__(self) -> None:

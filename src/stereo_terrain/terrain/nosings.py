@@ -218,14 +218,12 @@ def nosing_steps(
     if len(lines.segments) + len(lines.at_border) == 0 and not (edges and runs):
         return steps, 0, 0
     rise = float(np.median(rises))
-    margin = 0.1 * (lateral[1] - lateral[0])  # the side edges: stringers, walls
-    lat = (lateral[0] + margin, lateral[1] - margin)
     segs = _parallel_segments(lines, v)
     if segs is None:
         if not (edges and runs):
             return steps, 0, 0
         segs = _Segments(np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)))
-    view = _View(lines, segs, u, v, lat)
+    view = _View(lines, segs, u, v, _inner(lateral))
     # The image smoothed for the edges, once and only when a nosing is looked for there.
     smoothed = functools.cache(lambda: smoothed_image(lines)) if edges else None
     out, tall = _split_too_tall(list(steps), view, config)
@@ -263,6 +261,43 @@ def nosing_steps(
         added += 1
         a, anchor = a_new, _refined_top(view, a_new, anchor + rise, rise)
     return out, added, split
+
+
+def _inner(lateral: tuple[float, float]) -> tuple[float, float]:
+    """The part of a staircase's lateral extent whose nosings are looked at: not its side
+    edges (stringers, walls)."""
+    margin = 0.1 * (lateral[1] - lateral[0])
+    return (lateral[0] + margin, lateral[1] - margin)
+
+
+def nosing_heights(
+    steps: list[Step],
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    lines: ImageLines,
+) -> list[float | None]:
+    """Each step's nosing height as the image's segments show it on its riser plane
+    (:func:`_nosing_top`: the segments within a third of the steps' median measured rise
+    of its top that cover ``_TOP_MIN_COVER`` of its width); None where none do. The
+    segments place a nosing to a fraction of a pixel of elevation, a few millimetres at
+    stair distances, where a height from the samples carries centimetres of disparity
+    noise (:mod:`.uniform` fits the staircase's rise to them).
+
+    Parameters
+    ----------
+    steps : the staircase's steps, nearest first (``axis_position_m``, ``top_z_m``)
+    u, v : (3,) float, the stair axis and the lateral direction (terrain frame)
+    lateral : the staircase's lateral extent along ``v``, metres
+    lines : ImageLines
+    """
+    rises = [s.rise_m for s in steps if not s.rise_inferred]
+    segs = _parallel_segments(lines, v) if rises else None
+    if segs is None:
+        return [None] * len(steps)
+    view = _View(lines, segs, u, v, _inner(lateral))
+    rise = float(np.median(rises))
+    return [_nosing_top(view, s.axis_position_m, s.top_z_m, rise) for s in steps]
 
 
 def _split_too_tall(
@@ -652,20 +687,27 @@ def _run_from_two_nosings(
     return best
 
 
-def _refined_top(
+def _refined_top(view: _View, a_k: float, top_k: float, rise: float) -> float:
+    """:func:`_nosing_top`, else ``top_k``."""
+    top = _nosing_top(view, a_k, top_k, rise)
+    return top_k if top is None else top
+
+
+def _nosing_top(
     view: _View,
     a_k: float,
     top_k: float,
     rise: float,
-) -> float:
+) -> float | None:
     """The height of the step's nosing as its segments show it on its riser plane
     ``u . x = a_k`` (of the groups of segments within a third of a rise of ``top_k`` that
     cover ``_TOP_MIN_COVER`` of its width, the nearest; the top found from the samples is
-    biased low, docs/benchmarks.md "Tenth session"), else ``top_k``."""
+    biased low, docs/benchmarks.md "Tenth session"); None where none does, or the step is
+    not in view."""
     lines, segs, u, v = view.lines, view.segs, view.u, view.v
     span = _visible(view, a_k, top_k)
     if span is None:
-        return top_k
+        return None
     c = lines.centre
     n = segs.normal
     base = a_k * u + 0.5 * (span[0] + span[1]) * v
@@ -673,7 +715,7 @@ def _refined_top(
         z = -(n @ (base - c)) / n[:, 2]
     near = np.isfinite(z) & (np.abs(z - top_k) < rise / 3.0)
     if not near.any():
-        return top_k
+        return None
     # The segments' ends on the riser plane, for their lateral extent.
     with np.errstate(divide="ignore", invalid="ignore"):
         t0 = (a_k - c @ u) / (segs.d0 @ u)
@@ -682,7 +724,8 @@ def _refined_top(
     e1 = (c + t1[:, None] * segs.d1) @ v
     lo, hi = np.minimum(e0, e1), np.maximum(e0, e1)
     near &= np.isfinite(lo) & np.isfinite(hi)
-    best, best_dz = top_k, math.inf
+    best: float | None = None
+    best_dz = math.inf
     for x in z[near]:
         group = near & (np.abs(z - x) < _TOP_GROUP_M)
         if _cover(lo[group], hi[group], span) >= _TOP_MIN_COVER and abs(x - top_k) < best_dz:

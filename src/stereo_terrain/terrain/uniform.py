@@ -24,11 +24,22 @@ Measured on the plane sets of 280 rendered staircases per profile (docs/benchmar
 "Eighth session"): rise and run errors fall on both profiles (the default profile's rise
 p90 to about a third), and the step count and detection do not change, since only rises
 and runs do.
+
+Where the image's line segments show two or more of the staircase's nosings
+(:func:`~.nosings.nosing_heights`, ``TerrainConfig.nosing_rise``), the common rise is the
+one that puts them at their heights instead (:func:`rise_from_nosings`): a nosing's
+segments fix its elevation from the cameras to a fraction of a pixel, a few millimetres
+at stair distances, where a top from the samples carries the disparity's centimetres. On
+realistic webcam-like renders (wood whose faces the matcher barely holds) the rise error's
+median fell by a quarter to a third (docs/benchmarks.md, "Nineteenth session"). The steps
+whose measured rise lies within ``common_rise_tolerance_m`` of it report it; the rest keep
+their own, as above.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Collection
 
 import numpy as np
 
@@ -50,7 +61,56 @@ def _agreeing(values: dict[int, float], tol: float, min_count: int) -> tuple[lis
     return agree, centre
 
 
-def common_steps(steps: list[Step], ground_z: float, config: TerrainConfig) -> tuple[list[Step], int, int]:
+#: Nosings whose heights the staircase's rise is fitted to: at least this many (one more
+#: where the ground's height is not known, so that the fit is still checked).
+_MIN_NOSINGS = 2
+
+
+def rise_from_nosings(
+    heights: list[float | None], ground_z: float | None, config: TerrainConfig
+) -> tuple[float, list[int]] | None:
+    """The rise that puts the staircase's nosings at their heights: the least-squares ``R``
+    of ``heights[i] = ground_z + (i + 1) R`` over the steps whose nosing shows (not None),
+    ``_MIN_NOSINGS`` or more. With ``ground_z`` None (the first step's foot out of view, its
+    rise inferred), ``heights[i] = b + (i + 1) R`` over one more. None where fewer show,
+    where one lies further than ``common_rise_tolerance_m`` from the fit (a nosing not a
+    step from the next, a double step, a line that is no nosing), or where ``R`` is no
+    stair rise (``min_rise_m``, ``max_rise_m``). Else ``R`` and the indices of the steps
+    whose nosings it fits.
+
+    Parameters
+    ----------
+    heights : each step's nosing height (frame z, metres) or None, nearest step first
+    ground_z : height of the surface before the first step, or None where unknown
+    config : TerrainConfig
+    """
+    k = np.array([i + 1.0 for i, h in enumerate(heights) if h is not None])
+    h = np.array([x for x in heights if x is not None], dtype=np.float64)
+    if config.common_rise_tolerance_m <= 0 or len(k) < _MIN_NOSINGS + (ground_z is None):
+        return None
+    if ground_z is not None:
+        h = h - ground_z
+        rise = float(k @ h / (k @ k))
+        residuals = h - k * rise
+    else:
+        A = np.stack([k, np.ones_like(k)], axis=1)
+        coef = np.linalg.lstsq(A, h, rcond=None)[0]
+        rise, residuals = float(coef[0]), h - A @ coef
+    if float(np.max(np.abs(residuals))) > config.common_rise_tolerance_m:
+        return None
+    if not config.min_rise_m <= rise <= config.max_rise_m:
+        return None
+    return rise, [i for i, x in enumerate(heights) if x is not None]
+
+
+def common_steps(
+    steps: list[Step],
+    ground_z: float,
+    config: TerrainConfig,
+    *,
+    rise_m: float | None = None,
+    fits: Collection[int] = (),
+) -> tuple[list[Step], int, int]:
     """``steps`` with the staircase's common rise and run where their measured ones agree
     (module docstring), and how many measured rises and runs they replaced (0, 0:
     unchanged).
@@ -61,12 +121,21 @@ def common_steps(steps: list[Step], ground_z: float, config: TerrainConfig) -> t
     ground_z : height of the surface before the first step (the frame's z)
     config : TerrainConfig (``common_rise_tolerance_m``, ``common_run_tolerance_m``,
         ``common_min_steps``)
+    rise_m : the staircase's rise measured otherwise (:func:`rise_from_nosings`), or None.
+        Given, the steps of ``fits`` (those whose nosings it fits) and those whose measured
+        rise is within ``common_rise_tolerance_m`` of it report it, one or more; where none
+        does, the median's rule above decides.
+    fits : indices of steps that take ``rise_m`` whatever their measured rise
     """
-    rises, rise = _agreeing(
-        {i: s.rise_m for i, s in enumerate(steps) if not s.rise_inferred},
-        config.common_rise_tolerance_m,
-        config.common_min_steps,
-    )
+    measured = {i: s.rise_m for i, s in enumerate(steps) if not s.rise_inferred}
+    rises: list[int] = []
+    rise = 0.0
+    if rise_m is not None:
+        tol = config.common_rise_tolerance_m
+        rises = [i for i, x in measured.items() if i in fits or abs(x - rise_m) <= tol]
+        rise = rise_m
+    if not rises:
+        rises, rise = _agreeing(measured, config.common_rise_tolerance_m, config.common_min_steps)
     runs, run = _agreeing(
         {i: s.run_m for i, s in enumerate(steps) if s.run_m is not None},
         config.common_run_tolerance_m,
