@@ -455,7 +455,7 @@ class Pipeline:
             before_planes = _rig_check(cam_sample, fine, prior, cfg.gravity, cfg.orientation.angle_tol_deg)
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
         image_lines = None
-        if lines_job is not None and cfg.terrain.nosing_steps:
+        if lines_job is not None and (cfg.terrain.nosing_steps or cfg.terrain.nosing_rise):
             image_lines = _image_lines(lines_job.result(), pair, T)
         planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known, image_lines)
         rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
