@@ -57,6 +57,10 @@ The same test on other pitch lines serves three more cases: a lone step, whose r
 one that puts two nosings beyond it (:func:`_run_from_two_nosings`); a double step, split
 where the nosing halfway shows (:func:`_split_double_steps`); and steps taller than a
 stair rise, a chain of every other riser, split the same way (:func:`_split_too_tall`).
+
+Each step's nosing height as its segments show it on its riser plane
+(:func:`nosing_heights`) is what the staircase's rise is fitted to where two or more show
+(:func:`.uniform.rise_from_nosings`, ``TerrainConfig.nosing_rise``).
 """
 
 from __future__ import annotations
