@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 import os
 import threading
 import time
@@ -21,6 +22,7 @@ from ..frames import Rig, Transform
 from ..gravity import (
     GravityEstimate,
     SceneLines,
+    angle_deg,
     combine_with_lines,
     estimate_up,
     levelling,
@@ -190,6 +192,8 @@ class Pipeline:
             # No pass found an obstacle: their samples' planes with the far normal tests
             # widened, a second opinion too (issue 11; PipelineConfig.far_planes_sigmas).
             result = self._far_planes(tried, result)
+        if result is tried[0][1] and result.terrain.obstacle == NONE:
+            result = _corroborated_up(tried, result)
         if second and self.config.rematch_focus and self._wants_rematch(result.terrain):
             # Every opinion so far leaves the frame wanting: where one camera's image is
             # blurrier, the pair once more with the two focused alike, and its own far
@@ -576,6 +580,48 @@ _REMATCH_NOTE = (
 )
 _COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
 _FOCUS_NOTE = ("focus rematch", "matched with the rematch's settings")
+
+
+#: Two passes' ups corroborate each other within this many of their combined sigmas (the
+#: gravity stage's rule for two estimates that agree, :func:`combine_with_lines`).
+_AGREE_SIGMAS = 3.0
+
+
+def _corroborated_up(tried: _Passes, kept: TerrainResult) -> TerrainResult:
+    """Where every pass of a frame without a rig found nothing and the first's result is
+    kept: the result of the pass (of those that found nothing) whose up from the scene the
+    most other passes corroborate (within ``_AGREE_SIGMAS`` combined sigmas), the first on
+    a tie. The passes level their frames from their own disparities; a first matcher's
+    junk plane can tilt its up by several degrees where the two rematches agree (realistic
+    renders: 6.7 -> 0.1 deg on an empty view, 7.5 -> 2.9 deg on a lab-like staircase not
+    found; docs/benchmarks.md, "Nineteenth session"). Its timings are the frame's."""
+    if len(tried) < 2 or kept.gravity_source == "rig":
+        return kept
+    # Each pass's up (rectified camera) and its sigma, where the scene fixed it.
+    ups: list[tuple[np.ndarray, float] | None] = []
+    for _, r in tried:
+        g = r.gravity
+        sigma = None if g is None or r.gravity_source != "scene" else g.sigma_deg
+        ups.append(None if g is None or sigma is None or not math.isfinite(sigma) else (g.up_camera, sigma))
+
+    def agree(i: int, j: int) -> bool:
+        a, b = ups[i], ups[j]
+        if a is None or b is None:
+            return False
+        return angle_deg(a[0], b[0]) <= _AGREE_SIGMAS * math.hypot(a[1], b[1])
+
+    n = len(tried)
+    support = [sum(agree(i, j) for j in range(n) if j != i) for i in range(n)]
+    nothing = [i for i in range(n) if tried[i][1].terrain.obstacle == NONE]
+    best = max(nothing, key=lambda i: (support[i], -i))
+    if best == 0 or support[best] <= support[0]:
+        return kept
+    name, other = tried[best]
+    gravity = other.gravity
+    if gravity is not None:
+        note = f"{gravity.note}; the {name}'s up, which {support[best]} other pass(es) corroborate"
+        gravity = dataclasses.replace(gravity, note=note)
+    return dataclasses.replace(other, gravity=gravity, timing_ms=kept.timing_ms)
 
 
 def _steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:

@@ -1,0 +1,103 @@
+"""Where every pass of a frame without a rig finds nothing, the up the other passes
+corroborate (pipeline/core.py ``_corroborated_up``, issue 11): a first matcher's junk plane
+can tilt its frame by degrees where the two rematches agree."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.frames import rotation_from_rpy
+from stereo_terrain.gravity import angle_deg
+from stereo_terrain.pipeline import Pipeline
+from stereo_terrain.pipeline.core import _corroborated_up
+from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+_EMPTY = {}
+
+
+def _empty_result():
+    """A real result of a rendered view without an obstacle, without a rig (cached)."""
+    if not _EMPTY:
+        rng = np.random.default_rng(7)
+        scene = render_scene(random_scene_spec(rng, kind="none"))
+        result = Pipeline(scene.calibration).run(scene.left, scene.right)
+        assert result.terrain.obstacle == "none" and result.gravity_source == "scene"
+        _EMPTY["r"] = result
+    return _EMPTY["r"]
+
+
+def _tilted(result, deg: float, sigma: float, about: str = "x", obstacle: str | None = None):
+    """``result`` with its reported up turned by ``deg`` and the given sigma."""
+    rpy = {"x": (math.radians(deg), 0.0, 0.0), "z": (0.0, 0.0, math.radians(deg))}[about]
+    up = rotation_from_rpy(*rpy) @ result.gravity.up_camera
+    out = dataclasses.replace(
+        result, gravity=dataclasses.replace(result.gravity, up_camera=up, sigma_deg=sigma)
+    )
+    if obstacle is not None:
+        out = dataclasses.replace(out, terrain=dataclasses.replace(out.terrain, obstacle=obstacle))
+    return out
+
+
+def test_the_up_two_later_passes_agree_on_wins_over_the_first():
+    r = _empty_result()
+    first, rematch, coarse = _tilted(r, 6.0, 0.7), _tilted(r, 0.0, 0.8), _tilted(r, 0.5, 0.9)
+    timed = dataclasses.replace(first, timing_ms={"total": 1.0, "rematch": 2.0})
+    tried = [("first matcher", timed), ("rematch", rematch), ("coarse rematch", coarse)]
+    got = _corroborated_up(tried, timed)
+    assert got.gravity.up_camera is rematch.gravity.up_camera
+    assert "the rematch's up, which 1 other pass(es) corroborate" in got.gravity.note
+    assert got.timing_ms == timed.timing_ms  # the frame's timings
+    assert got.terrain.obstacle == "none"
+
+
+def test_the_first_pass_stays_where_it_is_corroborated_or_alone():
+    r = _empty_result()
+    first = _tilted(r, 0.0, 0.7)
+    # One later pass agrees with it, one does not: a tie at most; the first stays.
+    tried = [("first matcher", first), ("rematch", _tilted(r, 0.5, 0.7)), ("coarse", _tilted(r, 8.0, 0.7))]
+    assert _corroborated_up(tried, first) is first
+    # The later two disagree with each other too: nobody is corroborated.
+    tried = [("first matcher", first), ("rematch", _tilted(r, 8.0, 0.5)), ("coarse", _tilted(r, -8.0, 0.5))]
+    assert _corroborated_up(tried, first) is first
+    assert _corroborated_up([("first matcher", first)], first) is first
+    # A pass with an obstacle is never the result (it was not kept for its terrain).
+    tried = [("first matcher", first), ("rematch", _tilted(r, 8.0, 0.5, obstacle="stairs")),
+             ("coarse", _tilted(r, 8.3, 0.5, obstacle="stairs"))]  # fmt: skip
+    assert _corroborated_up(tried, _tilted(r, 0.0, 0.7)) is not tried[1][1]
+    # With a rig, the rig's up is the frame's.
+    rig = dataclasses.replace(first, gravity_source="rig")
+    tried = [("first matcher", rig), ("rematch", _tilted(r, 8.0, 0.5)), ("coarse", _tilted(r, 8.2, 0.5))]
+    assert _corroborated_up(tried, rig) is rig
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    tilts=st.lists(st.floats(-10.0, 10.0), min_size=1, max_size=4),
+    sigmas=st.lists(st.floats(0.2, 3.0), min_size=4, max_size=4),
+)
+def test_the_chosen_up_is_corroborated_at_least_as_well_as_the_first(tilts, sigmas):
+    r = _empty_result()
+    results = [_tilted(r, t, s) for t, s in zip(tilts, sigmas, strict=False)]
+    tried = [(f"pass {i}", x) for i, x in enumerate(results)]
+    got = _corroborated_up(tried, results[0])
+
+    def support(i):
+        a = results[i].gravity
+        return sum(
+            angle_deg(a.up_camera, o.gravity.up_camera) <= 3.0 * math.hypot(a.sigma_deg, o.gravity.sigma_deg)
+            for j, o in enumerate(results)
+            if j != i
+        )
+
+    if got is results[0]:
+        assert all(support(i) <= support(0) for i in range(1, len(results)))
+    else:
+        chosen = [i for i, x in enumerate(results) if x.gravity.up_camera is got.gravity.up_camera]
+        assert chosen and chosen[0] > 0
+        assert support(chosen[0]) > support(0)
+        assert all(support(i) <= support(chosen[0]) for i in range(len(results)))
