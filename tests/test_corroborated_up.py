@@ -31,10 +31,10 @@ def _empty_result():
     return _EMPTY["r"]
 
 
-def _tilted(result, deg: float, sigma: float, about: str = "x", obstacle: str | None = None):
-    """``result`` with its reported up turned by ``deg`` and the given sigma."""
-    rpy = {"x": (math.radians(deg), 0.0, 0.0), "z": (0.0, 0.0, math.radians(deg))}[about]
-    up = rotation_from_rpy(*rpy) @ result.gravity.up_camera
+def _tilted(result, deg: float, sigma: float, obstacle: str | None = None):
+    """``result`` with its reported up turned by ``deg`` (about the camera's x axis) and the
+    given sigma."""
+    up = rotation_from_rpy(math.radians(deg), 0.0, 0.0) @ result.gravity.up_camera
     out = dataclasses.replace(
         result, gravity=dataclasses.replace(result.gravity, up_camera=up, sigma_deg=sigma)
     )
