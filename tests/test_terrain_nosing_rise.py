@@ -9,11 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from stereo_terrain.planes.orientation import HORIZONTAL
 from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain
 from stereo_terrain.terrain.nosings import nosing_heights
 from stereo_terrain.terrain.uniform import common_steps, rise_from_nosings
 
-from .test_terrain_nosings import _lines, _planes, _segment, _stair_lines
+from .test_terrain import _stairs
+from .test_terrain_nosings import _lines, _planes, _segment, _stair_lines, _with_pixels
 from .test_terrain_uniform import _steps
 
 CONFIG = TerrainConfig()
@@ -32,6 +34,7 @@ def test_the_rise_that_puts_the_nosings_at_their_heights():
 
 def test_nosings_that_do_not_fit_one_staircase_give_no_rise():
     assert rise_from_nosings([0.17], 0.0, CONFIG) is None  # one nosing: nothing checks it
+    assert rise_from_nosings([0.17, None], 0.0, CONFIG, lone=True) is None  # two steps
     assert rise_from_nosings([None, None, None], 0.0, CONFIG) is None
     # A double step among them (the third nosing two rises above the second).
     assert rise_from_nosings([0.17, 0.34, 0.68], 0.0, CONFIG) is None
@@ -134,3 +137,53 @@ def test_the_staircase_takes_the_rise_its_nosings_show(yaw_deg):
     assert [s.rise_m for s in build_terrain(planes, config, lines=odd).steps] == pytest.approx(
         [0.17] * 3, abs=0.003
     )
+
+
+def test_a_lone_step_whose_top_is_not_seen_takes_its_nosings_height():
+    """One step, its top no tread plane measured: with the ground known, the height of its
+    own nosing above the ground is its rise (its riser's top edge from the samples is the
+    weakest height they give)."""
+    assert rise_from_nosings([0.19], 0.0, CONFIG, lone=True) == (pytest.approx(0.19), [0])
+    assert rise_from_nosings([0.29], 0.10, CONFIG, lone=True) == (pytest.approx(0.19), [0])
+    assert rise_from_nosings([0.19], None, CONFIG, lone=True) is None  # the ground a guess
+    assert rise_from_nosings([None], 0.0, CONFIG, lone=True) is None
+    assert rise_from_nosings([0.45], 0.0, CONFIG, lone=True) is None  # no stair rise
+    assert rise_from_nosings([0.19], 0.0, TerrainConfig(common_rise_tolerance_m=0.0), lone=True) is None
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 25.0])
+def test_a_lone_riser_reports_the_rise_its_nosing_shows(yaw_deg):
+    """A lone riser 17 cm tall whose tread formed no plane, its nosing's segment drawn at
+    18 cm: the step reports 18 cm (its own 17 cm kept as the measured rise), and its riser's
+    edge without the segment, with the option off, or with a tread plane on top."""
+    yaw = np.radians(yaw_deg)
+    distance = 1.3
+    full = _stairs(n_steps=1, rise=0.17, yaw=yaw, distance=distance)
+    planes = _with_pixels(
+        dataclasses.replace(
+            full,
+            segments=tuple(
+                s for s in full.segments if not (s.kind == HORIZONTAL and abs(s.plane.offset + 0.17) < 1e-6)
+            ),
+        )
+    )
+    config = TerrainConfig(continue_steps=False, nosing_steps=False)
+    lines = _lines(np.array([_segment(_lines(np.empty((0, 4))), distance * np.cos(yaw), 0.18, yaw)]))
+    model = build_terrain(planes, config, lines=lines)
+    assert model.obstacle == STAIRS and len(model.steps) == 1
+    step = model.steps[0]
+    assert step.tread is None
+    assert step.rise_m == pytest.approx(0.18, abs=0.003)
+    assert step.top_z_m == pytest.approx(0.18, abs=0.003)
+    assert step.measured_rise_m == pytest.approx(0.17, abs=0.02)
+    assert "its nosing's height above the ground" in model.note
+    for other in (
+        build_terrain(planes, config),
+        build_terrain(planes, dataclasses.replace(config, nosing_rise=False), lines=lines),
+    ):
+        assert other.steps[0].rise_m == pytest.approx(0.17, abs=0.02)
+        assert other.steps[0].measured_rise_m is None
+    # Its top seen (a tread plane): the tread's height stays the step's.
+    boxed = build_terrain(_with_pixels(full), config, lines=lines)
+    assert boxed.steps[0].tread is not None
+    assert boxed.steps[0].rise_m == pytest.approx(0.17, abs=0.003)

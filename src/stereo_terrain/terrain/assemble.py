@@ -466,7 +466,8 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     if lines is not None and config.nosing_rise:
         heights = nosing_heights(steps, u, v, chain.lateral, lines)
         known = not (chain.inferred_first or chain.below)  # else the ground is a guess
-        fit = rise_from_nosings(heights, chain.ground_z if known else None, config)
+        lone = len(steps) == 1 and steps[0].tread is None  # its top: the riser's top edge
+        fit = rise_from_nosings(heights, chain.ground_z if known else None, config, lone=lone)
     nosing_rise, fits = fit if fit is not None else (None, [])
     steps, pooled_rises, pooled_runs = common_steps(
         steps, chain.ground_z, config, rise_m=nosing_rise, fits=fits
@@ -496,7 +497,12 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             f"; {from_lines} more beyond, where the image's line segments show their nosings"
             " (at the median rise and run)"
         )
-    if pooled_rises and nosing_rise is not None and any(s.rise_m == nosing_rise for s in steps):
+    if pooled_rises and nosing_rise is not None and len(steps) == 1 and steps[0].rise_m == nosing_rise:
+        note += (
+            "; its rise is its nosing's height above the ground as the image's line segments"
+            " show it, not its riser's top edge"
+        )
+    elif pooled_rises and nosing_rise is not None and any(s.rise_m == nosing_rise for s in steps):
         note += (
             f"; {pooled_rises} measured rise(s) agree with the rise that puts the nosings the"
             " image's line segments show at their heights: those steps report it"
