@@ -411,7 +411,7 @@ class LiveLoop:
             self._last_failure = exc
             self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
-        ran = "rematch" in result.timing_ms or "far_planes" in result.timing_ms
+        ran = any(k in result.timing_ms for k in ("rematch", "far_planes", "redraw"))
         self._rematched_nothing = ran and not result.rematched
         model, track_state, trig = track_and_trigger(
             self.tracker,

@@ -1,0 +1,86 @@
+"""The redrawn planes (PipelineConfig.redraw_planes, issue 11): when no pass and no far
+plane finds an obstacle, the plane stage runs again on the last pass's samples with other
+seeds of its random draws, in the frame the result keeps; a staircase whose steps agree,
+standing on the ground seen, is kept. A staircase at the margin of what the samples hold is
+found by some draws and not by others."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_terrain.errors import ConfigError
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+OFF = PipelineConfig(redraw_planes=0)
+
+
+def _realistic(seed: int, index: int, **kw):
+    """Scene ``index`` of ``stereo-terrain render --profile realistic --seed SEED``."""
+    rng = np.random.default_rng(seed)
+    for _ in range(index):
+        random_scene_spec(rng, profile="realistic", **kw)
+    return render_scene(random_scene_spec(rng, profile="realistic", **kw))
+
+
+@pytest.fixture(scope="module")
+def painted_stairs():
+    """Three texture-poor steps of 14.5 cm that every pass and the far planes miss."""
+    return _realistic(11, 15)
+
+
+def test_a_staircase_the_draws_missed_is_found_by_a_redraw(painted_stairs):
+    scene = painted_stairs
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs"
+    assert "redrawn planes" in result.terrain.note and "coarse rematch" in result.terrain.note
+    assert result.plane_choice.startswith("orientation, the draws seeded")
+    assert result.timing_ms["redraw"] > 0
+    truth = scene.truth["steps"]
+    assert len(result.terrain.steps) == len(truth)
+    for got, want in zip(result.terrain.steps, truth, strict=True):
+        assert abs(got.rise_m - want["rise"]) < 0.025
+        assert abs(got.distance_m - want["distance"]) < 0.1
+    assert not result.terrain.steps[0].rise_inferred
+
+    off = Pipeline(scene.calibration, scene.rig, OFF, warm_up=False).run(scene.left, scene.right)
+    assert off.terrain.obstacle == "none"
+    assert "redraw" not in off.timing_ms
+
+
+def test_a_frame_without_second_opinions_redraws_nothing(painted_stairs):
+    """The live loop's every-other-pair frames (``run(rematch=False)``) skip it too."""
+    scene = painted_stairs
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right, rematch=False)
+    assert result.terrain.obstacle == "none"
+    assert "redraw" not in result.timing_ms
+
+
+def test_without_a_rig_the_redrawn_staircase_stands_in_the_frame_kept():
+    """The coarse pass's samples are levelled with the up the frame would keep anyway
+    (its own is the least sure), so the redraw changes the terrain, not gravity."""
+    scene = _realistic(23, 25)
+    on = Pipeline(scene.calibration, None, warm_up=False).run(scene.left, scene.right)
+    off = Pipeline(scene.calibration, None, OFF, warm_up=False).run(scene.left, scene.right)
+    assert off.terrain.obstacle == "none"
+    assert on.terrain.obstacle == "stairs" and "redrawn planes" in on.terrain.note
+    assert len(on.terrain.steps) == len(scene.truth["steps"])
+    np.testing.assert_allclose(on.T_yaw_camera_rect.matrix, off.T_yaw_camera_rect.matrix, atol=1e-9)
+    assert on.gravity_source == off.gravity_source == "scene"
+
+
+def test_an_empty_view_stays_empty():
+    scene = _realistic(7, 5, kind="none")
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "none"
+    assert result.timing_ms["redraw"] > 0  # it ran and found nothing
+
+
+def test_the_option_is_checked():
+    assert PipelineConfig().redraw_planes == 3
+    assert PipelineConfig.from_dict({"redraw_planes": 0}).redraw_planes == 0
+    with pytest.raises(ConfigError, match="redraw_planes"):
+        PipelineConfig(redraw_planes=-1)
+    with pytest.raises(ConfigError, match="redraw_planes"):
+        PipelineConfig.from_dict({"redraw_planes": 1.5})
