@@ -163,11 +163,11 @@ class Pipeline:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
         ``rematch``: False skips the second opinions for this frame (the rematch, the
-        coarse and focus rematches and the far planes, ``PipelineConfig.rematch`` and
-        ``far_planes_sigmas``: the live loop runs them on every other pair while they keep
-        nothing). On the main thread the process's BLAS is held to one thread while the
-        frame runs (see :func:`_one_blas_thread`); the caller's setting is back
-        afterwards."""
+        coarse and focus rematches, the far planes and the redrawn planes,
+        ``PipelineConfig.rematch``, ``far_planes_sigmas`` and ``redraw_planes``: the live
+        loop runs them on every other pair while they keep nothing). On the main thread
+        the process's BLAS is held to one thread while the frame runs (see
+        :func:`_one_blas_thread`); the caller's setting is back afterwards."""
         with _one_blas_thread():
             return self._run(left, right, rematch)
 
