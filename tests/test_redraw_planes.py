@@ -1,8 +1,8 @@
 """The redrawn planes (PipelineConfig.redraw_planes, issue 11): when no pass and no far
-plane finds an obstacle, the plane stage runs again on the last pass's samples with other
-seeds of its random draws, in the frame the result keeps; a staircase whose steps agree,
-standing on the ground seen, is kept. A staircase at the margin of what the samples hold is
-found by some draws and not by others."""
+plane finds an obstacle (or only a lone step), the plane stage runs again on the last
+pass's samples with other seeds of its random draws, in the frame the result keeps; a
+staircase whose steps agree, standing on the ground seen, is kept. A staircase at the
+margin of what the samples hold is found by some draws and not by others."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from stereo_terrain.errors import ConfigError
+from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 
@@ -68,6 +69,20 @@ def test_without_a_rig_the_redrawn_staircase_stands_in_the_frame_kept():
     assert len(on.terrain.steps) == len(scene.truth["steps"])
     np.testing.assert_allclose(on.T_yaw_camera_rect.matrix, off.T_yaw_camera_rect.matrix, atol=1e-9)
     assert on.gravity_source == off.gravity_source == "scene"
+
+
+def test_a_lone_step_is_redrawn_into_its_staircase():
+    """A lone step (the rematch is run for it too) is what every pass finds of these three
+    steps without a rig; a redraw finds all three."""
+    scene = _realistic(11, 8)
+    off = Pipeline(scene.calibration, None, OFF, warm_up=False).run(scene.left, scene.right)
+    assert off.terrain.obstacle == "stairs" and len(off.terrain.steps) == 1
+    on = Pipeline(scene.calibration, None, warm_up=False).run(scene.left, scene.right)
+    assert "redrawn planes" in on.terrain.note and "lone step" in on.terrain.note
+    # every true step matched by one found (evaluation's rule: risers within 12 cm)
+    score = score_result(on.to_json_dict(), scene.truth)
+    assert score.count_right and len(score.rise_errors_m) == len(scene.truth["steps"])
+    np.testing.assert_allclose(on.T_yaw_camera_rect.matrix, off.T_yaw_camera_rect.matrix, atol=1e-9)
 
 
 def test_an_empty_view_stays_empty():

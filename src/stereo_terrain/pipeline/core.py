@@ -196,9 +196,9 @@ class Pipeline:
             result = self._far_planes(tried, result)
         if result is tried[0][1] and result.terrain.obstacle == NONE:
             result = _corroborated_up(tried, result)
-        if rematch and result.terrain.obstacle == NONE and self._redraw_on and len(tried) > 1:
-            # Still nothing: the last pass's samples with other draws of the plane stage,
-            # in the frame kept (issue 11; PipelineConfig.redraw_planes).
+        if rematch and _unconvincing(result.terrain) and self._redraw_on and len(tried) > 1:
+            # Still nothing, or a lone step: the last pass's samples with other draws of the
+            # plane stage, in the frame kept (issue 11; PipelineConfig.redraw_planes).
             result = self._redrawn_planes(tried, result)
         if second and self.config.rematch_focus and self._wants_rematch(result.terrain):
             # Every opinion so far leaves the frame wanting: where one camera's image is
@@ -217,7 +217,7 @@ class Pipeline:
                 result = self._rematched(focused, image_jobs, result, tried, [(self._rematcher, (name, how))])
                 if result.terrain.obstacle == NONE and self._far_planes_on:
                     result = self._far_planes(tried[before:], result)
-                if result.terrain.obstacle == NONE and self._redraw_on:
+                if _unconvincing(result.terrain) and self._redraw_on:
                     result = self._redrawn_planes(tried[before:], result)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
@@ -350,8 +350,9 @@ class Pipeline:
         return None
 
     def _redrawn_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
-        """``kept`` (no obstacle found), or the staircase that the plane stage finds in the
-        last pass's samples with another seed of its random draws, of
+        """``kept`` (no obstacle found, or a lone step: :func:`_unconvincing`), or the
+        staircase that the plane stage finds in the last pass's samples with another seed
+        of its random draws, of
         ``PipelineConfig.redraw_planes`` tried in turn: the first whose steps agree and
         whose first riser's foot is seen (as :meth:`_far_planes_with` asks). The samples
         are expressed in ``kept``'s frame first (the rig's, or the up from the scene that
@@ -384,8 +385,8 @@ class Pipeline:
                 terrain,
                 cfg,
                 found_by=(
-                    f"found by the redrawn planes (no pass found an obstacle; the {which}'s samples, "
-                    f"the plane stage's draws seeded {seed}, redraw_planes)"
+                    f"found by the redrawn planes (the passes found nothing or a lone step; the "
+                    f"{which}'s samples, the plane stage's draws seeded {seed}, redraw_planes)"
                 ),
                 plane_choice=f"orientation, the draws seeded {seed} (redraw_planes)",
                 timing_ms=kept.timing_ms,
