@@ -160,9 +160,9 @@ class PipelineConfig:
         and ``rematch``; 0 turns it off. Default 3 (issue 11; docs/benchmarks.md,
         "Twentieth session"): realistic detection +1 to +8 points, 4 lone steps made
         whole staircases with the right count, no false positive on the empty renders or
-        the real rooms; a frame with nothing in view pays for the
-        draws on the half-size samples (8-10 ms on the empty renders, 19-64 ms on the real
-        rooms: 10-15% of their frame).
+        the real rooms; a frame with nothing in view pays for the draws on the half-size
+        samples (8-10 ms on the empty renders, 19-64 ms on the real rooms: 10-15% of
+        their frame).
     """
 
     backend: str = "opencv"

@@ -47,9 +47,10 @@ class TerrainResult:
         rematch's (``PipelineConfig.rematch``: the first matcher found nothing convincing;
         ``rematch_focus``), or the far planes' (``far_planes_sigmas`` and
         ``far_planes_wider_sigmas``: no pass found an obstacle), or the redrawn planes'
-        (``redraw_planes``: nor did the far planes); ``timing_ms["rematch"]`` is there
-        whenever the rematch ran, ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]``
-        whenever those did (each the sum over the frame's passes).
+        (``redraw_planes``: nor did the far planes, or every pass found only a lone
+        step); ``timing_ms["rematch"]`` is there whenever the rematch ran,
+        ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]`` whenever those did (each
+        the sum over the frame's passes).
     floor_known, image_lines
         What the terrain stage was given besides the planes (the frame's origin is on the
         floor; the image's line segments), so that it can run again on other planes
