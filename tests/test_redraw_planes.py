@@ -1,8 +1,9 @@
 """The redrawn planes (PipelineConfig.redraw_planes, issue 11): when no pass and no far
-plane finds an obstacle (or only a lone step), the plane stage runs again on the last
-pass's samples with other seeds of its random draws, in the frame the result keeps; a
-staircase whose steps agree, standing on the ground seen, is kept. A staircase at the
-margin of what the samples hold is found by some draws and not by others."""
+plane finds an obstacle (or only a lone step, or steps that disagree), the plane stage
+runs again on the last pass's samples with other seeds of its random draws, in the frame
+the result keeps; a staircase whose steps agree, standing on the ground seen, is kept. A
+staircase at the margin of what the samples hold is found by some draws and not by
+others."""
 
 from __future__ import annotations
 
@@ -83,6 +84,21 @@ def test_a_lone_step_is_redrawn_into_its_staircase():
     score = score_result(on.to_json_dict(), scene.truth)
     assert score.count_right and len(score.rise_errors_m) == len(scene.truth["steps"])
     np.testing.assert_allclose(on.T_yaw_camera_rect.matrix, off.T_yaw_camera_rect.matrix, atol=1e-9)
+
+
+def test_steps_that_disagree_are_redrawn():
+    """Every pass finds this staircase's three 16.4 cm steps as 5, 28 and 15 cm (a rise
+    more than 1.5 times another: what the rematch is run again for); a redraw finds three
+    equal ones, and takes their place (no fewer than one step less)."""
+    scene = _realistic(23, 24)
+    off = Pipeline(scene.calibration, scene.rig, OFF, warm_up=False).run(scene.left, scene.right)
+    rises = [s.own_rise_m for s in off.terrain.steps]
+    assert max(rises) > 1.5 * min(rises)
+    on = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert "redrawn planes" in on.terrain.note and "disagree" in on.terrain.note
+    assert len(on.terrain.steps) >= len(off.terrain.steps) - 1
+    score = score_result(on.to_json_dict(), scene.truth)
+    assert score.rise_errors_m and max(score.rise_errors_m) < 0.025
 
 
 def test_an_empty_view_stays_empty():

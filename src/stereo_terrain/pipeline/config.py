@@ -147,10 +147,11 @@ class PipelineConfig:
         says "widened further". Defaults 1.6 and 40 deg; ``far_planes_wider_sigmas: 0``
         turns it off (issue 11; docs/benchmarks.md, "Fifteenth session").
     redraw_planes : int
-        When every pass and the far planes still find no obstacle, or only a lone step (a
-        staircase of one step, which the rematch is run for too), the plane stage runs
-        again on the last pass's samples (the coarse rematch's, where it ran) with this
-        many other seeds of its random draws (``orientation.seed`` + 1, + 2, ...),
+        When every pass and the far planes still find no obstacle, or only a lone step or
+        steps whose rises disagree (what the rematch is run for too, with
+        ``rematch_disagreeing``), the plane stage runs again on the last pass's samples
+        (the coarse rematch's, where it ran) with this many other seeds of its random
+        draws (``orientation.seed`` + 1, + 2, ...),
         expressed in the frame the result keeps (the rig's, or the up from the scene the
         passes corroborate) so that its gravity stays that frame's; the first staircase
         whose steps agree and whose first riser stands on the ground seen (as the far
@@ -159,7 +160,8 @@ class PipelineConfig:
         pitch changed by 0.2 deg found 4 of 9 misses). Only with ``method: orientation``
         and ``rematch``; 0 turns it off. Default 3 (issue 11; docs/benchmarks.md,
         "Twentieth session"): realistic detection +1 to +8 points, 4 lone steps made
-        whole staircases with the right count, no false positive on the empty renders or
+        whole staircases with the right count, 6 of 7 disagreeing staircases nearer the
+        truth (one at most a step fewer), no false positive on the empty renders or
         the real rooms; a frame with nothing in view pays for the draws on the half-size
         samples (8-10 ms on the empty renders, 19-64 ms on the real rooms: 10-15% of
         their frame).

@@ -196,9 +196,10 @@ class Pipeline:
             result = self._far_planes(tried, result)
         if result is tried[0][1] and result.terrain.obstacle == NONE:
             result = _corroborated_up(tried, result)
-        if rematch and _unconvincing(result.terrain) and self._redraw_on and len(tried) > 1:
-            # Still nothing, or a lone step: the last pass's samples with other draws of the
-            # plane stage, in the frame kept (issue 11; PipelineConfig.redraw_planes).
+        if rematch and self._wants_rematch(result.terrain) and self._redraw_on and len(tried) > 1:
+            # Still nothing, a lone step or steps that disagree: the last pass's samples with
+            # other draws of the plane stage, in the frame kept (issue 11;
+            # PipelineConfig.redraw_planes).
             result = self._redrawn_planes(tried, result)
         if second and self.config.rematch_focus and self._wants_rematch(result.terrain):
             # Every opinion so far leaves the frame wanting: where one camera's image is
@@ -217,7 +218,7 @@ class Pipeline:
                 result = self._rematched(focused, image_jobs, result, tried, [(self._rematcher, (name, how))])
                 if result.terrain.obstacle == NONE and self._far_planes_on:
                     result = self._far_planes(tried[before:], result)
-                if _unconvincing(result.terrain) and self._redraw_on:
+                if self._wants_rematch(result.terrain) and self._redraw_on:
                     result = self._redrawn_planes(tried[before:], result)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
@@ -350,11 +351,12 @@ class Pipeline:
         return None
 
     def _redrawn_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
-        """``kept`` (no obstacle found, or a lone step: :func:`_unconvincing`), or the
-        staircase that the plane stage finds in the last pass's samples with another seed
-        of its random draws, of
+        """``kept`` (no obstacle found, a lone step, or steps whose rises disagree:
+        :meth:`_wants_rematch`), or the staircase that the plane stage finds in the last
+        pass's samples with another seed of its random draws, of
         ``PipelineConfig.redraw_planes`` tried in turn: the first whose steps agree and
-        whose first riser's foot is seen (as :meth:`_far_planes_with` asks). The samples
+        whose first riser's foot is seen (as :meth:`_far_planes_with` asks), and in place
+        of steps that disagree, with at most one step fewer (as :meth:`_rematched` asks). The samples
         are expressed in ``kept``'s frame first (the rig's, or the up from the scene that
         the passes corroborate; a coarse pass's own up is the least sure), and the result
         is ``kept``'s with that terrain. ``timing_ms["redraw"]``: the time it took.
@@ -385,13 +387,16 @@ class Pipeline:
                 terrain,
                 cfg,
                 found_by=(
-                    f"found by the redrawn planes (the passes found nothing or a lone step; the "
-                    f"{which}'s samples, the plane stage's draws seeded {seed}, redraw_planes)"
+                    f"found by the redrawn planes (the passes found nothing, a lone step or steps "
+                    f"that disagree; the {which}'s samples, the plane stage's draws seeded {seed}, "
+                    "redraw_planes)"
                 ),
                 plane_choice=f"orientation, the draws seeded {seed} (redraw_planes)",
                 timing_ms=kept.timing_ms,
             )
-            if found is not None:
+            if found is not None and (
+                _unconvincing(kept.terrain) or len(found.terrain.steps) >= len(kept.terrain.steps) - 1
+            ):
                 result = found
                 break
         result.timing_ms["redraw"] = kept.timing_ms.get("redraw", 0.0) + (time.perf_counter() - t0) * 1000.0

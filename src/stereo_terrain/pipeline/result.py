@@ -48,7 +48,7 @@ class TerrainResult:
         ``rematch_focus``), or the far planes' (``far_planes_sigmas`` and
         ``far_planes_wider_sigmas``: no pass found an obstacle), or the redrawn planes'
         (``redraw_planes``: nor did the far planes, or every pass found only a lone
-        step); ``timing_ms["rematch"]`` is there whenever the rematch ran,
+        step or steps that disagree); ``timing_ms["rematch"]`` is there whenever the rematch ran,
         ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]`` whenever those did (each
         the sum over the frame's passes).
     floor_known, image_lines
