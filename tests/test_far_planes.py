@@ -42,6 +42,14 @@ def lab_scene():
     return _lab_stairs(26)
 
 
+def assert_steps_match_truth(steps, truth) -> None:
+    """As many steps as the truth's, each within 2.5 cm of rise and 10 cm of distance."""
+    assert len(steps) == len(truth)
+    for got, want in zip(steps, truth, strict=True):
+        assert abs(got.rise_m - want["rise"]) < 0.025
+        assert abs(got.distance_m - want["distance"]) < 0.1
+
+
 def test_far_wooden_stairs_are_found_by_the_far_planes(lab_scene):
     scene = lab_scene
     result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
@@ -49,11 +57,7 @@ def test_far_wooden_stairs_are_found_by_the_far_planes(lab_scene):
     assert "far planes" in result.terrain.note
     assert result.timing_ms["far_planes"] > 0
     assert result.plane_choice.startswith("orientation, normal tests widened")
-    truth = scene.truth["steps"]
-    assert len(result.terrain.steps) == len(truth)
-    for got, want in zip(result.terrain.steps, truth, strict=True):
-        assert abs(got.rise_m - want["rise"]) < 0.025
-        assert abs(got.distance_m - want["distance"]) < 0.1
+    assert_steps_match_truth(result.terrain.steps, scene.truth["steps"])
     assert not result.terrain.steps[0].rise_inferred
 
 
@@ -187,11 +191,7 @@ def test_far_wooden_stairs_found_by_the_wider_level():
     assert result.terrain.obstacle == "stairs"
     assert "widened further" in result.terrain.note and "far_planes_wider_sigmas" in result.terrain.note
     assert result.plane_choice == "orientation, normal tests widened further (far_planes_wider_sigmas)"
-    truth = scene.truth["steps"]
-    assert len(result.terrain.steps) == len(truth)
-    for got, want in zip(result.terrain.steps, truth, strict=True):
-        assert abs(got.rise_m - want["rise"]) < 0.025
-        assert abs(got.distance_m - want["distance"]) < 0.1
+    assert_steps_match_truth(result.terrain.steps, scene.truth["steps"])
     # (the redrawn planes after them off too: other draws find these stairs as well)
     off_config = PipelineConfig(far_planes_wider_sigmas=0.0, redraw_planes=0)
     off = Pipeline(scene.calibration, scene.rig, off_config, warm_up=False)

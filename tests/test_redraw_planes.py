@@ -15,6 +15,8 @@ from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 
+from .test_far_planes import assert_steps_match_truth
+
 OFF = PipelineConfig(redraw_planes=0)
 
 
@@ -39,11 +41,7 @@ def test_a_staircase_the_draws_missed_is_found_by_a_redraw(painted_stairs):
     assert "redrawn planes" in result.terrain.note and "coarse rematch" in result.terrain.note
     assert result.plane_choice.startswith("orientation, the draws seeded")
     assert result.timing_ms["redraw"] > 0
-    truth = scene.truth["steps"]
-    assert len(result.terrain.steps) == len(truth)
-    for got, want in zip(result.terrain.steps, truth, strict=True):
-        assert abs(got.rise_m - want["rise"]) < 0.025
-        assert abs(got.distance_m - want["distance"]) < 0.1
+    assert_steps_match_truth(result.terrain.steps, scene.truth["steps"])
     assert not result.terrain.steps[0].rise_inferred
 
     off = Pipeline(scene.calibration, scene.rig, OFF, warm_up=False).run(scene.left, scene.right)

@@ -356,10 +356,11 @@ class Pipeline:
         pass's samples with another seed of its random draws, of
         ``PipelineConfig.redraw_planes`` tried in turn: the first whose steps agree and
         whose first riser's foot is seen (as :meth:`_far_planes_with` asks), and in place
-        of steps that disagree, with at most one step fewer (as :meth:`_rematched` asks). The samples
-        are expressed in ``kept``'s frame first (the rig's, or the up from the scene that
-        the passes corroborate; a coarse pass's own up is the least sure), and the result
-        is ``kept``'s with that terrain. ``timing_ms["redraw"]``: the time it took.
+        of steps that disagree, with at most one step fewer (as :meth:`_rematched` asks).
+        The samples are expressed in ``kept``'s frame first (the rig's, or the up from the
+        scene that the passes corroborate; a coarse pass's own up is the least sure), and
+        the result is ``kept``'s with that terrain. ``timing_ms["redraw"]``: the time it
+        took.
 
         The plane stage's hypotheses are random draws (seeded, so a frame gives the same
         planes every time); a staircase at the margin of what its samples hold is found by
@@ -381,6 +382,8 @@ class Pipeline:
                 samples, config, up=up, camera_position=samples.camera_position
             )
             terrain = build_terrain(planes, cfg.terrain, floor_known=kept.floor_known, lines=kept.image_lines)
+            if not _unconvincing(kept.terrain) and len(terrain.steps) < len(kept.terrain.steps) - 1:
+                continue  # in place of steps that disagree: at most one step fewer
             found = _kept_staircase(
                 kept,
                 planes,
@@ -394,9 +397,7 @@ class Pipeline:
                 plane_choice=f"orientation, the draws seeded {seed} (redraw_planes)",
                 timing_ms=kept.timing_ms,
             )
-            if found is not None and (
-                _unconvincing(kept.terrain) or len(found.terrain.steps) >= len(kept.terrain.steps) - 1
-            ):
+            if found is not None:
                 result = found
                 break
         result.timing_ms["redraw"] = kept.timing_ms.get("redraw", 0.0) + (time.perf_counter() - t0) * 1000.0
