@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 import stereo_terrain.pipeline.core as core
+import stereo_terrain.pipeline.fill_steps as fill_steps
 from stereo_terrain.pipeline import Pipeline
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -54,23 +55,25 @@ def _capture(scene) -> dict:
     """The pipeline's own view of a scene: the pair it matched, its filled disparity, the
     rectification, up and the lines' horizontal direction (by wrapping two calls)."""
     seen: dict = {}
-    manhattan, fill = core.fill_manhattan_faces, core.Pipeline._fill
+    manhattan, fill = fill_steps.fill_manhattan_faces, core.fill_faces
 
     def manhattan_hook(*a, **k):
         seen["up"], seen["h"] = np.asarray(a[6], float), np.asarray(a[7], float)
         return manhattan(*a, **k)
 
-    def fill_hook(pipeline, disp, pair, *rest):
-        out = fill(pipeline, disp, pair, *rest)
-        seen.update(left=pair.left, right=pair.right, rect=pair.rectification, final=out.disparity.copy())
+    def fill_hook(disp, pair, *rest):
+        out = fill(disp, pair, *rest)
+        seen.update(
+            left=pair.left, right=pair.right, rect=pair.rectification, final=out.disparity.disparity.copy()
+        )
         seen["max_d"] = disp.max_disparity_px
         return out
 
-    core.fill_manhattan_faces, core.Pipeline._fill = manhattan_hook, fill_hook
+    fill_steps.fill_manhattan_faces, core.fill_faces = manhattan_hook, fill_hook
     try:
         Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
     finally:
-        core.fill_manhattan_faces, core.Pipeline._fill = manhattan, fill
+        fill_steps.fill_manhattan_faces, core.fill_faces = manhattan, fill
     return seen
 
 

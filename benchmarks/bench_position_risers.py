@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 import stereo_terrain.pipeline.core as core
+import stereo_terrain.pipeline.fill_steps as fill_steps
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.evaluation import score_result, summarize
 from stereo_terrain.frames import load_rig
@@ -70,17 +71,17 @@ class _Capture:
 
     def __init__(self) -> None:
         self.seen: dict = {}
-        fill, stage = core.fill_manhattan_faces, core.Pipeline._planes_and_terrain
+        fill, stage = fill_steps.fill_manhattan_faces, core.Pipeline._planes_and_terrain
 
         def fill_hook(*a, **k):
             self.seen["horizontal_cam"] = np.asarray(a[7], dtype=np.float64)
             return fill(*a, **k)
 
-        def stage_hook(pipeline, planes, image, lap, floor_known):
+        def stage_hook(pipeline, planes, image, lap, floor_known, lines=None):
             self.seen["planes"], self.seen["floor_known"] = planes, floor_known
-            return stage(pipeline, planes, image, lap, floor_known)
+            return stage(pipeline, planes, image, lap, floor_known, lines)
 
-        core.fill_manhattan_faces = fill_hook
+        fill_steps.fill_manhattan_faces = fill_hook
         core.Pipeline._planes_and_terrain = stage_hook
 
     def run(self, pipeline: Pipeline, left: np.ndarray, right: np.ndarray) -> dict:

@@ -1,5 +1,5 @@
 """Where every pass of a frame without a rig finds nothing, the up the other passes
-corroborate (pipeline/core.py ``_corroborated_up``, issue 11): a first matcher's junk plane
+corroborate (pipeline/second_opinions.py ``corroborated_up``, issue 11): a first matcher's junk plane
 can tilt its frame by degrees where the two rematches agree."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from stereo_terrain.frames import rotation_from_rpy
 from stereo_terrain.gravity import angle_deg
 from stereo_terrain.pipeline import Pipeline
-from stereo_terrain.pipeline.core import _corroborated_up
+from stereo_terrain.pipeline.second_opinions import corroborated_up
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 
 _EMPTY = {}
@@ -48,7 +48,7 @@ def test_the_up_two_later_passes_agree_on_wins_over_the_first():
     first, rematch, coarse = _tilted(r, 6.0, 0.7), _tilted(r, 0.0, 0.8), _tilted(r, 0.5, 0.9)
     timed = dataclasses.replace(first, timing_ms={"total": 1.0, "rematch": 2.0})
     tried = [("first matcher", timed), ("rematch", rematch), ("coarse rematch", coarse)]
-    got = _corroborated_up(tried, timed)
+    got = corroborated_up(tried, timed)
     assert got.gravity.up_camera is rematch.gravity.up_camera
     assert "the rematch's up, which 1 other pass(es) corroborate" in got.gravity.note
     assert got.timing_ms == timed.timing_ms  # the frame's timings
@@ -60,19 +60,19 @@ def test_the_first_pass_stays_where_it_is_corroborated_or_alone():
     first = _tilted(r, 0.0, 0.7)
     # One later pass agrees with it, one does not: a tie at most; the first stays.
     tried = [("first matcher", first), ("rematch", _tilted(r, 0.5, 0.7)), ("coarse", _tilted(r, 8.0, 0.7))]
-    assert _corroborated_up(tried, first) is first
+    assert corroborated_up(tried, first) is first
     # The later two disagree with each other too: nobody is corroborated.
     tried = [("first matcher", first), ("rematch", _tilted(r, 8.0, 0.5)), ("coarse", _tilted(r, -8.0, 0.5))]
-    assert _corroborated_up(tried, first) is first
-    assert _corroborated_up([("first matcher", first)], first) is first
+    assert corroborated_up(tried, first) is first
+    assert corroborated_up([("first matcher", first)], first) is first
     # A pass with an obstacle is never the result (it was not kept for its terrain).
     tried = [("first matcher", first), ("rematch", _tilted(r, 8.0, 0.5, obstacle="stairs")),
              ("coarse", _tilted(r, 8.3, 0.5, obstacle="stairs"))]  # fmt: skip
-    assert _corroborated_up(tried, _tilted(r, 0.0, 0.7)) is not tried[1][1]
+    assert corroborated_up(tried, _tilted(r, 0.0, 0.7)) is not tried[1][1]
     # With a rig, the rig's up is the frame's.
     rig = dataclasses.replace(first, gravity_source="rig")
     tried = [("first matcher", rig), ("rematch", _tilted(r, 8.0, 0.5)), ("coarse", _tilted(r, 8.2, 0.5))]
-    assert _corroborated_up(tried, rig) is rig
+    assert corroborated_up(tried, rig) is rig
 
 
 @settings(max_examples=40, deadline=None)
@@ -84,7 +84,7 @@ def test_the_chosen_up_is_corroborated_at_least_as_well_as_the_first(tilts, sigm
     r = _empty_result()
     results = [_tilted(r, t, s) for t, s in zip(tilts, sigmas, strict=False)]
     tried = [(f"pass {i}", x) for i, x in enumerate(results)]
-    got = _corroborated_up(tried, results[0])
+    got = corroborated_up(tried, results[0])
 
     def support(i):
         a = results[i].gravity

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from stereo_terrain.errors import ConfigError
-from stereo_terrain.pipeline import Pipeline, PipelineConfig, core
+from stereo_terrain.pipeline import Pipeline, PipelineConfig, second_opinions
 from stereo_terrain.synthetic import default_scene_spec, random_scene_spec, render_scene
 
 
@@ -105,7 +105,7 @@ def _agreeing_staircase():
     scene = render_scene(default_scene_spec())
     terrain = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right).terrain
     assert terrain.obstacle == "stairs" and len(terrain.steps) >= 2
-    assert core._steps_agree(terrain, PipelineConfig().terrain)
+    assert second_opinions.steps_agree(terrain, PipelineConfig().terrain)
     return terrain
 
 
@@ -118,14 +118,14 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
     steps = list(staircase.steps)
     steps[0] = dataclasses.replace(steps[0], rise_inferred=first_inferred)
     staircase = dataclasses.replace(staircase, steps=tuple(steps))
-    real_build = core.build_terrain
+    real_build = second_opinions.build_terrain
 
     def build(planes, config, **kwargs):
         if planes.parameters.get("doctored"):
             return staircase
         return real_build(planes, config, **kwargs)
 
-    real_extract = core.extract_planes_orientation
+    real_extract = second_opinions.extract_planes_orientation
 
     def extract(samples, config, **kwargs):
         planes = real_extract(samples, config, **kwargs)
@@ -133,8 +133,8 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
             planes = dataclasses.replace(planes, parameters={**planes.parameters, "doctored": True})
         return planes
 
-    monkeypatch.setattr(core, "build_terrain", build)
-    monkeypatch.setattr(core, "extract_planes_orientation", extract)
+    monkeypatch.setattr(second_opinions, "build_terrain", build)
+    monkeypatch.setattr(second_opinions, "extract_planes_orientation", extract)
     scene = render_scene(dataclasses.replace(default_scene_spec(), obstacle=None))
     result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
     assert "far_planes" in result.timing_ms
@@ -152,14 +152,14 @@ def test_the_wider_level_runs_only_where_the_first_keeps_nothing(monkeypatch):
     having kept nothing, at 1.6 sigmas capped at 40 deg; ``far_planes_wider_sigmas: 0``
     leaves the first level alone."""
     calls = []
-    real_extract = core.extract_planes_orientation
+    real_extract = second_opinions.extract_planes_orientation
 
     def extract(samples, config, **kwargs):
         if config.normal_noise_sigmas > 0:
             calls.append((config.normal_noise_sigmas, config.max_noise_tolerance_deg))
         return real_extract(samples, config, **kwargs)
 
-    monkeypatch.setattr(core, "extract_planes_orientation", extract)
+    monkeypatch.setattr(second_opinions, "extract_planes_orientation", extract)
     empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
     Pipeline(empty.calibration, empty.rig, warm_up=False).run(empty.left, empty.right)
     assert calls and {c[0] for c in calls} == {1.1, 1.6}

@@ -137,15 +137,15 @@ def test_the_live_loop_rematches_every_other_pair_while_nothing_is_in_view(monke
 def test_what_the_rematch_is_run_for():
     """No obstacle, or a staircase of one step (often the one riser the first matcher held
     of several); not a box, not a staircase of two steps or more."""
-    from stereo_terrain.pipeline.core import _unconvincing
+    from stereo_terrain.pipeline.second_opinions import unconvincing
 
     scene = render_scene(default_scene_spec())
     stairs = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).terrain
     assert stairs.obstacle == "stairs" and len(stairs.steps) >= 2
-    assert not _unconvincing(stairs)
-    assert _unconvincing(dataclasses.replace(stairs, steps=stairs.steps[:1]))
-    assert _unconvincing(dataclasses.replace(stairs, obstacle="none", steps=()))
-    assert not _unconvincing(dataclasses.replace(stairs, obstacle="box", steps=stairs.steps[:1]))
+    assert not unconvincing(stairs)
+    assert unconvincing(dataclasses.replace(stairs, steps=stairs.steps[:1]))
+    assert unconvincing(dataclasses.replace(stairs, obstacle="none", steps=()))
+    assert not unconvincing(dataclasses.replace(stairs, obstacle="box", steps=stairs.steps[:1]))
 
 
 # The coarse rematch (PipelineConfig.rematch_coarse): when the rematch too finds no
@@ -198,32 +198,32 @@ def test_what_the_coarse_rematch_keeps():
     """Two steps or more, measured rises within AGREEING_RISE_RATIO of each other (an
     inferred rise does not count), runs at most continue_max_run_m."""
     from stereo_terrain.pipeline.config import AGREEING_RISE_RATIO
-    from stereo_terrain.pipeline.core import _steps_agree, _steps_disagree
+    from stereo_terrain.pipeline.second_opinions import steps_agree, steps_disagree
     from stereo_terrain.terrain import TerrainConfig
 
     config = TerrainConfig()
     scene = render_scene(default_scene_spec())
     stairs = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).terrain
     steps = list(stairs.steps)
-    assert len(steps) >= 2 and _steps_agree(stairs, config)
-    assert not _steps_agree(dataclasses.replace(stairs, steps=tuple(steps[:1])), config)
-    assert not _steps_agree(dataclasses.replace(stairs, obstacle="box", steps=tuple(steps[:1])), config)
+    assert len(steps) >= 2 and steps_agree(stairs, config)
+    assert not steps_agree(dataclasses.replace(stairs, steps=tuple(steps[:1])), config)
+    assert not steps_agree(dataclasses.replace(stairs, obstacle="box", steps=tuple(steps[:1])), config)
     tall = dataclasses.replace(
         steps[1], rise_m=steps[0].rise_m * AGREEING_RISE_RATIO * 1.1, measured_rise_m=None
     )
-    assert not _steps_agree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
+    assert not steps_agree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
     inferred = dataclasses.replace(tall, rise_inferred=True)
-    assert _steps_agree(dataclasses.replace(stairs, steps=(steps[0], inferred, *steps[2:])), config)
+    assert steps_agree(dataclasses.replace(stairs, steps=(steps[0], inferred, *steps[2:])), config)
     long_run = dataclasses.replace(steps[0], run_m=config.continue_max_run_m + 0.05, measured_run_m=None)
-    assert not _steps_agree(dataclasses.replace(stairs, steps=(long_run, *steps[1:])), config)
+    assert not steps_agree(dataclasses.replace(stairs, steps=(long_run, *steps[1:])), config)
     # One measured rise continued at its rise agrees; steps with no measured rise do not.
     one_measured = (steps[0], dataclasses.replace(steps[1], rise_inferred=True))
-    assert _steps_agree(dataclasses.replace(stairs, steps=one_measured), config)
-    assert not _steps_disagree(dataclasses.replace(stairs, steps=one_measured), config)
+    assert steps_agree(dataclasses.replace(stairs, steps=one_measured), config)
+    assert not steps_disagree(dataclasses.replace(stairs, steps=one_measured), config)
     none_measured = tuple(dataclasses.replace(s, rise_inferred=True) for s in steps)
-    assert not _steps_agree(dataclasses.replace(stairs, steps=none_measured), config)
-    assert _steps_disagree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
-    assert not _steps_disagree(stairs, config)
+    assert not steps_agree(dataclasses.replace(stairs, steps=none_measured), config)
+    assert steps_disagree(dataclasses.replace(stairs, steps=(steps[0], tall, *steps[2:])), config)
+    assert not steps_disagree(stairs, config)
 
 
 def _blind_twice(scene, config: PipelineConfig | None = None) -> Pipeline:

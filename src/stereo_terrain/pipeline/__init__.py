@@ -15,9 +15,12 @@ a rig the same estimate checks the rig.
 Package layout (each module imports, when loaded, only those before it): ``config``
 (:class:`PipelineConfig`, from a mapping or YAML) -> ``result`` (:class:`TerrainResult`
 and its JSON) -> ``gravity_steps`` (the levelling of the yaw frame without a rig, the
-origin on the floor, the rig check, the gravity report) -> ``warm_up``
-(:func:`warm_up_kernels`; it builds a :class:`Pipeline` when called) -> ``core``
-(:class:`Pipeline`, the stage sequence).
+origin on the floor, the rig check, the gravity report) -> ``fill_steps`` (the fills as
+a frame runs them) -> ``second_opinions`` (when a pass's terrain wants another opinion;
+the far planes, the corroborated up, the redrawn planes) -> ``threads`` (BLAS held to
+one thread, the worker thread) -> ``warm_up`` (:func:`warm_up_kernels`; it builds a
+:class:`Pipeline` when called) -> ``core`` (:class:`Pipeline`, the stage sequence and its
+passes).
 """
 
 from __future__ import annotations

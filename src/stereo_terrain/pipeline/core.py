@@ -2,14 +2,10 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import math
-import os
-import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -22,7 +18,6 @@ from ..frames import Rig, Transform
 from ..gravity import (
     GravityEstimate,
     SceneLines,
-    angle_deg,
     combine_with_lines,
     estimate_up,
     levelling,
@@ -32,10 +27,8 @@ from ..gravity import (
 from ..planes.auto import combine_plane_sets
 from ..planes.contour import extract_planes_contour
 from ..planes.orientation import (
-    OrientationConfig,
     PlaneSet,
     extract_planes_orientation,
-    noise_widened,
     transform_planes,
 )
 from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
@@ -45,8 +38,8 @@ from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
 from ..terrain import ImageLines, StairModel, build_terrain, estimate_step_sigmas
-from ..terrain.model import NONE, STAIRS, TerrainConfig
-from .config import AGREEING_RISE_RATIO, PipelineConfig
+from ..terrain.model import NONE
+from .config import PipelineConfig
 from .fill_steps import camera_sample, fill_faces, fill_faces_later
 from .gravity_steps import (
     _gravity_report,
@@ -57,11 +50,19 @@ from .gravity_steps import (
     _rig_check,
 )
 from .result import TerrainResult
+from .second_opinions import (
+    COARSE_NOTE,
+    FOCUS_NOTE,
+    REMATCH_NOTE,
+    Passes,
+    corroborated_up,
+    far_planes,
+    redrawn_planes,
+    rematch_kept,
+    wants_rematch,
+)
+from .threads import background, find_blas, one_blas_thread
 from .warm_up import warm_up_kernels
-
-#: The passes a frame ran, in order: each one's name and own result (the first matcher's,
-#: the rematch's, the coarse rematch's), for the far planes.
-_Passes = list[tuple[str, TerrainResult]]
 
 
 class Pipeline:
@@ -142,7 +143,7 @@ class Pipeline:
             warm_up_kernels(
                 self.config, with_rig=rig is not None, backend=None if backend is None else self.backend
             )
-        _find_blas()
+        find_blas()
 
     def reset_drift(self) -> None:
         """Forget what the online drift correction has seen and go back to the calibration's
@@ -167,8 +168,8 @@ class Pipeline:
         ``PipelineConfig.rematch``, ``far_planes_sigmas`` and ``redraw_planes``: the live
         loop runs them on every other pair while they keep nothing). On the main thread
         the process's BLAS is held to one thread while the frame runs (see
-        :func:`_one_blas_thread`); the caller's setting is back afterwards."""
-        with _one_blas_thread():
+        :func:`~.threads.one_blas_thread`); the caller's setting is back afterwards."""
+        with one_blas_thread():
             return self._run(left, right, rematch)
 
     def _run(self, left: np.ndarray, right: np.ndarray, rematch: bool = True) -> TerrainResult:
@@ -185,23 +186,23 @@ class Pipeline:
         result = self._from_pair(pair, self.backend, image_jobs, {"rectify": (t1 - t0) * 1000.0}, t1)
         tried = [("first matcher", result)]  # each pass's name and own result
         second = rematch and self._rematcher is not None
-        if second and self._wants_rematch(result.terrain):
+        if second and wants_rematch(result.terrain, self.config):
             # Nothing found, a lone step, or steps whose rises disagree: match the pair again
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
-            passes = [(self._rematcher, _REMATCH_NOTE), (self._coarse_rematcher, _COARSE_NOTE)]
+            passes = [(self._rematcher, REMATCH_NOTE), (self._coarse_rematcher, COARSE_NOTE)]
             result = self._rematched(pair, image_jobs, result, tried, passes)
         if rematch and result.terrain.obstacle == NONE and self._far_planes_on:
             # No pass found an obstacle: their samples' planes with the far normal tests
             # widened, a second opinion too (issue 11; PipelineConfig.far_planes_sigmas).
-            result = self._far_planes(tried, result)
+            result = far_planes(tried, result, self.config)
         if result is tried[0][1] and result.terrain.obstacle == NONE:
-            result = _corroborated_up(tried, result)
-        if rematch and self._wants_rematch(result.terrain) and self._redraw_on and len(tried) > 1:
+            result = corroborated_up(tried, result)
+        if rematch and wants_rematch(result.terrain, self.config) and self._redraw_on and len(tried) > 1:
             # Still nothing, a lone step or steps that disagree: the last pass's samples with
             # other draws of the plane stage, in the frame kept (issue 11;
             # PipelineConfig.redraw_planes).
-            result = self._redrawn_planes(tried, result)
-        if second and self.config.rematch_focus and self._wants_rematch(result.terrain):
+            result = redrawn_planes(tried, result, self.config)
+        if second and self.config.rematch_focus and wants_rematch(result.terrain, self.config):
             # Every opinion so far leaves the frame wanting: where one camera's image is
             # blurrier, the pair once more with the two focused alike, and its own far
             # planes (issue 11; PipelineConfig.rematch_focus). Last, so that it changes
@@ -211,67 +212,43 @@ class Pipeline:
             )
             if left is not pair.left or right is not pair.right:
                 side = "left" if sigma > 0 else "right"
-                name, how = _FOCUS_NOTE
+                name, how = FOCUS_NOTE
                 how = f"the {side} image blurred by {abs(sigma):.2f} px to the other's focus; {how}"
                 focused = dataclasses.replace(pair, left=left, right=right)
                 before = len(tried)
                 result = self._rematched(focused, image_jobs, result, tried, [(self._rematcher, (name, how))])
                 if result.terrain.obstacle == NONE and self._far_planes_on:
-                    result = self._far_planes(tried[before:], result)
-                if self._wants_rematch(result.terrain) and self._redraw_on:
-                    result = self._redrawn_planes(tried[before:], result)
+                    result = far_planes(tried[before:], result, self.config)
+                if wants_rematch(result.terrain, self.config) and self._redraw_on:
+                    result = redrawn_planes(tried[before:], result, self.config)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
-
-    def _wants_rematch(self, terrain: StairModel) -> bool:
-        """Whether a pass's terrain leaves room for another matcher: nothing convincing
-        (:func:`_unconvincing`), or (``rematch_disagreeing``) a staircase whose measured
-        rises disagree (:func:`_steps_agree`)."""
-        if _unconvincing(terrain):
-            return True
-        return self.config.rematch_disagreeing and _steps_disagree(terrain, self.config.terrain)
 
     def _rematched(
         self,
         pair: RectifiedPair,
         jobs: _ImageJobs,
         first: TerrainResult,
-        tried: _Passes,
+        tried: Passes,
         passes: list[tuple[DisparityBackend | None, tuple[str, str]]],
     ) -> TerrainResult:
         """``first`` or what the second opinions ``passes`` (matcher, and the name and how
         of the note) make of ``pair``: the rematch, then (with ``rematch_coarse``) the
         coarse rematch at half size; or the focus rematch alone. Each runs while the
-        result kept so far still wants one (:meth:`_wants_rematch`); each pass's name and
-        own result are appended to ``tried``. A pass's staircase replaces:
-
-        - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
-          can make an object's front a lone "step", as a real room's motorbike did), with
-          steps that agree (the coarse and focus rematches; the coarse one's smoothness
-          reaches further across a room's furniture too: :func:`_steps_agree`);
-        - steps whose rises disagree: with steps that agree, no fewer than one less.
+        result kept so far still wants one (:func:`~.second_opinions.wants_rematch`); each
+        pass's name and own result are appended to ``tried``. A pass's staircase replaces
+        the one kept as :func:`~.second_opinions.rematch_kept` decides.
 
         ``timing_ms["rematch"]`` is the time of every pass run (in the frame)."""
         t0 = time.perf_counter()
         result = first
         for matcher, (name, how) in passes:
-            if matcher is None or not self._wants_rematch(result.terrain):
+            if matcher is None or not wants_rematch(result.terrain, self.config):
                 break
             other = self._from_pair(pair, matcher, jobs, {}, time.perf_counter())
             tried.append((name, other))
-            terrain, kept = other.terrain, result.terrain
-            if _unconvincing(kept):
-                better = (
-                    terrain.obstacle == STAIRS and len(terrain.steps) >= 2
-                    if name == _REMATCH_NOTE[0]
-                    else _steps_agree(terrain, self.config.terrain)
-                )
-                why = "before it nothing, or a lone step"
-            else:
-                agree = _steps_agree(terrain, self.config.terrain)
-                better = agree and len(terrain.steps) >= len(kept.steps) - 1
-                rises = ", ".join(f"{100.0 * s.own_rise_m:.1f}" for s in kept.steps if not s.rise_inferred)
-                why = f"the steps found before it disagree: rises {rises} cm"
+            terrain = other.terrain
+            better, why = rematch_kept(name, terrain, result.terrain, self.config)
             if better:
                 timing = {**result.timing_ms, **{k: v for k, v in other.timing_ms.items() if k != "total"}}
                 result = dataclasses.replace(
@@ -287,122 +264,6 @@ class Pipeline:
         result.timing_ms["rematch"] = first.timing_ms.get("rematch", 0.0) + took
         return result
 
-    def _far_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
-        """``kept`` (no obstacle found), or the first staircase that a pass of ``tried``, last
-        pass first, gives from its samples with the plane stage's normal tests widened by
-        the far samples' noise (``PipelineConfig.far_planes_sigmas``; where none does, once
-        more widened further, ``far_planes_wider_sigmas`` up to
-        ``far_planes_wider_max_deg``): one whose steps agree (:func:`_steps_agree`) and
-        whose first riser's foot is seen (its rise measured from the ground: the weakest
-        evidence of the pipeline's, it must not stand on an inferred step; a real room's
-        chair did). ``timing_ms["far_planes"]``: the time it took, added to the far planes'
-        earlier in the frame (those of the focus rematch come after the others')."""
-        t0 = time.perf_counter()
-        cfg = self.config
-        first = (cfg.far_planes_sigmas, cfg.orientation.max_noise_tolerance_deg, "far_planes_sigmas")
-        wider = (cfg.far_planes_wider_sigmas, cfg.far_planes_wider_max_deg, "far_planes_wider_sigmas")
-        result = kept
-        for sigmas, max_deg, option in [first, wider] if wider[0] > 0 else [first]:
-            wide = dataclasses.replace(
-                cfg.orientation, normal_noise_sigmas=sigmas, max_noise_tolerance_deg=max_deg
-            )
-            found = self._far_planes_with(tried, kept, wide, option)
-            if found is not None:
-                result = found
-                break
-        took = (time.perf_counter() - t0) * 1000.0
-        result.timing_ms["far_planes"] = kept.timing_ms.get("far_planes", 0.0) + took  # the focus pass's too
-        return result
-
-    def _far_planes_with(
-        self, tried: _Passes, kept: TerrainResult, wide: OrientationConfig, option: str
-    ) -> TerrainResult | None:
-        """:meth:`_far_planes` at one widening, ``wide`` (the plane stage's config), named
-        ``option`` in the note; None when no pass's staircase is kept."""
-        cfg = self.config
-        # The last pass first: the coarse rematch's disparity is the best far away (on
-        # wooden stairs 1.5-2.5 m ahead, risers within 0.5 px: 57% against the first
-        # matcher's 32%; docs/benchmarks.md, "Fourteenth session").
-        for which, done in reversed(tried):
-            samples = done.planes.samples
-            widened = noise_widened(samples, wide, wide.normal_agreement_deg)
-            if widened is None or not np.any(widened > np.radians(wide.normal_agreement_deg)):
-                continue  # nothing far: the same planes as before
-            planes = extract_planes_orientation(
-                samples, wide, up=done.planes.up, camera_position=done.planes.camera_position
-            )
-            lines = done.image_lines
-            terrain = build_terrain(planes, cfg.terrain, floor_known=done.floor_known, lines=lines)
-            further = " further" if option != "far_planes_sigmas" else ""
-            found = _kept_staircase(
-                done,
-                planes,
-                terrain,
-                cfg,
-                found_by=(
-                    f"found by the far planes (no pass found an obstacle; the {which}'s samples with "
-                    f"normal tests widened{further} by the far samples' noise, {option})"
-                ),
-                plane_choice=f"orientation, normal tests widened{further} ({option})",
-                timing_ms=kept.timing_ms,
-            )
-            if found is not None:
-                return found
-        return None
-
-    def _redrawn_planes(self, tried: _Passes, kept: TerrainResult) -> TerrainResult:
-        """``kept`` (no obstacle found, a lone step, or steps whose rises disagree:
-        :meth:`_wants_rematch`), or the staircase that the plane stage finds in the last
-        pass's samples with another seed of its random draws, of
-        ``PipelineConfig.redraw_planes`` tried in turn: the first whose steps agree and
-        whose first riser's foot is seen (as :meth:`_far_planes_with` asks), and in place
-        of steps that disagree, with at most one step fewer (as :meth:`_rematched` asks).
-        The samples are expressed in ``kept``'s frame first (the rig's, or the up from the
-        scene that the passes corroborate; a coarse pass's own up is the least sure), and
-        the result is ``kept``'s with that terrain. ``timing_ms["redraw"]``: the time it
-        took.
-
-        The plane stage's hypotheses are random draws (seeded, so a frame gives the same
-        planes every time); a staircase at the margin of what its samples hold is found by
-        some draws and not others (docs/benchmarks.md, "Nineteenth session": a rig pitch
-        0.2-0.6 deg off found 4 of 9 lab-like misses). Of the realistic staircases a
-        redraw found, 11 of 12 came from the coarse rematch's samples, the last pass
-        ("Twentieth session"): the others are not redrawn."""
-        t0 = time.perf_counter()
-        cfg = self.config
-        which, done = tried[-1]
-        T = kept.T_yaw_camera_rect @ done.T_yaw_camera_rect.inverse()
-        samples = transform_sample(done.planes.samples, T)
-        up = np.array([0.0, 0.0, 1.0])  # the frame's: it is gravity-aligned
-        result = kept
-        for k in range(1, cfg.redraw_planes + 1):
-            seed = cfg.orientation.seed + k
-            config = dataclasses.replace(cfg.orientation, seed=seed)
-            planes = extract_planes_orientation(
-                samples, config, up=up, camera_position=samples.camera_position
-            )
-            terrain = build_terrain(planes, cfg.terrain, floor_known=kept.floor_known, lines=kept.image_lines)
-            if not _unconvincing(kept.terrain) and len(terrain.steps) < len(kept.terrain.steps) - 1:
-                continue  # in place of steps that disagree: at most one step fewer
-            found = _kept_staircase(
-                kept,
-                planes,
-                terrain,
-                cfg,
-                found_by=(
-                    f"found by the redrawn planes (the passes found nothing, a lone step or steps "
-                    f"that disagree; the {which}'s samples, the plane stage's draws seeded {seed}, "
-                    "redraw_planes)"
-                ),
-                plane_choice=f"orientation, the draws seeded {seed} (redraw_planes)",
-                timing_ms=kept.timing_ms,
-            )
-            if found is not None:
-                result = found
-                break
-        result.timing_ms["redraw"] = kept.timing_ms.get("redraw", 0.0) + (time.perf_counter() - t0) * 1000.0
-        return result
-
     def _image_jobs(self, pair: RectifiedPair) -> _ImageJobs:
         """The work that needs only the rectified left image, started on the other core while
         the matcher runs (OpenCV releases the GIL; issue 13): the fill's regions, and the
@@ -410,7 +271,7 @@ class Pipeline:
         direction for the Manhattan fill)."""
         regions = None
         if self.config.fill.enabled:
-            regions = _background().submit(
+            regions = background().submit(
                 find_flat_regions, pair.left, self.config.fill, pair.rectification.valid_left
             )
         lines_job = None
@@ -418,7 +279,7 @@ class Pipeline:
         want_horizontal = self.config.fill.enabled and self.config.fill.manhattan
         rig_up = None if self.T_yaw_camera_rect is None else self._rig_up_camera(self.T_yaw_camera_rect)
         if want_up or (want_horizontal and (rig_up is not None or self.config.vanishing.enabled)):
-            lines_job = _background().submit(
+            lines_job = background().submit(
                 scene_lines,
                 pair.left,
                 pair.rectification,
@@ -600,40 +461,6 @@ class Pipeline:
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
 
 
-def _kept_staircase(
-    base: TerrainResult,
-    planes: PlaneSet,
-    terrain: StairModel,
-    config: PipelineConfig,
-    *,
-    found_by: str,
-    plane_choice: str,
-    timing_ms: dict[str, float],
-) -> TerrainResult | None:
-    """``base`` with ``terrain``, found on ``planes`` by a last opinion of the frame (the far
-    planes, the redrawn planes), or None where it is not kept: its steps must agree
-    (:func:`_steps_agree`) and its first riser's foot must be seen (its rise measured from
-    the ground: the weakest evidence of the pipeline's, it must not stand on an inferred
-    step; a real room's chair did). ``found_by`` is added to its note; its step sigmas
-    are ``base``'s matcher's."""
-    if not _steps_agree(terrain, config.terrain) or terrain.steps[0].rise_inferred:
-        return None
-    rect = base.rectified.rectification
-    terrain = estimate_step_sigmas(
-        terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=config.terrain
-    )
-    terrain = dataclasses.replace(terrain, note=f"{terrain.note}; {found_by}")
-    return dataclasses.replace(
-        base,
-        terrain=terrain,
-        swing=plan_swing(terrain, config.swing),
-        planes=planes,
-        plane_choice=plane_choice,
-        timing_ms={**timing_ms},
-        rematched=True,
-    )
-
-
 def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageLines:
     """The lines' job's segments with the rectified left camera in the yaw frame ``T``
     (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11)."""
@@ -662,92 +489,6 @@ def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
         )
 
 
-#: What the terrain note says of the second opinions (:meth:`Pipeline._rematched`).
-_REMATCH_NOTE = (
-    "rematch",
-    "the right image's exposure matched to the left's and harder smoothness penalties, "
-    "PipelineConfig.rematch_sgbm",
-)
-_COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
-_FOCUS_NOTE = ("focus rematch", "matched with the rematch's settings")
-
-
-#: Two passes' ups corroborate each other within this many of their combined sigmas (the
-#: gravity stage's rule for two estimates that agree, :func:`combine_with_lines`).
-_AGREE_SIGMAS = 3.0
-
-
-def _corroborated_up(tried: _Passes, kept: TerrainResult) -> TerrainResult:
-    """Where every pass of a frame without a rig found nothing and the first's result is
-    kept: the result of the pass (of those that found nothing) whose up from the scene the
-    most other passes corroborate (within ``_AGREE_SIGMAS`` combined sigmas), the first on
-    a tie. The passes level their frames from their own disparities; a first matcher's
-    junk plane can tilt its up by several degrees where the two rematches agree (realistic
-    renders: 6.7 -> 0.1 deg on an empty view, 7.5 -> 2.9 deg on a lab-like staircase not
-    found; docs/benchmarks.md, "Nineteenth session"). Its timings are the frame's."""
-    if len(tried) < 2 or kept.gravity_source == "rig":
-        return kept
-    # Each pass's up (rectified camera) and its sigma, where the scene fixed it.
-    ups: list[tuple[np.ndarray, float] | None] = []
-    for _, r in tried:
-        g = r.gravity
-        sigma = None if g is None or r.gravity_source != "scene" else g.sigma_deg
-        ups.append(None if g is None or sigma is None or not math.isfinite(sigma) else (g.up_camera, sigma))
-
-    def agree(i: int, j: int) -> bool:
-        a, b = ups[i], ups[j]
-        if a is None or b is None:
-            return False
-        return angle_deg(a[0], b[0]) <= _AGREE_SIGMAS * math.hypot(a[1], b[1])
-
-    n = len(tried)
-    support = [sum(agree(i, j) for j in range(n) if j != i) for i in range(n)]
-    nothing = [i for i in range(n) if tried[i][1].terrain.obstacle == NONE]
-    best = max(nothing, key=lambda i: (support[i], -i))
-    if best == 0 or support[best] <= support[0]:
-        return kept
-    name, other = tried[best]
-    gravity = other.gravity
-    if gravity is not None:
-        note = f"{gravity.note}; the {name}'s up, which {support[best]} other pass(es) corroborate"
-        gravity = dataclasses.replace(gravity, note=note)
-    return dataclasses.replace(other, gravity=gravity, timing_ms=kept.timing_ms)
-
-
-def _steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:
-    """Whether ``terrain`` is a staircase whose steps disagree: its largest measured rise
-    more than :data:`AGREEING_RISE_RATIO` times its smallest (inferred rises do not count;
-    a stair's rises are equal), or a measured run longer than ``continue_max_run_m``."""
-    if terrain.obstacle != STAIRS:
-        return False
-    rises = [s.own_rise_m for s in terrain.steps if not s.rise_inferred]
-    runs = [s.own_run_m for s in terrain.steps if s.own_run_m is not None]
-    if rises and max(rises) > AGREEING_RISE_RATIO * min(rises):
-        return True
-    return any(r > config.continue_max_run_m for r in runs)
-
-
-def _steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
-    """Whether ``terrain`` is a staircase whose steps agree, as a second opinion must find
-    one: two steps or more, one measured rise or more, and nothing :func:`_steps_disagree`
-    refuses. (A measured riser continued by steps inferred at its rise counts: on the
-    realistic renders 26 such coarse staircases were all true ones, 12 counted right;
-    asking for two measured rises lost 3-7 points of detection. docs/benchmarks.md,
-    "Thirteenth session".)"""
-    if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
-        return False
-    if all(s.rise_inferred for s in terrain.steps):
-        return False
-    return not _steps_disagree(terrain, config)
-
-
-def _unconvincing(terrain: StairModel) -> bool:
-    """Whether a first pass's terrain leaves room for the rematch: no obstacle, or a
-    staircase of a single step (on webcam photos often the one riser the first matcher
-    held of several)."""
-    return terrain.obstacle == NONE or (terrain.obstacle == STAIRS and len(terrain.steps) == 1)
-
-
 class _ImageJobs(NamedTuple):
     """A frame's work on the rectified left image alone (:meth:`Pipeline._image_jobs`)."""
 
@@ -755,51 +496,3 @@ class _ImageJobs(NamedTuple):
     lines: Future[SceneLines] | None
     rig_up: np.ndarray | None
     want_horizontal: bool
-
-
-_BLAS: list[Any] = []  # the process's BLAS libraries (threadpoolctl), see _find_blas
-
-
-def _find_blas() -> None:
-    """Look up the process's BLAS libraries now (threadpoolctl; about 3 ms), for
-    :func:`_one_blas_thread`. Each ``Pipeline(...)`` does, after its warm-up has loaded
-    what its frames use."""
-    from threadpoolctl import ThreadpoolController
-
-    _BLAS[:] = [ThreadpoolController().select(user_api="blas")]
-
-
-def _one_blas_thread() -> contextlib.AbstractContextManager[Any]:
-    """A context that holds the BLAS libraries (NumPy's OpenBLAS) to one thread while a
-    frame runs on the main thread, and gives the caller's setting back after it.
-
-    The pipeline's matrix products are small (hundreds of plane hypotheses times a few
-    thousand points) and gain nothing from a second BLAS thread, but after each threaded
-    call OpenBLAS leaves its workers spinning for a while, and on two cores they take one
-    from the disparity matcher of the next frame: OpenCV's 3-way SGBM right after a frame
-    without a rig took 36 ms instead of 25 (docs/benchmarks.md, "Fifth session: frames
-    without a rig"). OpenBLAS's setting is process-wide: frames run at once in other
-    threads would save and restore each other's values (and could leave the process at
-    one thread), so a frame on another thread leaves it alone. The CLI, the live loop and
-    ``bench`` run frames on the main thread. Libraries loaded after the last
-    ``Pipeline(...)`` are not limited."""
-    if threading.current_thread() is not threading.main_thread():
-        return contextlib.nullcontext()
-    if not _BLAS:
-        _find_blas()
-    return _BLAS[0].limit(limits=1)
-
-
-_BACKGROUND: dict[int, ThreadPoolExecutor] = {}
-
-
-def _background() -> ThreadPoolExecutor:
-    """The process's one worker thread for work that overlaps the disparity matcher (shared
-    by every pipeline, so that many pipelines do not leave many idle threads). Keyed by
-    process id: a child forked after a frame has no thread behind its parent's executor,
-    and would wait on it forever."""
-    pid = os.getpid()
-    if pid not in _BACKGROUND:
-        _BACKGROUND.clear()
-        _BACKGROUND[pid] = ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-terrain")
-    return _BACKGROUND[pid]

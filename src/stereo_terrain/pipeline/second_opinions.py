@@ -1,0 +1,302 @@
+"""The second opinions of a frame (issue 11): what decides that a pass's terrain wants
+another, and the opinions that need no new matching.
+
+:class:`~.core.Pipeline` runs a frame's passes (the first matcher; the rematch, the coarse
+and focus rematches where :func:`wants_rematch` asks for them) and hands their results
+here:
+
+- :func:`far_planes`: the passes' samples with the plane stage's normal tests widened by
+  the far samples' noise, where no pass found an obstacle;
+- :func:`corroborated_up`: without a rig, the up that most passes agree on, where all of
+  them found nothing;
+- :func:`redrawn_planes`: the last pass's samples with other seeds of the plane stage's
+  random draws;
+- :func:`kept_staircase`: what every one of them asks of a staircase before it is kept.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from ..cloud import transform_sample
+from ..gravity import angle_deg
+from ..planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation, noise_widened
+from ..swing import plan_swing
+from ..terrain import StairModel, build_terrain, estimate_step_sigmas
+from ..terrain.model import NONE, STAIRS, TerrainConfig
+from .config import AGREEING_RISE_RATIO, PipelineConfig
+from .result import TerrainResult
+
+#: The passes a frame ran, in order: each one's name and own result (the first matcher's,
+#: the rematch's, the coarse rematch's), for the far planes.
+Passes = list[tuple[str, TerrainResult]]
+
+
+def wants_rematch(terrain: StairModel, config: PipelineConfig) -> bool:
+    """Whether a pass's terrain leaves room for another opinion: nothing convincing
+    (:func:`unconvincing`), or (``rematch_disagreeing``) a staircase whose measured
+    rises disagree (:func:`steps_agree`)."""
+    if unconvincing(terrain):
+        return True
+    return config.rematch_disagreeing and steps_disagree(terrain, config.terrain)
+
+
+def rematch_kept(
+    name: str, terrain: StairModel, kept: StairModel, config: PipelineConfig
+) -> tuple[bool, str]:
+    """Whether a rematch pass named ``name`` that found ``terrain`` replaces ``kept`` (the
+    terrain kept so far), and why it was run, for the note (:meth:`Pipeline._rematched`):
+
+    - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
+      can make an object's front a lone "step", as a real room's motorbike did), with
+      steps that agree (the coarse and focus rematches; the coarse one's smoothness
+      reaches further across a room's furniture too: :func:`steps_agree`);
+    - steps whose rises disagree: with steps that agree, no fewer than one less."""
+    if unconvincing(kept):
+        better = (
+            terrain.obstacle == STAIRS and len(terrain.steps) >= 2
+            if name == REMATCH_NOTE[0]
+            else steps_agree(terrain, config.terrain)
+        )
+        return better, "before it nothing, or a lone step"
+    better = steps_agree(terrain, config.terrain) and len(terrain.steps) >= len(kept.steps) - 1
+    rises = ", ".join(f"{100.0 * s.own_rise_m:.1f}" for s in kept.steps if not s.rise_inferred)
+    return better, f"the steps found before it disagree: rises {rises} cm"
+
+
+def far_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """``kept`` (no obstacle found), or the first staircase that a pass of ``tried``, last
+    pass first, gives from its samples with the plane stage's normal tests widened by
+    the far samples' noise (``PipelineConfig.far_planes_sigmas``; where none does, once
+    more widened further, ``far_planes_wider_sigmas`` up to
+    ``far_planes_wider_max_deg``): one whose steps agree (:func:`steps_agree`) and
+    whose first riser's foot is seen (its rise measured from the ground: the weakest
+    evidence of the pipeline's, it must not stand on an inferred step; a real room's
+    chair did). ``timing_ms["far_planes"]``: the time it took, added to the far planes'
+    earlier in the frame (those of the focus rematch come after the others')."""
+    t0 = time.perf_counter()
+    first = (config.far_planes_sigmas, config.orientation.max_noise_tolerance_deg, "far_planes_sigmas")
+    wider = (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg, "far_planes_wider_sigmas")
+    result = kept
+    for sigmas, max_deg, option in [first, wider] if wider[0] > 0 else [first]:
+        wide = dataclasses.replace(
+            config.orientation, normal_noise_sigmas=sigmas, max_noise_tolerance_deg=max_deg
+        )
+        found = _far_planes_with(tried, kept, wide, option, config)
+        if found is not None:
+            result = found
+            break
+    took = (time.perf_counter() - t0) * 1000.0
+    result.timing_ms["far_planes"] = kept.timing_ms.get("far_planes", 0.0) + took  # the focus pass's too
+    return result
+
+
+def _far_planes_with(
+    tried: Passes, kept: TerrainResult, wide: OrientationConfig, option: str, config: PipelineConfig
+) -> TerrainResult | None:
+    """:func:`far_planes` at one widening, ``wide`` (the plane stage's config), named
+    ``option`` in the note; None when no pass's staircase is kept."""
+    # The last pass first: the coarse rematch's disparity is the best far away (on
+    # wooden stairs 1.5-2.5 m ahead, risers within 0.5 px: 57% against the first
+    # matcher's 32%; docs/benchmarks.md, "Fourteenth session").
+    for which, done in reversed(tried):
+        samples = done.planes.samples
+        widened = noise_widened(samples, wide, wide.normal_agreement_deg)
+        if widened is None or not np.any(widened > np.radians(wide.normal_agreement_deg)):
+            continue  # nothing far: the same planes as before
+        planes = extract_planes_orientation(
+            samples, wide, up=done.planes.up, camera_position=done.planes.camera_position
+        )
+        lines = done.image_lines
+        terrain = build_terrain(planes, config.terrain, floor_known=done.floor_known, lines=lines)
+        further = " further" if option != "far_planes_sigmas" else ""
+        found = kept_staircase(
+            done,
+            planes,
+            terrain,
+            config,
+            found_by=(
+                f"found by the far planes (no pass found an obstacle; the {which}'s samples with "
+                f"normal tests widened{further} by the far samples' noise, {option})"
+            ),
+            plane_choice=f"orientation, normal tests widened{further} ({option})",
+            timing_ms=kept.timing_ms,
+        )
+        if found is not None:
+            return found
+    return None
+
+
+def redrawn_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """``kept`` (no obstacle found, a lone step, or steps whose rises disagree:
+    :func:`wants_rematch`), or the staircase that the plane stage finds in the last
+    pass's samples with another seed of its random draws, of
+    ``PipelineConfig.redraw_planes`` tried in turn: the first whose steps agree and
+    whose first riser's foot is seen (as :func:`_far_planes_with` asks), and in place
+    of steps that disagree, with at most one step fewer (as :meth:`Pipeline._rematched` asks).
+    The samples are expressed in ``kept``'s frame first (the rig's, or the up from the
+    scene that the passes corroborate; a coarse pass's own up is the least sure), and
+    the result is ``kept``'s with that terrain. ``timing_ms["redraw"]``: the time it
+    took.
+
+    The plane stage's hypotheses are random draws (seeded, so a frame gives the same
+    planes every time); a staircase at the margin of what its samples hold is found by
+    some draws and not others (docs/benchmarks.md, "Nineteenth session": a rig pitch
+    0.2-0.6 deg off found 4 of 9 lab-like misses). Of the realistic staircases a
+    redraw found, 11 of 12 came from the coarse rematch's samples, the last pass
+    ("Twentieth session"): the others are not redrawn."""
+    t0 = time.perf_counter()
+    which, done = tried[-1]
+    T = kept.T_yaw_camera_rect @ done.T_yaw_camera_rect.inverse()
+    samples = transform_sample(done.planes.samples, T)
+    up = np.array([0.0, 0.0, 1.0])  # the frame's: it is gravity-aligned
+    result = kept
+    for k in range(1, config.redraw_planes + 1):
+        seed = config.orientation.seed + k
+        draws = dataclasses.replace(config.orientation, seed=seed)
+        planes = extract_planes_orientation(samples, draws, up=up, camera_position=samples.camera_position)
+        terrain = build_terrain(planes, config.terrain, floor_known=kept.floor_known, lines=kept.image_lines)
+        if not unconvincing(kept.terrain) and len(terrain.steps) < len(kept.terrain.steps) - 1:
+            continue  # in place of steps that disagree: at most one step fewer
+        found = kept_staircase(
+            kept,
+            planes,
+            terrain,
+            config,
+            found_by=(
+                f"found by the redrawn planes (the passes found nothing, a lone step or steps "
+                f"that disagree; the {which}'s samples, the plane stage's draws seeded {seed}, "
+                "redraw_planes)"
+            ),
+            plane_choice=f"orientation, the draws seeded {seed} (redraw_planes)",
+            timing_ms=kept.timing_ms,
+        )
+        if found is not None:
+            result = found
+            break
+    result.timing_ms["redraw"] = kept.timing_ms.get("redraw", 0.0) + (time.perf_counter() - t0) * 1000.0
+    return result
+
+
+def kept_staircase(
+    base: TerrainResult,
+    planes: PlaneSet,
+    terrain: StairModel,
+    config: PipelineConfig,
+    *,
+    found_by: str,
+    plane_choice: str,
+    timing_ms: dict[str, float],
+) -> TerrainResult | None:
+    """``base`` with ``terrain``, found on ``planes`` by a last opinion of the frame (the far
+    planes, the redrawn planes), or None where it is not kept: its steps must agree
+    (:func:`steps_agree`) and its first riser's foot must be seen (its rise measured from
+    the ground: the weakest evidence of the pipeline's, it must not stand on an inferred
+    step; a real room's chair did). ``found_by`` is added to its note; its step sigmas
+    are ``base``'s matcher's."""
+    if not steps_agree(terrain, config.terrain) or terrain.steps[0].rise_inferred:
+        return None
+    rect = base.rectified.rectification
+    terrain = estimate_step_sigmas(
+        terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=config.terrain
+    )
+    terrain = dataclasses.replace(terrain, note=f"{terrain.note}; {found_by}")
+    return dataclasses.replace(
+        base,
+        terrain=terrain,
+        swing=plan_swing(terrain, config.swing),
+        planes=planes,
+        plane_choice=plane_choice,
+        timing_ms={**timing_ms},
+        rematched=True,
+    )
+
+
+#: What the terrain note says of the second opinions (:meth:`Pipeline._rematched`).
+REMATCH_NOTE = (
+    "rematch",
+    "the right image's exposure matched to the left's and harder smoothness penalties, "
+    "PipelineConfig.rematch_sgbm",
+)
+COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
+FOCUS_NOTE = ("focus rematch", "matched with the rematch's settings")
+
+
+#: Two passes' ups corroborate each other within this many of their combined sigmas (the
+#: gravity stage's rule for two estimates that agree, :func:`combine_with_lines`).
+_AGREE_SIGMAS = 3.0
+
+
+def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
+    """Where every pass of a frame without a rig found nothing and the first's result is
+    kept: the result of the pass (of those that found nothing) whose up from the scene the
+    most other passes corroborate (within ``_AGREE_SIGMAS`` combined sigmas), the first on
+    a tie. The passes level their frames from their own disparities; a first matcher's
+    junk plane can tilt its up by several degrees where the two rematches agree (realistic
+    renders: 6.7 -> 0.1 deg on an empty view, 7.5 -> 2.9 deg on a lab-like staircase not
+    found; docs/benchmarks.md, "Nineteenth session"). Its timings are the frame's."""
+    if len(tried) < 2 or kept.gravity_source == "rig":
+        return kept
+    # Each pass's up (rectified camera) and its sigma, where the scene fixed it.
+    ups: list[tuple[np.ndarray, float] | None] = []
+    for _, r in tried:
+        g = r.gravity
+        sigma = None if g is None or r.gravity_source != "scene" else g.sigma_deg
+        ups.append(None if g is None or sigma is None or not math.isfinite(sigma) else (g.up_camera, sigma))
+
+    def agree(i: int, j: int) -> bool:
+        a, b = ups[i], ups[j]
+        if a is None or b is None:
+            return False
+        return angle_deg(a[0], b[0]) <= _AGREE_SIGMAS * math.hypot(a[1], b[1])
+
+    n = len(tried)
+    support = [sum(agree(i, j) for j in range(n) if j != i) for i in range(n)]
+    nothing = [i for i in range(n) if tried[i][1].terrain.obstacle == NONE]
+    best = max(nothing, key=lambda i: (support[i], -i))
+    if best == 0 or support[best] <= support[0]:
+        return kept
+    name, other = tried[best]
+    gravity = other.gravity
+    if gravity is not None:
+        note = f"{gravity.note}; the {name}'s up, which {support[best]} other pass(es) corroborate"
+        gravity = dataclasses.replace(gravity, note=note)
+    return dataclasses.replace(other, gravity=gravity, timing_ms=kept.timing_ms)
+
+
+def steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether ``terrain`` is a staircase whose steps disagree: its largest measured rise
+    more than :data:`AGREEING_RISE_RATIO` times its smallest (inferred rises do not count;
+    a stair's rises are equal), or a measured run longer than ``continue_max_run_m``."""
+    if terrain.obstacle != STAIRS:
+        return False
+    rises = [s.own_rise_m for s in terrain.steps if not s.rise_inferred]
+    runs = [s.own_run_m for s in terrain.steps if s.own_run_m is not None]
+    if rises and max(rises) > AGREEING_RISE_RATIO * min(rises):
+        return True
+    return any(r > config.continue_max_run_m for r in runs)
+
+
+def steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether ``terrain`` is a staircase whose steps agree, as a second opinion must find
+    one: two steps or more, one measured rise or more, and nothing :func:`steps_disagree`
+    refuses. (A measured riser continued by steps inferred at its rise counts: on the
+    realistic renders 26 such coarse staircases were all true ones, 12 counted right;
+    asking for two measured rises lost 3-7 points of detection. docs/benchmarks.md,
+    "Thirteenth session".)"""
+    if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
+        return False
+    if all(s.rise_inferred for s in terrain.steps):
+        return False
+    return not steps_disagree(terrain, config)
+
+
+def unconvincing(terrain: StairModel) -> bool:
+    """Whether a first pass's terrain leaves room for the rematch: no obstacle, or a
+    staircase of a single step (on webcam photos often the one riser the first matcher
+    held of several)."""
+    return terrain.obstacle == NONE or (terrain.obstacle == STAIRS and len(terrain.steps) == 1)
