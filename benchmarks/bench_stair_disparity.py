@@ -219,7 +219,7 @@ def main() -> None:
     ap.add_argument("--cache", type=Path)
     ap.add_argument("--middlebury", type=Path, help="score on Middlebury-layout scenes instead")
     ap.add_argument("--no-vertical", action="store_true", help="without the per-frame vertical alignment")
-    ap.add_argument("--per-scene", action="store_true", help="also print stair-face good % per scene")
+    ap.add_argument("--per-scene", action="store_true", help="also print stair-face good %% per scene")
     args = ap.parse_args()
     if args.middlebury:
         middlebury(

@@ -241,6 +241,29 @@ def test_the_nosing_nearest_where_the_next_one_should_be_is_taken():
     assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(alone, height)).steps) == 3
 
 
+def test_a_wider_line_with_no_riser_foot_under_it_gives_way_to_the_nosing_nearer():
+    """The widest line across the staircase within the run's tolerance is no nosing when no
+    riser foot shows under it (a tread's far edge, a rail beyond): the lines nearer where
+    the next nosing should be are tried next. Here the next nosing shows over 60% of the
+    width (a baluster or a blurred end hides the rest), the line 1.3 steps on over all of
+    it (the real Middlebury `Staircase` at 0.8 px of blur, benchmarks/bench_staircase_webcam.py)."""
+    rise, run, distance = 0.15, 0.30, 1.2
+    height = 0.9  # above the treads: each riser's foot is in view and must show
+    planes = _planes(5, rise, run, distance, missing=2, height=height)
+    blank = _lines(np.empty((0, 4)), height)
+    beyond = _segment(blank, distance + 3.3 * run, 4.3 * rise, 0.0)  # 1.3 steps after the 3rd
+    full = _stair_lines(5, rise, run, distance, height=height)
+    part = _segment(blank, distance + 3 * run, 4 * rise, 0.0, lateral=(-0.3, 0.3))  # the 4th nosing
+    lines = np.vstack([beyond[None], full[:6], part[None], full[7:]])
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(lines, height))
+    assert len(model.steps) == 5
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+    # The narrower nosing alone, without the foot of its riser, is no step either.
+    no_foot = np.vstack([beyond[None], full[:6], part[None]])
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(no_foot, height)).steps) == 3
+
+
 def test_a_line_across_the_view_at_the_cameras_height_is_no_nosing(monkeypatch):
     """A nosing a centimetre below the cameras is a line through the view less than a
     degree from their horizon, where the horizon or a far wall's foot draw the same line.

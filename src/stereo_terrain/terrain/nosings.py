@@ -592,23 +592,47 @@ def _next_nosing(
     widest = max(found.values(), default=0.0)
     if widest < config.nosing_min_cover:
         return None
-    best = min((at for at, cover in found.items() if cover == widest), key=lambda at: abs(at - 1.0))
-    if _foot_shows(view, segs, anchor, pitch, den, a_k, top_k, rise, run, best, config):
-        return best
-    # No segments at the foot: with the image, its grey levels may still show it.
-    if smoothed is None:
-        return None
+    first = min((at for at, cover in found.items() if cover == widest), key=lambda at: abs(at - 1.0))
+    # Where the widest group's riser foot does not show, it is no nosing (a tread's far
+    # edge, a rail beyond it): the groups nearer the expected position are tried in turn.
+    nearer = [
+        at
+        for at, cover in found.items()
+        if cover >= config.nosing_min_cover and abs(at - 1.0) < abs(first - 1.0)
+    ]
+    ranked = [first, *sorted(nearer, key=lambda at: abs(at - 1.0))]
+    for best in ranked:
+        if _foot_shows(view, segs, anchor, pitch, den, a_k, top_k, rise, run, best, config):
+            return best
+        # No segments at the foot: with the image, its grey levels may still show it.
+        if smoothed is not None and _foot_in_grey_levels(view, smoothed, a_k, top_k, rise, run, best, config):
+            return best
+    return None
+
+
+def _foot_in_grey_levels(
+    view: _View,
+    smoothed: Callable[[], np.ndarray],
+    a_k: float,
+    top_k: float,
+    rise: float,
+    run: float,
+    best: float,
+    config: TerrainConfig,
+) -> bool:
+    """Whether the nosing at pitch position ``best`` shows as an edge in the smoothed image
+    (``smoothed()``) and the foot of the riser below it too (:func:`_edge_foot_shows`)."""
     width = _visible(view, a_k + best * run, top_k + best * rise)
     if width is None:
-        return None
+        return False
     nosing = _line_pixels(view, a_k + best * run, top_k + best * rise, width)
     if nosing is None:
-        return None
+        return False
     image = smoothed()
     edge = _edge_cover(image, nosing, config.nosing_edge_contrast)
     if abs(edge) < config.nosing_min_cover:
-        return None
-    return best if _edge_foot_shows(view, image, a_k, top_k, rise, run, best, edge, width, config) else None
+        return False
+    return _edge_foot_shows(view, image, a_k, top_k, rise, run, best, edge, width, config)
 
 
 def _foot_shows(
