@@ -1,6 +1,6 @@
 """Figure for docs/benchmarks.md ("Twelfth session"): the real Middlebury ``Staircase`` with
 the recovered polytope drawn over the rectified left image, without and with the steps the
-image's line segments show (``terrain.nosing_steps``, terrain/nosings.py).
+image's line segments show (``terrain.nosing_steps``, terrain/nosings/).
 
     .venv/bin/python benchmarks/figure_staircase_nosings.py [--out docs/figures/staircase_nosings.png]
 

@@ -292,7 +292,7 @@ def test_real_middlebury_staircase_has_four_ordinary_steps(shared_data):
 def test_real_middlebury_staircase_upper_steps_from_their_nosings(shared_data):
     """The painted staircase's upper risers form no plane (a few pixels of disparity noise
     tall) but their nosings are long edges in the image: the terrain stage adds them at
-    the staircase's rise and run (terrain/nosings.py). Without it, the four steps of the
+    the staircase's rise and run (terrain/nosings/). Without it, the four steps of the
     riser planes; with it, more, every one an ordinary step."""
     d = shared_data / "middlebury2014Q_noGT" / "Staircase"
     calibration = read_calibration(d / "calib.txt")
@@ -314,7 +314,7 @@ def test_real_middlebury_staircase_blurred_as_a_webcam_blurs_still_has_four_step
     benchmarks/bench_staircase_webcam.py): only the first riser forms a plane, and the
     steps beyond come from their nosings. On the third, a line 1.3 steps on covers more
     of the width than the nosing does and has no riser foot under it; the nosing nearer
-    is taken instead of stopping there (terrain/nosings.py), and the staircase passes
+    is taken instead of stopping there (terrain/nosings/), and the staircase passes
     the issue's check with its rises and runs as reported."""
     d = shared_data / "middlebury2014Q_noGT" / "Staircase"
     left, right = (cv2.GaussianBlur(to_grey(read_image(d / n)), (0, 0), 0.8) for n in ("im0.png", "im1.png"))

@@ -1,5 +1,5 @@
 """A staircase's rise from the heights of the nosings the image's segments show
-(terrain/nosings.py ``nosing_heights``, terrain/uniform.py ``rise_from_nosings``;
+(terrain/nosings/ ``nosing_heights``, terrain/uniform.py ``rise_from_nosings``;
 ``TerrainConfig.nosing_rise``), issue 11."""
 
 import dataclasses

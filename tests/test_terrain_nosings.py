@@ -1,5 +1,5 @@
 """Steps beyond the last one where the image's line segments show their nosings
-(terrain/nosings.py): far risers that formed no plane and whose samples say nothing."""
+(terrain/nosings/): far risers that formed no plane and whose samples say nothing."""
 
 import dataclasses
 
@@ -280,7 +280,7 @@ def test_a_line_across_the_view_at_the_cameras_height_is_no_nosing(monkeypatch):
     border = dataclasses.replace(_lines(np.delete(lines, 6, axis=0), height), at_border=across)
     assert len(build_terrain(planes, NO_SAMPLES, lines=border).steps) == 3
     # It is the horizon's rule that leaves it out: without it the clipped line is taken.
-    monkeypatch.setattr(nosings, "_HORIZON_DEG", 0.0)
+    monkeypatch.setattr(nosings.view, "HORIZON_DEG", 0.0)
     assert len(build_terrain(planes, NO_SAMPLES, lines=border).steps) == 4
 
 

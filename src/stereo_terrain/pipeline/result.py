@@ -97,7 +97,7 @@ class TerrainResult:
                     "width": r(s.width_m),
                     "rise_inferred": s.rise_inferred,
                     # issue 11: placed at the staircase's run from the step before, where
-                    # the image's line segments show its nosing (terrain/nosings.py)
+                    # the image's line segments show its nosing (terrain/nosings/)
                     "position_inferred": s.position_inferred,
                     # issue 11: the step's own rise (run) where "rise" ("run") is the
                     # staircase's common one

@@ -123,7 +123,7 @@ class TerrainConfig:
         Where no segments show the next nosing, it is looked for in the rectified image's
         grey levels (smoothed): a step edge along the predicted line, the two sides
         differing by at least this many grey levels over ``nosing_min_cover`` of the
-        width, and its foot likewise (:func:`~stereo_terrain.terrain.nosings._edge_nosing`).
+        width, and its foot likewise (:func:`~stereo_terrain.terrain.nosings.edges.edge_nosing`).
         0 turns it off.
     face_bias_correlation : float
         Correlation of the shared disparity error of neighbouring faces (a tread and the

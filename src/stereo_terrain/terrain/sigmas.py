@@ -170,7 +170,7 @@ def estimate_step_sigmas(
     yaw_info: list[tuple[float, float, float]] = []  # (weight, 1-sigma of the riser's yaw, its yaw)
     s_prev = -np.inf
     # The runs measured between risers that were found (for the steps placed a run beyond
-    # the step before: terrain/nosings.py).
+    # the step before: terrain/nosings/).
     runs_seen = [
         st.own_run_m
         for k, st in enumerate(steps[:-1])

@@ -1,0 +1,286 @@
+"""The steps the image's nosings add beyond the chain (:func:`nosing_steps`), and each
+step's nosing height as its segments show it (:func:`nosing_heights`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from ...planes.orientation import PlaneSet
+from ..continuation import INLIERS, walls_across
+from ..model import Step, TerrainConfig
+from .edges import edge_nosing, smoothed_image
+from .next_nosing import LAM_GROUP, inferred_step, next_nosing
+from .splits import split_double_steps, split_too_tall
+from .view import (
+    ImageLines,
+    Segments,
+    StairView,
+    covered_share,
+    inner_lateral,
+    lateral_on_height,
+    parallel_segments,
+    visible_span,
+)
+
+#: A refined top is taken from segments within this (metres) of each other.
+_TOP_GROUP_M = 0.01
+
+
+#: ... and cover this share of the step's visible width.
+_TOP_MIN_COVER = 0.3
+
+
+#: Samples on the tread's height beyond a would-be riser that make it a landing.
+_MIN_FLOOR_SAMPLES = 5
+
+
+def nosing_steps(
+    steps: list[Step],
+    planes: PlaneSet,
+    P: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    lines: ImageLines,
+    config: TerrainConfig,
+) -> tuple[list[Step], int, int]:
+    """``steps`` with each step taller than a stair rise and each double step split where
+    the image shows the nosing between (:func:`split_too_tall`,
+    :func:`split_double_steps`), and the steps beyond the last one whose nosings the
+    image's segments show (module docstring); how many were added beyond, and how many
+    split.
+
+    Parameters
+    ----------
+    steps : the chain's steps, nearest first; nothing is done without a measured rise, nor
+        without a known run unless the chain is a lone step
+    planes : PlaneSet the steps were built from (gravity-aligned frame)
+    P : (N, 3) float64, its samples' points
+    u, v : (3,) float, the stair axis and the lateral direction (terrain frame)
+    lateral : the staircase's lateral extent along ``v``, metres
+    lines : ImageLines
+    config : TerrainConfig (``nosing_steps``, ``max_nosing_steps``,
+        ``nosing_run_tolerance``, ``nosing_min_cover``, ``nosing_min_foot_cover``)
+    """
+    if not config.nosing_steps or not steps:
+        return steps, 0, 0
+    rises = [s.rise_m for s in steps if not s.rise_inferred]
+    runs = [s.run_m for s in steps if s.run_m is not None]
+    edges = config.nosing_edge_contrast > 0 and lines.image is not None
+    if not rises or not (runs or len(steps) == 1):
+        return steps, 0, 0
+    if len(lines.segments) + len(lines.at_border) == 0 and not (edges and runs):
+        return steps, 0, 0
+    rise = float(np.median(rises))
+    segs = parallel_segments(lines, v)
+    if segs is None:
+        if not (edges and runs):
+            return steps, 0, 0
+        segs = Segments(np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)))
+    view = StairView(lines, segs, u, v, inner_lateral(lateral))
+    # The image smoothed for the edges, once and only when a nosing is looked for there.
+    smoothed = functools.cache(lambda: smoothed_image(lines)) if edges else None
+    out, tall = split_too_tall(list(steps), view, config)
+    out, split = split_double_steps(out, view, config)
+    split += tall
+    if split:
+        rise = float(np.median([s.rise_m for s in out]))
+        runs = [s.run_m for s in out if s.run_m is not None]
+    a, top = out[-1].axis_position_m, out[-1].top_z_m
+    anchor = _refined_top(view, a, top, rise)
+    if runs:
+        run = float(np.median(runs))
+    else:
+        # A lone step: the run that puts two nosings beyond it (module docstring).
+        found = _run_from_two_nosings(view, a, anchor, rise, config)
+        if found is None:
+            return out, 0, split
+        run = found
+    walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
+    added = 0
+    while added < config.max_nosing_steps:
+        lam = next_nosing(view, a, anchor, rise, run, config, smoothed)
+        if lam is None and smoothed is not None:
+            lam = edge_nosing(view, smoothed(), a, anchor, rise, run, config)
+        if lam is None:
+            break
+        last = out[-1]
+        a_new = a + run
+        if walls.size and float(np.min(np.abs(walls - a_new))) < config.merge_distance_m:
+            break  # a wall across the stairs there: its joints and edges are no nosings
+        if _floor_where_the_riser_would_be(planes, P, view, a_new, last.top_z_m, rise):
+            break  # the samples see the last tread go on (a landing's tiles, a platform)
+        out[-1] = dataclasses.replace(last, run_m=run)
+        out.append(inferred_step(u, a_new, last.top_z_m + rise, rise, None))
+        added += 1
+        a, anchor = a_new, _refined_top(view, a_new, anchor + rise, rise)
+    return out, added, split
+
+
+def nosing_heights(
+    steps: list[Step],
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    lines: ImageLines,
+) -> list[float | None]:
+    """Each step's nosing height as the image's segments show it on its riser plane
+    (:func:`_nosing_top`: the segments within a third of the steps' median measured rise
+    of its top that cover ``_TOP_MIN_COVER`` of its width); None where none do. The
+    segments place a nosing to a fraction of a pixel of elevation, a few millimetres at
+    stair distances, where a height from the samples carries centimetres of disparity
+    noise (:mod:`~stereo_terrain.terrain.uniform` fits the staircase's rise to them).
+
+    Parameters
+    ----------
+    steps : the staircase's steps, nearest first (``axis_position_m``, ``top_z_m``)
+    u, v : (3,) float, the stair axis and the lateral direction (terrain frame)
+    lateral : the staircase's lateral extent along ``v``, metres
+    lines : ImageLines
+    """
+    rises = [s.rise_m for s in steps if not s.rise_inferred]
+    segs = parallel_segments(lines, v) if rises else None
+    if segs is None:
+        return [None] * len(steps)
+    view = StairView(lines, segs, u, v, inner_lateral(lateral))
+    rise = float(np.median(rises))
+    return [_nosing_top(view, s.axis_position_m, s.top_z_m, rise) for s in steps]
+
+
+def _floor_where_the_riser_would_be(
+    planes: PlaneSet,
+    P: np.ndarray,
+    view: StairView,
+    s_new: float,
+    top: float,
+    rise: float,
+) -> bool:
+    """Whether the samples in the image of the riser that would stand at ``s_new`` on the
+    tread at ``top`` lie on that tread's height beyond it (at least ``_MIN_FLOOR_SAMPLES``,
+    and more than lie at ``s_new``): the tread goes on, as a landing does. Where the
+    matcher holds the faces (textured stairs) this tells a landing's tile joints from a
+    step; where it holds nothing there (the far faces this module is for) it says nothing."""
+    lines, u, v = view.lines, view.u, view.v
+    span = visible_span(view, s_new, top + 0.5 * rise)
+    if span is None:
+        return False
+    m = 0.1 * (span[1] - span[0])
+    corners = [(span[0] + m, 0.15), (span[1] - m, 0.15), (span[1] - m, 0.85), (span[0] + m, 0.85)]
+    ends = np.array([s_new * u + t * v + [0.0, 0.0, top + f * rise] for t, f in corners])
+    quad, depth = lines.project(ends)
+    if not (depth > 0).all():
+        return False
+    smp = planes.samples
+    inside = _in_convex(quad, smp.cols.astype(np.float64), smp.rows.astype(np.float64))
+    if not inside.any():
+        return False
+    q = P[inside]
+    thr = INLIERS.inlier_threshold_m(smp.sigma_m[inside])
+    s = q @ u
+    at_riser = np.abs(s - s_new) < thr
+    on_floor = (np.abs(q[:, 2] - top) < thr) & (s > s_new - thr) & ~at_riser
+    n_floor = int(np.count_nonzero(on_floor))
+    return n_floor >= _MIN_FLOOR_SAMPLES and n_floor > int(np.count_nonzero(at_riser))
+
+
+def _in_convex(quad: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Which points ``(x, y)`` lie inside the convex polygon ``quad`` ``(K, 2)`` (either
+    winding)."""
+    signs = []
+    for k in range(len(quad)):
+        (x0, y0), (x1, y1) = quad[k], quad[(k + 1) % len(quad)]
+        signs.append((x1 - x0) * (y - y0) - (y1 - y0) * (x - x0))
+    cross = np.array(signs)
+    return np.asarray(np.all(cross >= 0, axis=0) | np.all(cross <= 0, axis=0))
+
+
+def _run_from_two_nosings(
+    view: StairView,
+    a_k: float,
+    top_k: float,
+    rise: float,
+    config: TerrainConfig,
+) -> float | None:
+    """For a lone step at ``(a_k, top_k)``: of the runs between ``continue_min_run_m`` and
+    ``continue_max_run_m`` (1 cm apart) for which segments cover ``nosing_min_cover`` of
+    the width at both the next nosing and the one after, the one that puts them nearest
+    one and two steps along the pitch line; None when no run has both."""
+    lines, segs, u, v, lat = view.lines, view.segs, view.u, view.v, view.lat
+    c = lines.centre
+    anchor = a_k * u + 0.5 * (lat[0] + lat[1]) * v + np.array([0.0, 0.0, top_k])
+    lift = segs.normal @ (anchor - c)
+    runs = np.arange(config.continue_min_run_m, config.continue_max_run_m + 1e-9, 0.01)
+    # Every run at once: each segment's pitch-line position (runs x segments); only the
+    # runs with a segment near both nosings are looked at further.
+    den = (segs.normal @ u)[None, :] * runs[:, None] + (segs.normal[:, 2] * rise)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.where(np.abs(den) > 1e-9, -lift[None, :] / den, np.nan)
+    near = [np.abs(lam - k) < k * LAM_GROUP for k in (1, 2)]
+    best, best_err = None, math.inf
+    for i in np.flatnonzero(near[0].any(axis=1) & near[1].any(axis=1)):
+        run = float(runs[i])
+        err = 0.0
+        for k in (1, 2):
+            span = visible_span(view, a_k + k * run, top_k + k * rise)
+            if span is None:
+                err = math.inf
+                break
+            lo, hi = lateral_on_height(view, top_k + lam[i] * rise)
+            at = near[k - 1][i] & np.isfinite(lo) & np.isfinite(hi)
+            if covered_share(lo[at], hi[at], span) < config.nosing_min_cover:
+                err = math.inf
+                break
+            err += abs(float(np.median(lam[i][at])) - k) / k
+        if err < best_err:
+            best, best_err = run, err
+    return best
+
+
+def _refined_top(view: StairView, a_k: float, top_k: float, rise: float) -> float:
+    """:func:`_nosing_top`, else ``top_k``."""
+    top = _nosing_top(view, a_k, top_k, rise)
+    return top_k if top is None else top
+
+
+def _nosing_top(
+    view: StairView,
+    a_k: float,
+    top_k: float,
+    rise: float,
+) -> float | None:
+    """The height of the step's nosing as its segments show it on its riser plane
+    ``u . x = a_k`` (of the groups of segments within a third of a rise of ``top_k`` that
+    cover ``_TOP_MIN_COVER`` of its width, the nearest; the top found from the samples is
+    biased low, docs/benchmarks.md "Tenth session"); None where none does, or the step is
+    not in view."""
+    lines, segs, u, v = view.lines, view.segs, view.u, view.v
+    span = visible_span(view, a_k, top_k)
+    if span is None:
+        return None
+    c = lines.centre
+    n = segs.normal
+    base = a_k * u + 0.5 * (span[0] + span[1]) * v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = -(n @ (base - c)) / n[:, 2]
+    near = np.isfinite(z) & (np.abs(z - top_k) < rise / 3.0)
+    if not near.any():
+        return None
+    # The segments' ends on the riser plane, for their lateral extent.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0 = (a_k - c @ u) / (segs.d0 @ u)
+        t1 = (a_k - c @ u) / (segs.d1 @ u)
+    e0 = (c + t0[:, None] * segs.d0) @ v
+    e1 = (c + t1[:, None] * segs.d1) @ v
+    lo, hi = np.minimum(e0, e1), np.maximum(e0, e1)
+    near &= np.isfinite(lo) & np.isfinite(hi)
+    best: float | None = None
+    best_dz = math.inf
+    for x in z[near]:
+        group = near & (np.abs(z - x) < _TOP_GROUP_M)
+        if covered_share(lo[group], hi[group], span) >= _TOP_MIN_COVER and abs(x - top_k) < best_dz:
+            best, best_dz = float(np.median(z[group])), abs(x - top_k)
+    return best

@@ -1,0 +1,192 @@
+"""The image's line segments and the camera that saw them (:class:`ImageLines`), and one
+staircase as they see it (:class:`StairView`): which segments are images of its nosings,
+where a line of the staircase is in view, and how much of its width segments cover."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: A segment is parallel to the nosings when its plane through the camera is within this
+#: of containing ``v``, plus the angle one pixel of end error makes over its length.
+_PARALLEL_DEG = 2.0
+
+
+#: Segments reaching the image's border whose plane through the camera is within this of
+#: horizontal are not taken for nosings (:func:`parallel_segments`).
+HORIZON_DEG = 1.0
+
+
+#: The lateral step (metres) at which the visible part of a nosing is measured.
+_LATERAL_STEP_M = 0.02
+
+
+#: The least part of a nosing that must be in view (metres) to judge it.
+_MIN_VISIBLE_M = 0.15
+
+
+#: The cameras must be this much above a tread to see the foot of the riser behind it.
+FOOT_VISIBLE_M = 0.03
+
+
+@dataclass(frozen=True)
+class ImageLines:
+    """The rectified left image's line segments and the camera that saw them, for the
+    terrain stage.
+
+    Attributes
+    ----------
+    segments : (N, 4) float64
+        ``x1, y1, x2, y2`` in pixels of the rectified left image.
+    focal_px, cx, cy : float
+        The rectified left camera.
+    image_size : (width, height)
+    T_frame_camera : (4, 4) float64
+        Rectified left camera to the terrain's (gravity-aligned) frame.
+    at_border : (M, 4) float64
+        Segments that reach the border of the image's valid region, clipped there (a
+        staircase wider than the view has all its nosings so); ``segments`` are whole.
+    image : (H, W) array or None
+        The rectified left image itself, where a nosing no segment shows is looked for
+        as a step edge in its grey levels (``TerrainConfig.nosing_edge_contrast``).
+    """
+
+    segments: np.ndarray = field(repr=False)
+    focal_px: float
+    cx: float
+    cy: float
+    image_size: tuple[int, int]
+    T_frame_camera: np.ndarray = field(repr=False)
+    at_border: np.ndarray = field(repr=False, default_factory=lambda: np.empty((0, 4)))
+    image: np.ndarray | None = field(repr=False, default=None)
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The camera centre in the terrain's frame."""
+        return np.asarray(self.T_frame_camera[:3, 3], dtype=np.float64)
+
+    def rays(self, pixels: np.ndarray) -> np.ndarray:
+        """Directions (not unit) of the rays through ``pixels`` ``(N, 2)``, terrain frame."""
+        d = np.column_stack(
+            [
+                (pixels[:, 0] - self.cx) / self.focal_px,
+                (pixels[:, 1] - self.cy) / self.focal_px,
+                np.ones(len(pixels)),
+            ]
+        )
+        out: np.ndarray = d @ self.T_frame_camera[:3, :3].T
+        return out
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels ``(N, 2)`` and depths ``(N,)`` of terrain-frame ``points``."""
+        R = self.T_frame_camera[:3, :3]
+        X = (points - self.centre) @ R  # R^T (p - c), row-wise
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = np.column_stack(
+                [self.focal_px * X[:, 0] / X[:, 2] + self.cx, self.focal_px * X[:, 1] / X[:, 2] + self.cy]
+            )
+        return uv, X[:, 2]
+
+
+@dataclass(frozen=True)
+class Segments:
+    """The segments parallel to the nosings, with their end rays and planes."""
+
+    d0: np.ndarray
+    d1: np.ndarray
+    normal: np.ndarray
+
+
+@dataclass(frozen=True)
+class StairView:
+    """One staircase as the image's lines see it: the camera (``lines``), the segments
+    parallel to its nosings, its axis ``u`` and lateral direction ``v``, and the part of
+    its width looked at (``lat``, metres along ``v``)."""
+
+    lines: ImageLines
+    segs: Segments
+    u: np.ndarray
+    v: np.ndarray
+    lat: tuple[float, float]
+
+
+def inner_lateral(lateral: tuple[float, float]) -> tuple[float, float]:
+    """The part of a staircase's lateral extent whose nosings are looked at: not its side
+    edges (stringers, walls)."""
+    margin = 0.1 * (lateral[1] - lateral[0])
+    return (lateral[0] + margin, lateral[1] - margin)
+
+
+def parallel_segments(lines: ImageLines, v: np.ndarray) -> Segments | None:
+    """The segments that are images of lines along ``v``; None when there are none.
+
+    Of those that reach the image's border, not the ones whose plane through the camera is
+    within ``HORIZON_DEG`` of horizontal: a line across the view at the cameras' height is
+    as likely the horizon or a far wall's foot as a nosing (one made a step beyond a
+    landing on a default-profile render). A whole one there is kept: the nosings of a
+    staircase whose top is at the cameras' height are such segments."""
+    whole = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
+    border = np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4)
+    s = np.concatenate([whole, border])
+    d0, d1 = lines.rays(s[:, :2]), lines.rays(s[:, 2:])
+    n = np.cross(d0, d1)
+    norm = np.linalg.norm(n, axis=1)
+    length = np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1])
+    ok = (norm > 1e-12) & (length > 0)
+    n[ok] /= norm[ok, None]
+    tol = np.sin(np.radians(_PARALLEL_DEG) + 2.0 / np.maximum(length, 1.0))
+    ok &= np.abs(n @ v) < tol
+    ok[len(whole) :] &= np.abs(n[len(whole) :, 2]) < math.cos(math.radians(HORIZON_DEG))
+    if not ok.any():
+        return None
+    return Segments(d0[ok], d1[ok], n[ok])
+
+
+def on_height(lines: ImageLines, d: np.ndarray, z: np.ndarray | float) -> np.ndarray:
+    """Where the rays ``d`` meet the horizontal plane at height ``z`` (NaN behind or along)."""
+    c = lines.centre
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (z - c[2]) / d[:, 2]
+    p: np.ndarray = c + t[:, None] * d
+    p[~(t > 0)] = np.nan
+    return p
+
+
+def visible_span(view: StairView, s: float, z: float) -> tuple[float, float] | None:
+    """The part of ``lat`` in view (in the image, in front of the camera) of the line at
+    position ``s`` along ``u`` and height ``z``; None when less than ``_MIN_VISIBLE_M``."""
+    lines, u, v, lat = view.lines, view.u, view.v, view.lat
+    t = np.arange(lat[0], lat[1] + 1e-9, _LATERAL_STEP_M)
+    if len(t) < 2:
+        return None
+    uv, depth = lines.project(s * u + t[:, None] * v + np.array([0.0, 0.0, z]))
+    w, h = lines.image_size
+    with np.errstate(invalid="ignore"):
+        ok = (depth > 0.2) & (uv[:, 0] > 3) & (uv[:, 0] < w - 4) & (uv[:, 1] > 3) & (uv[:, 1] < h - 4)
+    if not ok.any():
+        return None
+    lo, hi = float(t[ok][0]), float(t[ok][-1])
+    return (lo, hi) if hi - lo >= _MIN_VISIBLE_M else None
+
+
+def covered_share(lo: np.ndarray, hi: np.ndarray, span: tuple[float, float]) -> float:
+    """The share of ``span`` that the union of the intervals ``[lo, hi]`` covers."""
+    a, b = np.maximum(lo, span[0]), np.minimum(hi, span[1])
+    keep = b > a
+    total, reach = 0.0, -math.inf
+    for x, y in sorted(zip(a[keep], b[keep], strict=True)):
+        if y > reach:
+            total += y - max(x, reach)
+            reach = y
+    return total / (span[1] - span[0])
+
+
+def lateral_on_height(view: StairView, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment's lateral extent ``(lo, hi)`` where its end rays meet height ``z`` (one
+    per segment; NaN where a ray misses)."""
+    lines, segs, v = view.lines, view.segs, view.v
+    a = on_height(lines, segs.d0, z) @ v
+    b = on_height(lines, segs.d1, z) @ v
+    return np.minimum(a, b), np.maximum(a, b)
