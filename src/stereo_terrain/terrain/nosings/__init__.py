@@ -39,10 +39,10 @@ height beyond it (a landing the matcher holds: tile joints are long lines too) o
 stands across the stairs there.
 
 A step so found gets the staircase's median run as its position and the median rise (a
-step found beyond the last riser plane by :mod:`~stereo_terrain.terrain.continuation` does the same, and says so
-with ``rise_inferred``): the segment gives where a nosing is, not precisely which of a
-nosing strip's two edges it is. Measured on the same renders, its positions are closer to
-the truth that way (docs/benchmarks.md).
+step found beyond the last riser plane by :mod:`~stereo_terrain.terrain.continuation`
+does the same, and says so with ``rise_inferred``): the segment gives where a nosing is,
+not precisely which of a nosing strip's two edges it is. Measured on the same renders,
+its positions are closer to the truth that way (docs/benchmarks.md).
 
 Where the segments show no next nosing, the image itself is asked
 (:func:`edge_nosing`, ``nosing_edge_contrast``; the pipeline hands the rectified left
@@ -56,7 +56,7 @@ tread sees the tread's far end as one edge for both), and no line within ``HORIZ
 of the cameras' height is taken (the horizon, the sky's edge).
 
 The same test on other pitch lines serves three more cases: a lone step, whose run is the
-one that puts two nosings beyond it (:func:`_run_from_two_nosings`); a double step, split
+one that puts two nosings beyond it (:func:`~.steps._run_from_two_nosings`); a double step, split
 where the nosing halfway shows (:func:`split_double_steps`); and steps taller than a
 stair rise, a chain of every other riser, split the same way (:func:`split_too_tall`).
 

@@ -163,7 +163,7 @@ def edge_nosing(
 ) -> float | None:
     """The pitch-line position of the next nosing after the step at ``(a_k, top_k)``
     where the image's grey levels show it as a step edge (:func:`edge_cover`), for when
-    its line segments show none; None where they do not either (module docstring).
+    its line segments show none; None where they do not either (the package docstring).
 
     The position within ``nosing_run_tolerance`` where the edge covers most of the
     visible width, ``nosing_min_cover`` of it at least, with the sign of the last

@@ -34,8 +34,8 @@ def next_nosing(
     smoothed: Callable[[], np.ndarray] | None = None,
 ) -> float | None:
     """The pitch-line position ``lam`` of the next nosing after the step at ``(a_k, top_k)``,
-    or None when the segments show none (module docstring). ``smoothed`` gives the smoothed
-    image (:func:`smoothed_image`) where a foot the segments do not show may be looked for
+    or None when the segments show none (the package docstring). ``smoothed`` gives the smoothed
+    image (:func:`~.edges.smoothed_image`) where a foot the segments do not show may be looked for
     in it."""
     lines, segs, u, v, lat = view.lines, view.segs, view.u, view.v, view.lat
     c = lines.centre

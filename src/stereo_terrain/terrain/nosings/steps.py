@@ -51,7 +51,7 @@ def nosing_steps(
     """``steps`` with each step taller than a stair rise and each double step split where
     the image shows the nosing between (:func:`split_too_tall`,
     :func:`split_double_steps`), and the steps beyond the last one whose nosings the
-    image's segments show (module docstring); how many were added beyond, and how many
+    image's segments show (the package docstring); how many were added beyond, and how many
     split.
 
     Parameters
@@ -95,7 +95,7 @@ def nosing_steps(
     if runs:
         run = float(np.median(runs))
     else:
-        # A lone step: the run that puts two nosings beyond it (module docstring).
+        # A lone step: the run that puts two nosings beyond it (the package docstring).
         found = _run_from_two_nosings(view, a, anchor, rise, config)
         if found is None:
             return out, 0, split
