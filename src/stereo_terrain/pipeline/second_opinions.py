@@ -63,9 +63,16 @@ def rematch_kept(
             else steps_agree(terrain, config.terrain)
         )
         return better, "before it nothing, or a lone step"
-    better = steps_agree(terrain, config.terrain) and len(terrain.steps) >= len(kept.steps) - 1
+    better = steps_agree(terrain, config.terrain) and _at_most_one_step_fewer(terrain, kept)
     rises = ", ".join(f"{100.0 * s.own_rise_m:.1f}" for s in kept.steps if not s.rise_inferred)
     return better, f"the steps found before it disagree: rises {rises} cm"
+
+
+def _at_most_one_step_fewer(terrain: StairModel, kept: StairModel) -> bool:
+    """Whether ``terrain`` may replace ``kept``, a staircase whose steps disagree, by its
+    length: at most one step fewer (the rematch's rule, :func:`rematch_kept`, and the
+    redraw's, :func:`redrawn_planes`)."""
+    return len(terrain.steps) >= len(kept.steps) - 1
 
 
 def far_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
@@ -160,8 +167,8 @@ def redrawn_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -
         draws = dataclasses.replace(config.orientation, seed=seed)
         planes = extract_planes_orientation(samples, draws, up=up, camera_position=samples.camera_position)
         terrain = build_terrain(planes, config.terrain, floor_known=kept.floor_known, lines=kept.image_lines)
-        if not unconvincing(kept.terrain) and len(terrain.steps) < len(kept.terrain.steps) - 1:
-            continue  # in place of steps that disagree: at most one step fewer
+        if not unconvincing(kept.terrain) and not _at_most_one_step_fewer(terrain, kept.terrain):
+            continue  # in place of steps that disagree
         found = kept_staircase(
             kept,
             planes,
