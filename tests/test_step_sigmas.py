@@ -6,12 +6,15 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.runtime.simulate import ApproachConfig, approach_spec
 from stereo_terrain.synthetic import render_scene
 from stereo_terrain.terrain import TerrainConfig, build_terrain, estimate_step_sigmas
+from stereo_terrain.terrain.sigmas import _disagreement, _share
 
 from .test_terrain import _stairs
 
@@ -109,3 +112,72 @@ def test_a_riser_seen_off_to_one_side_has_the_lever_of_its_yaw_in_its_distance_s
     assert side > 1.5 * near
     yawed = _first_riser_seen_between(0.35, 0.55, yaw=math.radians(30))
     assert yawed > side  # 1 / cos^2(yaw) more per radian
+
+
+def _own_values(model, rise_off=None, run_off=None):
+    """``model`` with every step reporting its own rise and run (none pooled), and step
+    ``k`` of ``rise_off = (k, metres)`` (``run_off`` likewise) measured that much off."""
+    steps = []
+    for i, s in enumerate(model.steps):
+        rise, run = s.own_rise_m, s.own_run_m
+        if rise_off is not None and rise_off[0] == i:
+            rise += rise_off[1]
+        if run_off is not None and run_off[0] == i:
+            run += run_off[1]
+        steps.append(
+            dataclasses.replace(s, rise_m=rise, run_m=run, measured_rise_m=None, measured_run_m=None)
+        )
+    return dataclasses.replace(model, steps=tuple(steps))
+
+
+def test_a_step_that_the_staircase_disagrees_with_has_the_disagreement_in_its_sigma():
+    """The steps of a staircase are equal: a measured rise 4 cm off the others' has a
+    sigma of at least that, a run 5 cm off likewise, and its two risers share the run's
+    disagreement in their distance sigmas (the farther the larger share); the steps that
+    agree keep the sigmas of the model."""
+    planes = _stairs(n_steps=5, distance=1.5)
+    model = build_terrain(planes)
+    assert len(model.steps) == 5
+
+    def sig(m):
+        return estimate_step_sigmas(m, planes, focal_px=500.0, baseline_m=0.1).steps
+
+    agree = sig(_own_values(model))
+    rise_off = sig(_own_values(model, rise_off=(1, 0.04)))
+    assert 0.04 <= rise_off[1].rise_sigma_m < math.hypot(agree[1].rise_sigma_m, 0.04) + 1e-9
+    for i in (0, 2, 3, 4):
+        assert rise_off[i].rise_sigma_m == pytest.approx(agree[i].rise_sigma_m, abs=1e-6)
+    run_off = sig(_own_values(model, run_off=(1, 0.05)))
+    assert 0.05 <= run_off[1].run_sigma_m < math.hypot(agree[1].run_sigma_m, 0.05) + 1e-9
+    for i in (0, 2, 3):
+        assert run_off[i].run_sigma_m == pytest.approx(agree[i].run_sigma_m, abs=1e-6)
+    # risers 1 and 2 bound the run that disagrees; riser 2 is the farther
+    extra = [
+        math.sqrt(max(a.distance_sigma_m**2 - b.distance_sigma_m**2, 0.0))
+        for a, b in zip(run_off, agree, strict=True)
+    ]
+    assert all(extra[i] == pytest.approx(0.0, abs=1e-6) for i in (0, 3, 4))
+    assert 0.0 < extra[1] < extra[2] and extra[1] + extra[2] == pytest.approx(0.05, rel=0.05)
+
+
+@given(
+    values=st.lists(st.floats(0.05, 0.4), min_size=1, max_size=8),
+    shift=st.floats(-0.1, 0.1),
+)
+def test_disagreement_is_the_distance_to_the_others_median(values, shift):
+    found = _disagreement(dict(enumerate(values)))
+    assert set(found) == (set(range(len(values))) if len(values) > 1 else set())
+    for k, off in found.items():
+        others = values[:k] + values[k + 1 :]
+        assert off == pytest.approx(abs(values[k] - float(np.median(others))), abs=1e-12)
+    # the same shift of every value moves no disagreement
+    moved = _disagreement({k: v + shift for k, v in enumerate(values)})
+    assert all(moved[k] == pytest.approx(found[k], abs=1e-9) for k in found)
+
+
+@given(a=st.floats(0.0, 1.0), b=st.floats(0.0, 1.0))
+def test_the_two_shares_of_an_error_add_up_to_it(a, b):
+    assert 0.0 <= _share(a, b) <= 1.0
+    assert _share(a, b) + _share(b, a) == pytest.approx(1.0)
+    if a > b:
+        assert _share(a, b) >= 0.5

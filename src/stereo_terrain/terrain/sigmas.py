@@ -35,6 +35,29 @@ def _median_sigma(own: list[float], values: np.ndarray) -> float:
     return math.sqrt(math.pi / 2 * max(own_sq, spread_sq) / len(values) + _STEP_VARIATION_M**2)
 
 
+def _disagreement(values: dict[int, float]) -> dict[int, float]:
+    """Of each step's measured value (rise or run, by step index): how far it lies from
+    the median of the other steps' (none where there is no other). The steps of one
+    staircase are equal, so a step that disagrees with the rest was measured that far off,
+    or is a different step: either way its sigma must cover it (issue 14)."""
+    out: dict[int, float] = {}
+    for k, value in values.items():
+        others = [x for j, x in values.items() if j != k]
+        if others:
+            out[k] = abs(value - float(median(np.array(others))))
+    return out
+
+
+def _share(sigma: float, other: float) -> float:
+    """The part of an error of the sum of two independent errors, 1-sigma ``sigma`` and
+    ``other``, expected in the first: ``sigma**2 / (sigma**2 + other**2)`` (a half where
+    either is unknown or both are zero)."""
+    total = sigma * sigma + other * other
+    if not math.isfinite(total) or total <= 0.0:
+        return 0.5
+    return sigma * sigma / total
+
+
 #: A sample is on a face when its local normal is within about 30 deg of the face's.
 _FACE_COS = 0.85
 
@@ -102,7 +125,15 @@ def estimate_step_sigmas(
       riser plane fitted a few degrees off pulls the mean);
     * the distance: where the frame's x axis meets a riser plane turns with the riser's own
       yaw error about its samples' centre, by ``|c_y| / cos^2(yaw)`` per radian (a riser
-      seen only off to one side, its plane turned, also meets the axis short or long).
+      seen only off to one side, its plane turned, also meets the axis short or long);
+    * what the staircase itself says: its steps are equal, so a measured rise (run) that
+      does not report the common one keeps, added to its sigma, how far it lies from the
+      median of the other steps' measured rises (runs); a riser's distance, the larger of
+      its shares of that of the runs on either side of it (by the two risers' position
+      variances). (The model above leaves out the disparity's
+      larger errors on webcam-like faces, which move one face and not its neighbour: on
+      the realistic renders only 20% of such rises lay within 2 sigma, 88% with this;
+      docs/benchmarks.md, "Twenty-second session".)
 
     Parameters
     ----------
@@ -171,12 +202,13 @@ def estimate_step_sigmas(
     s_prev = -np.inf
     # The runs measured between risers that were found (for the steps placed a run beyond
     # the step before: terrain/nosings/).
-    runs_seen = [
-        st.own_run_m
+    runs_seen: dict[int, float] = {
+        k: st.own_run_m
         for k, st in enumerate(steps[:-1])
         if st.own_run_m is not None and not st.position_inferred and not steps[k + 1].position_inferred
-    ]
-    run_spread = float(np.std(runs_seen)) if len(runs_seen) > 1 else math.nan
+    }
+    run_spread = float(np.std(list(runs_seen.values()))) if len(runs_seen) > 1 else math.nan
+    run_off = _disagreement(runs_seen)
     for i, st in enumerate(steps):
         s_next = steps[i + 1].axis_position_m if i + 1 < len(steps) else np.inf
         s_pos = st.axis_position_m
@@ -269,6 +301,7 @@ def estimate_step_sigmas(
     measured = [k for k, other in enumerate(steps) if not other.rise_inferred]
     own_each = [rise_sigma(tops[k], tops[k - 1] if k > 0 else below_first) for k in measured]
     own_of = dict(zip(measured, own_each, strict=True))
+    rise_off = _disagreement({k: float(rises[k]) for k in measured})
     common = [k for k in measured if steps[k].measured_rise_m is not None]
     common_rise_sigma = _median_sigma([own_of[k] for k in common], rises[common])
 
@@ -280,9 +313,25 @@ def estimate_step_sigmas(
     common_run_sigma = _median_sigma(
         [own_run_sigma(k) for k in pooled_runs], np.array([steps[k].measured_run_m for k in pooled_runs])
     )
+    # A run that the others disagree with: its two risers stand that far off together, each
+    # its share by their own variances (the expected part of a sum of two independent
+    # errors: the farther, less sure riser takes the most); a riser takes the larger of the
+    # runs on either side of it. A step placed a run beyond the step before takes that one's.
+    off_run: list[float] = []
+    for i, st in enumerate(steps):
+        if st.position_inferred:
+            off_run.append(off_run[i - 1] if i > 0 else 0.0)
+            continue
+        beside = [
+            run_off[k] * _share(positions[i], positions[i - 1 if k < i else i + 1])
+            for k in (i - 1, i)
+            if k in run_off
+        ]
+        off_run.append(max(beside, default=0.0))
     out: list[Step] = []
     for i, st in enumerate(steps):
         sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
+        sig_rise = math.hypot(sig_rise, rise_off.get(i, 0.0))  # a rise the others disagree with
         if st.measured_rise_m is not None:
             sig_rise = common_rise_sigma  # the staircase's common rise
         elif st.rise_inferred:
@@ -294,12 +343,12 @@ def estimate_step_sigmas(
             # the median of n values: its own error, and how far a rise may differ from it
             sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
         n_x = abs(float(st.riser.normal[0]))
-        sig_dist = math.hypot(positions[i] / max(n_x, 0.2), levers[i])
+        sig_dist = math.hypot(positions[i] / max(n_x, 0.2), levers[i], off_run[i])
         sig_run = None
         if st.measured_run_m is not None:
             sig_run = common_run_sigma
         elif st.run_m is not None:
-            sig_run = own_run_sigma(i)
+            sig_run = math.hypot(own_run_sigma(i), run_off.get(i, 0.0))
         out.append(
             dataclasses.replace(
                 st,
