@@ -265,7 +265,7 @@ def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
     support = [sum(agree(i, j) for j in range(n) if j != i) for i in range(n)]
     nothing = [i for i in range(n) if tried[i][1].terrain.obstacle == NONE]
     best = max(nothing, key=lambda i: (support[i], -i))
-    if best == 0 or support[best] <= support[0]:
+    if support[best] <= support[0]:  # the first pass (found nothing, kept) as sure: kept
         return kept
     name, other = tried[best]
     gravity = other.gravity

@@ -28,7 +28,7 @@ from .risers import (
     edge_bias,
     riser_distance,
 )
-from .uniform import common_steps, rise_from_nosings
+from .uniform import common_steps, rise_from_nosings, takers_of_rise
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
 #: orientation method's tolerance) was two different faces.
@@ -469,6 +469,8 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
         lone = len(steps) == 1 and steps[0].tread is None  # its top: the riser's top edge
         fit = rise_from_nosings(heights, chain.ground_z if known else None, config, lone=lone)
     nosing_rise, fits = fit if fit is not None else (None, [])
+    # whether the steps report the nosings' rise (else the median's rule, or their own)
+    nosings_taken = nosing_rise is not None and bool(takers_of_rise(steps, nosing_rise, config, fits=fits))
     steps, pooled_rises, pooled_runs = common_steps(
         steps, chain.ground_z, config, rise_m=nosing_rise, fits=fits
     )
@@ -497,12 +499,12 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             f"; {from_lines} more beyond, where the image's line segments show their nosings"
             " (at the median rise and run)"
         )
-    if pooled_rises and nosing_rise is not None and len(steps) == 1 and steps[0].rise_m == nosing_rise:
+    if nosings_taken and len(steps) == 1:
         note += (
             "; its rise is its nosing's height above the ground as the image's line segments"
             " show it, not its riser's top edge"
         )
-    elif pooled_rises and nosing_rise is not None and any(s.rise_m == nosing_rise for s in steps):
+    elif nosings_taken:
         note += (
             f"; {pooled_rises} measured rise(s) agree with the rise that puts the nosings the"
             " image's line segments show at their heights: those steps report it"

@@ -113,6 +113,18 @@ def rise_from_nosings(
     return rise, [i for i, x in enumerate(heights) if x is not None]
 
 
+def takers_of_rise(
+    steps: list[Step], rise_m: float, config: TerrainConfig, *, fits: Collection[int] = ()
+) -> list[int]:
+    """The indices of the measured steps of ``steps`` that report ``rise_m``, a rise
+    measured otherwise (:func:`rise_from_nosings`): those of ``fits`` and those whose
+    measured rise is within ``common_rise_tolerance_m`` of it (:func:`common_steps`)."""
+    tol = config.common_rise_tolerance_m
+    return [
+        i for i, s in enumerate(steps) if not s.rise_inferred and (i in fits or abs(s.rise_m - rise_m) <= tol)
+    ]
+
+
 def common_steps(
     steps: list[Step],
     ground_z: float,
@@ -141,8 +153,7 @@ def common_steps(
     rises: list[int] = []
     rise = 0.0
     if rise_m is not None:
-        tol = config.common_rise_tolerance_m
-        rises = [i for i, x in measured.items() if i in fits or abs(x - rise_m) <= tol]
+        rises = takers_of_rise(steps, rise_m, config, fits=fits)
         rise = rise_m
     if not rises:
         rises, rise = _agreeing(measured, config.common_rise_tolerance_m, config.common_min_steps)
