@@ -130,10 +130,11 @@ def estimate_step_sigmas(
       does not report the common one keeps, added to its sigma, how far it lies from the
       median of the other steps' measured rises (runs); a riser's distance, the larger of
       its shares of that of the runs on either side of it (by the two risers' position
-      variances). (The model above leaves out the disparity's
-      larger errors on webcam-like faces, which move one face and not its neighbour: on
-      the realistic renders only 20% of such rises lay within 2 sigma, 88% with this;
-      docs/benchmarks.md, "Twenty-second session".)
+      variances). (The model above leaves out the disparity's larger errors on
+      webcam-like faces, which move one face and not its neighbour: on the realistic
+      renders 17% of such rises lay within 2 sigma, 69% with this, the rest mostly a
+      staircase's only measured rise, which nothing checks; docs/benchmarks.md,
+      "Twenty-second session".)
 
     Parameters
     ----------
@@ -331,7 +332,6 @@ def estimate_step_sigmas(
     out: list[Step] = []
     for i, st in enumerate(steps):
         sig_rise = rise_sigma(tops[i], below_first if i == 0 else tops[i - 1])
-        sig_rise = math.hypot(sig_rise, rise_off.get(i, 0.0))  # a rise the others disagree with
         if st.measured_rise_m is not None:
             sig_rise = common_rise_sigma  # the staircase's common rise
         elif st.rise_inferred:
@@ -342,6 +342,8 @@ def estimate_step_sigmas(
             own = float(np.nanmean(own_each)) if own_each else math.nan
             # the median of n values: its own error, and how far a rise may differ from it
             sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
+        else:  # its own measured rise, and how far the others' disagree with it
+            sig_rise = math.hypot(sig_rise, rise_off.get(i, 0.0))
         n_x = abs(float(st.riser.normal[0]))
         sig_dist = math.hypot(positions[i] / max(n_x, 0.2), levers[i], off_run[i])
         sig_run = None
