@@ -2,10 +2,11 @@
 reported sigmas, and the median of error / sigma, on rendered scenes with and without
 their rigs (issue 14's sigmas, on issue 11's renders).
 
-Steps are matched to the true ones by riser distance (within 12 cm, as ``evaluation``
-matches them). Rows: every rise; the measured rises that do not report the staircase's
-common one (``measured_rise`` absent, not inferred, in a staircase of two steps or more);
-every run; the measured runs that do not report the common one; every distance. For a
+Steps are matched to the true ones by riser distance (within 12 cm,
+``evaluation.matched_steps``, as ``score_result`` matches them). Rows: every rise; the
+measured rises that do not report the staircase's common one (``measured_rise`` absent,
+not inferred, in a staircase of two steps or more); every run; the measured runs that do
+not report the common one; every distance. For a
 Gaussian error and a right sigma, 95% lie within 2 sigma and the median of error / sigma
 is 0.67.
 
@@ -26,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from stereo_terrain.calibration import read_calibration
+from stereo_terrain.evaluation import matched_steps
 from stereo_terrain.frames import load_rig
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.rectify import read_image
@@ -33,27 +35,10 @@ from stereo_terrain.rectify import read_image
 ROWS = ("rise", "rise, own (not the common)", "run", "run, own (not the common)", "distance")
 
 
-def matched(result: dict, truth: dict) -> list[tuple[dict, dict]]:
-    """(result step, true step) pairs, nearest riser distance first, within 12 cm."""
-    if result.get("obstacle", "none") == "none" or truth.get("obstacle", "none") == "none":
-        return []
-    pairs, used = [], set()
-    for step in result["steps"]:
-        best, best_d = None, 0.12
-        for i, true in enumerate(truth["steps"]):
-            d = abs(step["distance"] - true["distance"])
-            if i not in used and d <= best_d:
-                best, best_d = i, d
-        if best is not None:
-            used.add(best)
-            pairs.append((step, truth["steps"][best]))
-    return pairs
-
-
 def ratios(result: dict, truth: dict, out: dict[str, list[float]]) -> None:
     """Append |error| / sigma of each matched step to ``out``'s rows."""
     several = len(result.get("steps", [])) > 1
-    for step, true in matched(result, truth):
+    for step, true in matched_steps(result, truth):
         for key in ("rise", "run", "distance"):
             sigma, value, right = step.get(f"{key}_sigma"), step.get(key), true.get(key)
             if not sigma or value is None or right is None or not np.isfinite(sigma):

@@ -49,14 +49,15 @@ class SceneScore:
     yaw_error_rad: float | None = None
 
 
-def score_result(result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: float = 0.12) -> SceneScore:
-    """Compare one result with its truth; steps matched by nearest riser distance."""
+def matched_steps(
+    result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: float = 0.12
+) -> list[tuple[dict[str, Any], dict[str, Any]]]:
+    """``(result step, true step)`` pairs: each true step, nearest first in its order, with
+    the unused result step whose riser distance is nearest to its own, within
+    ``match_tol_m`` (none where neither side has an obstacle)."""
     t_steps = truth.get("steps", []) if truth.get("obstacle", "none") != "none" else []
     r_steps = result.get("steps", []) if result.get("obstacle", "none") != "none" else []
-    has, det = bool(t_steps), bool(r_steps)
-    count_right = len(t_steps) == len(r_steps)
-    rises: list[float] = []
-    runs: list[float] = []
+    pairs: list[tuple[dict[str, Any], dict[str, Any]]] = []
     used: set[int] = set()
     for ts in t_steps:
         best, best_d = None, match_tol_m
@@ -64,10 +65,22 @@ def score_result(result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: 
             dd = abs(rs["distance"] - ts["distance"])
             if j not in used and dd <= best_d:
                 best, best_d = j, dd
-        if best is None:
-            continue
-        used.add(best)
-        rs = r_steps[best]
+        if best is not None:
+            used.add(best)
+            pairs.append((r_steps[best], ts))
+    return pairs
+
+
+def score_result(result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: float = 0.12) -> SceneScore:
+    """Compare one result with its truth; steps matched by nearest riser distance
+    (:func:`matched_steps`)."""
+    t_steps = truth.get("steps", []) if truth.get("obstacle", "none") != "none" else []
+    r_steps = result.get("steps", []) if result.get("obstacle", "none") != "none" else []
+    has, det = bool(t_steps), bool(r_steps)
+    count_right = len(t_steps) == len(r_steps)
+    rises: list[float] = []
+    runs: list[float] = []
+    for rs, ts in matched_steps(result, truth, match_tol_m=match_tol_m):
         rises.append(abs(rs["rise"] - ts["rise"]))
         if rs.get("run") is not None and ts.get("run") is not None:
             runs.append(abs(rs["run"] - ts["run"]))
