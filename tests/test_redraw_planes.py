@@ -7,17 +7,24 @@ others."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.stereo.bands import BandFillConfig
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 
 from .test_far_planes import assert_steps_match_truth
 
 OFF = PipelineConfig(redraw_planes=0)
+#: Where the band fill's rematch finds the stairs before the redraw runs, the redraw's own
+#: test turns it off (tests/test_bands.py tests the band fill).
+NO_BANDS = PipelineConfig(bands=BandFillConfig(enabled=False))
+OFF_NO_BANDS = dataclasses.replace(NO_BANDS, redraw_planes=0)
 
 
 def _realistic(seed: int, index: int, **kw):
@@ -36,7 +43,7 @@ def painted_stairs():
 
 def test_a_staircase_the_draws_missed_is_found_by_a_redraw(painted_stairs):
     scene = painted_stairs
-    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    result = Pipeline(scene.calibration, scene.rig, NO_BANDS, warm_up=False).run(scene.left, scene.right)
     assert result.terrain.obstacle == "stairs"
     assert "redrawn planes" in result.terrain.note and "coarse rematch" in result.terrain.note
     assert result.plane_choice.startswith("orientation, the draws seeded")
@@ -44,7 +51,7 @@ def test_a_staircase_the_draws_missed_is_found_by_a_redraw(painted_stairs):
     assert_steps_match_truth(result.terrain.steps, scene.truth["steps"])
     assert not result.terrain.steps[0].rise_inferred
 
-    off = Pipeline(scene.calibration, scene.rig, OFF, warm_up=False).run(scene.left, scene.right)
+    off = Pipeline(scene.calibration, scene.rig, OFF_NO_BANDS, warm_up=False).run(scene.left, scene.right)
     assert off.terrain.obstacle == "none"
     assert "redraw" not in off.timing_ms
 
@@ -74,9 +81,9 @@ def test_a_lone_step_is_redrawn_into_its_staircase():
     """A lone step (the rematch is run for it too) is what every pass finds of these three
     steps without a rig; a redraw finds all three."""
     scene = _realistic(11, 8)
-    off = Pipeline(scene.calibration, None, OFF, warm_up=False).run(scene.left, scene.right)
+    off = Pipeline(scene.calibration, None, OFF_NO_BANDS, warm_up=False).run(scene.left, scene.right)
     assert off.terrain.obstacle == "stairs" and len(off.terrain.steps) == 1
-    on = Pipeline(scene.calibration, None, warm_up=False).run(scene.left, scene.right)
+    on = Pipeline(scene.calibration, None, NO_BANDS, warm_up=False).run(scene.left, scene.right)
     assert "redrawn planes" in on.terrain.note and "lone step" in on.terrain.note
     # every true step matched by one found (evaluation's rule: risers within 12 cm)
     score = score_result(on.to_json_dict(), scene.truth)

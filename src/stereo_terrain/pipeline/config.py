@@ -16,6 +16,7 @@ from ..gravity import GravityConfig, VerticalLinesConfig
 from ..planes.contour import ContourConfig
 from ..planes.orientation import OrientationConfig
 from ..rectify import RECTIFY_FOVS
+from ..stereo.bands import BandFillConfig
 from ..stereo.fill import PlanarFillConfig
 from ..stereo.opencv import OpenCVSGBMConfig
 from ..stereo.sgm import SGMConfig
@@ -165,6 +166,18 @@ class PipelineConfig:
         the real rooms; a frame with nothing in view pays for the draws on the half-size
         samples (8-10 ms on the empty renders, 19-64 ms on the real rooms: 10-15% of
         their frame).
+    bands : BandFillConfig
+        The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
+        between parallel horizontal lines of the rectified left image (a riser between
+        its nosing and its foot, a plank between two gaps) get the disparity of the one
+        plane, vertical or horizontal, that a photometric sweep over the whole face finds,
+        where the sweep is sure of it. The second opinions' passes use it (the rematch and
+        the coarse rematch, so the far and redrawn planes on their samples, and the focus
+        rematch): the sweep starts on the lines' thread when the first pass wants a
+        rematch (``rematch``; nothing found, a lone step, steps that disagree) and runs
+        while the rematch's matcher does; the first pass goes without it. Needs up in
+        the camera: the rig's, or the image's vertical lines'. Default on (issue 11;
+        docs/benchmarks.md, "Twenty-third session").
     """
 
     backend: str = "opencv"
@@ -195,6 +208,7 @@ class PipelineConfig:
     far_planes_wider_sigmas: float = 1.6  # issue 11
     far_planes_wider_max_deg: float = 40.0  # issue 11
     redraw_planes: int = 3  # issue 11
+    bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -246,6 +260,7 @@ class PipelineConfig:
             "vertical": VerticalAlignConfig,
             "tracking": TrackingConfig,
             "vanishing": VerticalLinesConfig,
+            "bands": BandFillConfig,
         }
         for key, value in data.items():
             if key not in nested:

@@ -33,6 +33,7 @@ from ..planes.orientation import (
 )
 from ..rectify import Rectification, RectifiedPair, compute_rectification, rectify
 from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
+from ..stereo.bands import BandFillConfig, BandPlanes, sweep_bands
 from ..stereo.blur import match_blur
 from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
@@ -190,6 +191,8 @@ class Pipeline:
             # Nothing found, a lone step, or steps whose rises disagree: match the pair again
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
             passes = [(self._rematcher, REMATCH_NOTE), (self._coarse_rematcher, COARSE_NOTE)]
+            # The second opinions' passes get the band fill (PipelineConfig.bands)
+            image_jobs = self._with_bands(pair, image_jobs)
             result = self._rematched(pair, image_jobs, result, tried, passes)
         if rematch and result.terrain.obstacle == NONE and self._far_planes_on:
             # No pass found an obstacle: their samples' planes with the far normal tests
@@ -289,7 +292,18 @@ class Pipeline:
                 want_horizontal=want_horizontal,
                 prior_cone_deg=self.config.gravity.prior_cone_deg,
             )
-        return _ImageJobs(regions, lines_job, rig_up, want_horizontal)
+        return _ImageJobs(regions, lines_job, rig_up, want_horizontal, None)
+
+    def _with_bands(self, pair: RectifiedPair, jobs: _ImageJobs) -> _ImageJobs:
+        """``jobs`` with the band fill's sweep started on the lines' thread (after the lines;
+        the caller's next matcher runs meanwhile), for the passes after the first
+        (``PipelineConfig.bands``); ``jobs`` where it is off or there are no lines."""
+        if jobs.lines is None or not self.config.bands.enabled or jobs.bands is not None:
+            return jobs
+        job = background().submit(
+            _band_planes, jobs.lines, pair, jobs.rig_up, self.max_disparity_px, self.config.bands
+        )
+        return jobs._replace(bands=job)
 
     def _from_pair(
         self,
@@ -309,7 +323,8 @@ class Pipeline:
             timing[name] = (now - t) * 1000.0
             t = now
 
-        regions, lines_job, rig_up, want_horizontal = jobs
+        regions, lines_job, rig_up, want_horizontal, bands_job = jobs
+        band_planes = None if bands_job is None else bands_job.result()
         disp = matched = backend.compute(pair, self.max_disparity_px)
         faces = None
         if regions is not None:
@@ -317,6 +332,8 @@ class Pipeline:
             flat = regions.result()
             faces = fill_faces(disp, pair, flat, lines_found, rig_up, want_horizontal, self.config)
             disp = faces.disparity
+        if band_planes is not None:
+            disp = band_planes.fill(disp)
         lap("disparity")
         cfg = self.config
         cam_sample = camera_sample(disp, cfg)
@@ -366,7 +383,7 @@ class Pipeline:
             # find the planes again in the same frame (issue 11).
             refilled = fill_faces_later(matched, faces, pair, lines_job.result(), planes, T, cfg)
             if refilled is not None:
-                disp = refilled
+                disp = refilled if band_planes is None else band_planes.fill(refilled)
                 cam_sample = camera_sample(disp, cfg)
                 planes = self._extract_planes(transform_sample(cam_sample, T), pair.left)
         floor_known = source == "rig"
@@ -471,6 +488,26 @@ def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageL
     )
 
 
+def _band_planes(
+    lines_job: Future[SceneLines],
+    pair: RectifiedPair,
+    rig_up: np.ndarray | None,
+    max_disparity_px: int,
+    config: BandFillConfig,
+) -> BandPlanes | None:
+    """The band fill's planes of ``pair`` (:func:`~stereo_terrain.stereo.bands.sweep_bands`)
+    from the lines' job's segments, with the rig's up or else the image's vertical lines';
+    None where neither fixes up."""
+    lines = lines_job.result()
+    up = rig_up
+    if up is None and lines.up is not None and lines.up.ok:
+        up = lines.up.up
+    if up is None:
+        return None
+    segments = np.concatenate([lines.segments, lines.at_border])
+    return sweep_bands(pair, segments, up, max_disparity_px, config)
+
+
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
     """A Pipeline's arguments are what it takes (a path or a mapping is a common slip: say
     how to make the object instead of failing on an attribute deep inside)."""
@@ -496,3 +533,4 @@ class _ImageJobs(NamedTuple):
     lines: Future[SceneLines] | None
     rig_up: np.ndarray | None
     want_horizontal: bool
+    bands: Future[BandPlanes | None] | None

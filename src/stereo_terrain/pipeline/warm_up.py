@@ -15,6 +15,7 @@ from ..frames import R_BODY_OPTICAL, Rig, Transform
 from ..gravity import load_gravity_kernels
 from ..stereo import DisparityBackend
 from ..stereo._regions import warm_up as warm_up_fill_kernels
+from ..stereo.bands import warm_up as warm_up_bands
 from ..stereo.manhattan import warm_up as warm_up_manhattan
 from .config import PipelineConfig
 
@@ -69,6 +70,7 @@ def warm_up_kernels(
         config.fill.enabled,
         config.fill.texture,
         config.fill.manhattan,
+        config.bands.enabled,
         with_rig,
         None if backend is None else type(backend).__name__,
     )
@@ -91,6 +93,8 @@ def warm_up_kernels(
             warm_up_fill_kernels()  # the planar fill's, for frames that have a region
             if config.fill.manhattan:
                 warm_up_manhattan()
+        if config.bands.enabled:
+            warm_up_bands()  # the band fill's, for frames whose warm-up pair has no band
     except Exception:  # an optimisation only: a config the tiny pair does not suit runs cold
         logging.getLogger(__name__).debug("kernel warm-up skipped", exc_info=True)
     _WARMED.add(key)
