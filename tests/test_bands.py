@@ -42,11 +42,18 @@ def _shifted(image: np.ndarray, d: float) -> np.ndarray:
     return cv2.warpAffine(image, m, image.shape[::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
 
 
-def _pair(band_shifts: tuple[float, float] = (BAND_PX, BAND_PX), flat: bool = False, seed: int = 0):
+def _pair(
+    band_shifts: tuple[float, float] = (BAND_PX, BAND_PX),
+    flat: bool = False,
+    seed: int = 0,
+    top: int = TOP,
+    bottom: int = BOTTOM,
+):
     """A rectified pair: a textured wall at ``WALL_PX``, and in front of it a band between two
-    dark horizontal lines (rows ``TOP`` and ``BOTTOM``, well below the horizon), whose
-    upper and lower halves are at ``band_shifts``; its texture is grain with a few knots,
-    or nothing (``flat``)."""
+    dark horizontal lines (rows ``top`` and ``bottom``, by default well below the horizon),
+    whose upper and lower halves are at ``band_shifts``; its texture is grain with a few
+    knots, or nothing (``flat``)."""
+    TOP, BOTTOM = top, bottom  # noqa: N806 - the module's names, for this pair
     rng = np.random.default_rng(seed)
     rect = compute_rectification(rectified_calibration())
     w, h = rect.calibration.image_size
@@ -76,14 +83,20 @@ def _pair(band_shifts: tuple[float, float] = (BAND_PX, BAND_PX), flat: bool = Fa
     return disp, RectifiedPair(left, right, rect), segments
 
 
-def test_a_riser_of_grain_gets_its_plane():
-    disp, pair, segments = _pair()
+@pytest.mark.parametrize(
+    ("top", "bottom"),
+    [(TOP, BOTTOM), (185, 295)],  # below the horizon (row 240); across it, 6 deg either side
+)
+def test_a_riser_of_grain_gets_its_plane(top, bottom):
+    """Also where its two lines lie either side of the horizon: the cross products that
+    give their directions then have opposite signs, and are one direction."""
+    disp, pair, segments = _pair(top=top, bottom=bottom)
     out, bands = fill_bands(disp, pair, segments, UP, BandFillConfig())
     assert len(bands) == 1 and bands[0].kept, bands
     assert bands[0].family == VERTICAL
     band = out.filled & ~np.isnan(out.disparity)
     rows, cols = np.nonzero(band)
-    assert rows.min() > TOP and rows.max() < BOTTOM
+    assert rows.min() > top and rows.max() < bottom
     assert np.ptp(cols) >= (RIGHT - LEFT) * 0.95
     assert np.all(np.abs(out.disparity[band] - BAND_PX) <= FILL_TOL_PX)
     assert np.isnan(out.disparity[~band]).all()  # nothing outside the band

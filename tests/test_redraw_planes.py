@@ -96,10 +96,10 @@ def test_steps_that_disagree_are_redrawn():
     (a rise more than 1.5 times another: what the rematch is run again for); a redraw
     finds four that agree, and takes their place (no fewer than one step less)."""
     scene = _realistic(11, 28)
-    off = Pipeline(scene.calibration, scene.rig, OFF, warm_up=False).run(scene.left, scene.right)
+    off = Pipeline(scene.calibration, scene.rig, OFF_NO_BANDS, warm_up=False).run(scene.left, scene.right)
     rises = [s.own_rise_m for s in off.terrain.steps]
     assert max(rises) > 1.5 * min(rises)
-    on = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    on = Pipeline(scene.calibration, scene.rig, NO_BANDS, warm_up=False).run(scene.left, scene.right)
     assert "redrawn planes" in on.terrain.note and "disagree" in on.terrain.note
     assert len(on.terrain.steps) >= len(off.terrain.steps) - 1
     score = score_result(on.to_json_dict(), scene.truth)

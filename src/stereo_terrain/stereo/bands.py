@@ -16,11 +16,11 @@ direction (the cross product of its normal with up), and the two segments' direc
 agree within ``parallel_deg``. Segments broken by plank joints or balusters are first
 merged where collinear. The face between them is taken to be one plane of one of two
 families: vertical, with its normal horizontal and across the lines (a riser, a wall),
-or horizontal (a tread, the floor). Each family is swept in steps of ``step_px`` of the
-disparity at the band's centre, and each plane is scored by the zero-mean normalised
-correlation of the left image's horizontal gradient over the band with the right
-image's at the plane's disparity (the gradient: a matched vertical edge counts, an
-exposure difference or a horizontal edge does not).
+or horizontal (a tread, the floor). Each family is swept in steps of ``coarse_step_px``
+of the disparity at the band's centre (then ``step_px`` about its peak), and each plane
+is scored by the zero-mean normalised correlation of the left image's horizontal
+gradient over the band with the right image's at the plane's disparity (the gradient: a
+matched vertical edge counts, an exposure difference or a horizontal edge does not).
 
 A band is filled with its best plane where:
 
@@ -97,25 +97,30 @@ class BandFillConfig:
     Attributes
     ----------
     enabled : bool
-        The pipeline's band opinion runs (see ``PipelineConfig.bands``). Default True.
+        The pipeline's second opinions use the band fill (see ``PipelineConfig.bands``).
+        Default True.
     min_length_px : float
         Least length of a (merged) segment that bounds a band. Default 30.
     max_slope_deg : float
-        Segments steeper than this in the image are not taken (a nosing of stairs yawed by
-        up to 60 deg and seen from above stays below it). Default 35.
+        Segments steeper than this in the image are not taken. Default 35.
     parallel_deg : float
         The two segments' horizontal directions agree within this. Default 3.
     min_gap_px, max_gap_px : int
         The band's height in the image, at the middle of the two segments' overlap.
         Defaults 6 and 120.
+    lines_below : int
+        Each segment bounds bands with this many of the nearest segments below it: with 2,
+        a riser split by a plank gap is also tried whole (of two overlapping bands kept,
+        the larger is written). Default 2.
     widen_px : int
         The band reaches this far beyond the segments' overlap along the rows: a riser's
         ends, which hold most of what it shows, are often a few pixels beyond the
         segments. Default 6.
     coarse_step_px, step_px : float
         Sweep steps of the disparity at the band's centre: the whole range in coarse steps
-        (the correlation's peak is 2-3 px wide on webcam images), then one coarse step
-        either side of each family's peak in fine steps. Defaults 1 and 0.25.
+        (the correlation's peak spans a few pixels on the realistic renders' blurred
+        images), then one coarse step either side of each family's peak in fine steps.
+        Defaults 1 and 0.25.
     min_significance : float
         The best plane's lead over its rivals, in standard errors. Default 5.
     min_family_significance : float
@@ -124,7 +129,9 @@ class BandFillConfig:
         The most a half of the band may prefer another plane, in standard errors.
         Default 4.
     min_width_m : float
-        Least width of a band at its plane's depth. Default 0.4.
+        Least width of a band at its plane's depth: a staircase is wider than a drawer
+        front, a monitor or a box on a shelf (building codes ask for 0.8-0.9 m; the margin
+        is for a staircase the image's border cuts). Default 0.6.
     merge_tol_px, merge_gap_px : float
         Segments are merged when each end of one is within ``merge_tol_px`` of the
         other's line and the gap between them is at most ``merge_gap_px``. Defaults 1.5
@@ -152,6 +159,7 @@ class BandFillConfig:
         check_fields(self)
         check_min(self, 0, "widen_px", "min_significance", "min_family_significance", "max_part_significance")
         check_min(self, 0, "min_width_m")
+        check_min(self, 1, "lines_below")
         check_min(self, 0, "merge_tol_px", "merge_gap_px", "min_length_px")
         if not 0 < self.step_px <= self.coarse_step_px <= 2:
             raise ConfigError(
@@ -254,7 +262,9 @@ def _line_segments(
     segments: np.ndarray, pair: RectifiedPair, up: np.ndarray, config: BandFillConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """The segments that may bound a band, left end first, and the horizontal 3D direction
-    each is an image of (unit, camera frame)."""
+    each is an image of (unit, camera frame), NaN where its plane through the camera is
+    within ``_HORIZON_DEG`` of horizontal (a segment near the cameras' horizon is the image
+    of a horizontal line of any direction)."""
     s = np.asarray(segments, dtype=np.float64).reshape(-1, 4).copy()
     s[s[:, 0] > s[:, 2]] = s[s[:, 0] > s[:, 2]][:, [2, 3, 0, 1]]
     slope = np.degrees(np.arctan2(np.abs(s[:, 3] - s[:, 1]), s[:, 2] - s[:, 0]))
@@ -268,8 +278,10 @@ def _line_segments(
     n /= np.linalg.norm(n, axis=1)[:, None]
     v = np.cross(n, up)
     norm = np.linalg.norm(v, axis=1)
-    ok = norm > math.sin(math.radians(_HORIZON_DEG))
-    return s[ok], v[ok] / norm[ok, None]
+    posed = norm > math.sin(math.radians(_HORIZON_DEG))
+    v[posed] /= norm[posed, None]
+    v[~posed] = np.nan
+    return s, v
 
 
 def _y_at(seg: np.ndarray, x: np.ndarray | float) -> np.ndarray:
@@ -277,24 +289,33 @@ def _y_at(seg: np.ndarray, x: np.ndarray | float) -> np.ndarray:
     return np.asarray(seg[1] + (seg[3] - seg[1]) * (np.asarray(x) - seg[0]) / max(seg[2] - seg[0], 1e-9))
 
 
-def _band_pairs(s: np.ndarray, v: np.ndarray, config: BandFillConfig) -> list[tuple[int, int]]:
-    """For each segment, the nearest one below it whose direction agrees and which overlaps
-    it along the rows: the band's upper and lower lines."""
+def _band_pairs(s: np.ndarray, v: np.ndarray, config: BandFillConfig) -> list[tuple[int, int, np.ndarray]]:
+    """For each segment, the nearest ``lines_below`` below it that are images of lines
+    parallel to its own (directions within ``parallel_deg``) and overlap it along the
+    rows: the bands' upper and lower lines, and the lines' horizontal direction (the mean
+    of the two, signed alike). Segments near the horizon (no direction) bound none."""
     pairs = []
     parallel = math.cos(math.radians(config.parallel_deg))
+    posed = np.isfinite(v[:, 0])
     for i in range(len(s)):
-        agree = np.abs(v @ v[i]) >= parallel
+        if not posed[i]:
+            continue
+        agree = posed & (np.abs(np.nan_to_num(v) @ v[i]) >= parallel)
         agree[i] = False
         lo, hi = np.maximum(s[:, 0], s[i, 0]), np.minimum(s[:, 2], s[i, 2])
         shorter = np.minimum(s[:, 2] - s[:, 0], s[i, 2] - s[i, 0])
         agree &= hi - lo >= np.maximum(config.min_length_px, 0.5 * shorter)
         below = []
-        for j in np.flatnonzero(agree):
-            mid = 0.5 * (lo[j] + hi[j])
-            gap = float(_y_at(s[j], mid) - _y_at(s[i], mid))
+        for k in np.flatnonzero(agree):
+            mid = 0.5 * (lo[k] + hi[k])
+            gap = float(_y_at(s[k], mid) - _y_at(s[i], mid))
             if config.min_gap_px <= gap <= config.max_gap_px:
-                below.append((gap, int(j)))
-        pairs += [(i, j) for _, j in sorted(below)[: config.lines_below]]
+                below.append((gap, int(k)))
+        for _, j in sorted(below)[: config.lines_below]:
+            # v and -v are one direction: a line above the horizon and one below it have
+            # opposite signs of the cross product
+            direction = v[i] + np.copysign(1.0, float(v[i] @ v[j])) * v[j]
+            pairs.append((i, j, direction / np.linalg.norm(direction)))
     return pairs
 
 
@@ -356,10 +377,8 @@ def sweep_bands(
     centres = np.arange(0.5, max_disparity_px, config.coarse_step_px)
     bands = []
     kept = []
-    for i, j in pairs:
-        band = _sweep_band(
-            s[i], s[j], 0.5 * (v[i] + v[j]), up, pair, left_gx, right_gx, valid, centres, config
-        )
+    for i, j, direction in pairs:
+        band = _sweep_band(s[i], s[j], direction, up, pair, left_gx, right_gx, valid, centres, config)
         if band is None:
             continue
         bands.append(band[0])
