@@ -324,7 +324,6 @@ class Pipeline:
             t = now
 
         regions, lines_job, rig_up, want_horizontal, bands_job = jobs
-        band_planes = None if bands_job is None else bands_job.result()
         disp = matched = backend.compute(pair, self.max_disparity_px)
         faces = None
         if regions is not None:
@@ -332,6 +331,8 @@ class Pipeline:
             flat = regions.result()
             faces = fill_faces(disp, pair, flat, lines_found, rig_up, want_horizontal, self.config)
             disp = faces.disparity
+        # waited for after the matcher, which ran while the lines' thread swept the bands
+        band_planes = None if bands_job is None else bands_job.result()
         if band_planes is not None:
             disp = band_planes.fill(disp)
         lap("disparity")
