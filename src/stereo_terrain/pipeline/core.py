@@ -41,7 +41,7 @@ from ..swing import plan_swing
 from ..terrain import ImageLines, StairModel, build_terrain, estimate_step_sigmas
 from ..terrain.model import NONE
 from .config import PipelineConfig
-from .fill_steps import camera_sample, fill_faces, fill_faces_later
+from .fill_steps import camera_sample, fill_faces, fill_faces_later, known_up
 from .gravity_steps import (
     _gravity_report,
     _level_from_scene,
@@ -500,9 +500,7 @@ def _band_planes(
     from the lines' job's segments, with the rig's up or else the image's vertical lines';
     None where neither fixes up."""
     lines = lines_job.result()
-    up = rig_up
-    if up is None and lines.up is not None and lines.up.ok:
-        up = lines.up.up
+    up = known_up(rig_up, lines)
     if up is None:
         return None
     segments = np.concatenate([lines.segments, lines.at_border])

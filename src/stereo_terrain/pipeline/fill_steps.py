@@ -61,6 +61,17 @@ class FilledFaces:
         return self.waited_for_up or self.waited_for_horizontal
 
 
+def known_up(rig_up: np.ndarray | None, lines: SceneLines) -> np.ndarray | None:
+    """Up in the rectified camera where the frame knows it before its planes: the rig's
+    (``rig_up``), else the image's vertical lines' when they fix it; else None."""
+    if rig_up is not None:
+        return rig_up
+    if lines.up is not None and lines.up.ok:
+        up: np.ndarray = lines.up.up
+        return up
+    return None
+
+
 def fill_faces(
     disp: DisparityMap,
     pair: RectifiedPair,
@@ -90,10 +101,8 @@ def fill_faces(
     regions = flat.without(occluded) if occluded else flat  # an occluder's edge holds them
     if not manhattan or lines is None:
         return FilledFaces(planar, planar, regions)
-    up, horizontal = rig_up, lines.horizontal
-    if up is None and lines.up is not None and lines.up.ok:
-        up = lines.up.up
-    elif up is None:
+    up, horizontal = known_up(rig_up, lines), lines.horizontal
+    if up is None:
         coarse = estimate_up(camera_sample(planar, config), config.gravity)
         if coarse.ok and coarse.sigma_deg <= config.fill.manhattan_max_up_sigma_deg:
             up = coarse.up

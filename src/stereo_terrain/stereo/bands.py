@@ -262,9 +262,9 @@ def _line_segments(
     segments: np.ndarray, pair: RectifiedPair, up: np.ndarray, config: BandFillConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """The segments that may bound a band, left end first, and the horizontal 3D direction
-    each is an image of (unit, camera frame), NaN where its plane through the camera is
-    within ``_HORIZON_DEG`` of horizontal (a segment near the cameras' horizon is the image
-    of a horizontal line of any direction)."""
+    each is an image of (unit, camera frame). Those whose plane through the camera is within
+    ``_HORIZON_DEG`` of horizontal are left out: a segment near the cameras' horizon is the
+    image of a horizontal line of any direction."""
     s = np.asarray(segments, dtype=np.float64).reshape(-1, 4).copy()
     s[s[:, 0] > s[:, 2]] = s[s[:, 0] > s[:, 2]][:, [2, 3, 0, 1]]
     slope = np.degrees(np.arctan2(np.abs(s[:, 3] - s[:, 1]), s[:, 2] - s[:, 0]))
@@ -279,9 +279,7 @@ def _line_segments(
     v = np.cross(n, up)
     norm = np.linalg.norm(v, axis=1)
     posed = norm > math.sin(math.radians(_HORIZON_DEG))
-    v[posed] /= norm[posed, None]
-    v[~posed] = np.nan
-    return s, v
+    return s[posed], v[posed] / norm[posed, None]
 
 
 def _y_at(seg: np.ndarray, x: np.ndarray | float) -> np.ndarray:
@@ -293,14 +291,11 @@ def _band_pairs(s: np.ndarray, v: np.ndarray, config: BandFillConfig) -> list[tu
     """For each segment, the nearest ``lines_below`` below it that are images of lines
     parallel to its own (directions within ``parallel_deg``) and overlap it along the
     rows: the bands' upper and lower lines, and the lines' horizontal direction (the mean
-    of the two, signed alike). Segments near the horizon (no direction) bound none."""
+    of the two, signed alike)."""
     pairs = []
     parallel = math.cos(math.radians(config.parallel_deg))
-    posed = np.isfinite(v[:, 0])
     for i in range(len(s)):
-        if not posed[i]:
-            continue
-        agree = posed & (np.abs(np.nan_to_num(v) @ v[i]) >= parallel)
+        agree = np.abs(v @ v[i]) >= parallel
         agree[i] = False
         lo, hi = np.maximum(s[:, 0], s[i, 0]), np.minimum(s[:, 2], s[i, 2])
         shorter = np.minimum(s[:, 2] - s[:, 0], s[i, 2] - s[i, 0])
@@ -429,9 +424,15 @@ def _sweep_band(
             [lo, _y_at(lower, lo) - _EDGE_MARGIN_PX],
         ]
     )
-    mask = np.zeros((h, w), dtype=np.uint8)
-    cv2.fillConvexPoly(mask, np.round(poly).astype(np.int32), 1)
-    vv, uu = np.nonzero(mask.astype(bool) & valid)
+    corners = np.round(poly).astype(np.int32)
+    x0, y0 = np.maximum(corners.min(axis=0), 0)
+    x1, y1 = np.minimum(corners.max(axis=0) + 1, (w, h))
+    if x1 <= x0 or y1 <= y0:
+        return None
+    mask = np.zeros((y1 - y0, x1 - x0), dtype=np.uint8)  # the band's box, not the image
+    cv2.fillConvexPoly(mask, corners - np.array([x0, y0], dtype=np.int32), 1)
+    vv, uu = np.nonzero(mask.astype(bool) & valid[y0:y1, x0:x1])
+    vv, uu = vv + y0, uu + x0
     if len(uu) < _MIN_PIXELS:
         return None
     left_values = left_gx[vv, uu].astype(np.float64)
