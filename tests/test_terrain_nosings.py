@@ -284,6 +284,34 @@ def test_a_line_across_the_view_at_the_cameras_height_is_no_nosing(monkeypatch):
     assert len(build_terrain(planes, NO_SAMPLES, lines=border).steps) == 4
 
 
+def test_the_nosing_after_one_at_the_cameras_height_continues_the_staircase():
+    """A nosing at the cameras' height is seen edge-on: its tread is no taller than a line,
+    and the riser above meets it there, so no segment tells it from the horizon. The next
+    nosing, a step further along the pitch line, continues the staircase by two steps;
+    where the missing nosing is not at the cameras' height, a line two steps on adds
+    nothing."""
+    rise, run, distance = 0.17, 0.29, 1.3
+    height = 4 * rise  # the fourth nosing and the fifth riser's foot at the cameras' height
+    planes = _planes(5, rise, run, distance, missing=2, height=height)
+    lines = _stair_lines(5, rise, run, distance, height=height)
+    # Segments 6 and 7: the fourth nosing and foot; 8 and 9: the fifth's.
+    assert abs(lines[6][1] - 240.0) < 0.5 and abs(lines[9][1] - 240.0) < 0.5
+    seen = np.delete(lines, [6, 9], axis=0)
+    model = build_terrain(planes, NO_SAMPLES, lines=_lines(seen, height))
+    assert model.obstacle == STAIRS and len(model.steps) == 5
+    for i, step in enumerate(model.steps):
+        assert step.distance_m == pytest.approx(distance + i * run, abs=0.01)
+    assert all(s.rise_inferred and s.position_inferred for s in model.steps[3:])
+    # Without the fifth nosing nothing shows beyond the third step.
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(seen[:-1], height)).steps) == 3
+    # Cameras well above the fourth nosing see its tread: its line is asked for, not skipped.
+    high = 4 * rise + 0.3
+    planes = _planes(5, rise, run, distance, missing=2, height=high)
+    lines = _stair_lines(5, rise, run, distance, height=high)
+    seen = np.delete(lines, [6, 9], axis=0)
+    assert len(build_terrain(planes, NO_SAMPLES, lines=_lines(seen, high)).steps) == 3
+
+
 def test_nosing_config_is_checked():
     for name in ("nosing_run_tolerance", "nosing_min_cover", "nosing_min_foot_cover"):
         for bad in (0.0, 1.0, -0.1):

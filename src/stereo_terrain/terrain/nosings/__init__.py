@@ -38,6 +38,14 @@ and it is not added where the samples in the image of its riser lie on the last 
 height beyond it (a landing the matcher holds: tile joints are long lines too) or a wall
 stands across the stairs there.
 
+A nosing at the cameras' height is seen edge-on: its tread is no taller than a line in
+the image (``steps.EDGE_ON_PX``) and the foot of the riser above meets it there, so nothing
+tells its line from the horizon. Where it does not show and its tread is so seen, the
+nosing after it (a step further along the same pitch line) is asked of the segments
+alone; where that one shows, both steps are added. Level cameras at a staircase's foot
+see this at every staircase taller than they are (docs/benchmarks.md, "Twenty-fourth
+session").
+
 A step so found gets the staircase's median run as its position and the median rise (a
 step found beyond the last riser plane by :mod:`~stereo_terrain.terrain.continuation`
 does the same, and says so with ``rise_inferred``): the segment gives where a nosing is,

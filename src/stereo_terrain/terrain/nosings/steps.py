@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -32,6 +33,12 @@ _TOP_GROUP_M = 0.01
 
 #: ... and cover this share of the step's visible width.
 _TOP_MIN_COVER = 0.3
+
+
+#: A tread under this many pixels tall in the image is seen edge-on (at the cameras'
+#: height): the lines of its nosing and of the foot of the riser above it are one, so
+#: its nosing is not looked for; the next one is (:func:`nosing_steps`).
+EDGE_ON_PX = 4.0
 
 
 #: Samples on the tread's height beyond a would-be riser that make it a landing.
@@ -101,24 +108,74 @@ def nosing_steps(
             return out, 0, split
         run = found
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
+    skip_config = dataclasses.replace(config, nosing_run_tolerance=0.5 * config.nosing_run_tolerance)
     added = 0
     while added < config.max_nosing_steps:
-        lam = next_nosing(view, a, anchor, rise, run, config, smoothed)
-        if lam is None and smoothed is not None:
-            lam = edge_nosing(view, smoothed(), a, anchor, rise, run, config)
-        if lam is None:
+        found = _next_nosing_or_edge(view, a, anchor, rise, run, config, smoothed)
+        n_new = 1
+        if not found and added + 2 <= config.max_nosing_steps and _tread_edge_on(view, a, anchor, rise, run):
+            # The next nosing is at the cameras' height: its tread is seen edge-on and the
+            # riser above meets it in one line, which tells nothing. The nosing after it,
+            # a step further along the same pitch line, is asked instead: of the segments
+            # alone and within half the tolerance, as nothing corroborates the nosing
+            # skipped (beyond a landing at the cameras' height, the grey levels' test and
+            # the whole tolerance took a far wall's tile joints on a default-profile render).
+            found = next_nosing(view, a + run, anchor + rise, rise, run, skip_config) is not None
+            n_new = 2
+        if not found:
             break
-        last = out[-1]
-        a_new = a + run
-        if walls.size and float(np.min(np.abs(walls - a_new))) < config.merge_distance_m:
-            break  # a wall across the stairs there: its joints and edges are no nosings
-        if _floor_where_the_riser_would_be(planes, P, view, a_new, last.top_z_m, rise):
-            break  # the samples see the last tread go on (a landing's tiles, a platform)
-        out[-1] = dataclasses.replace(last, run_m=run)
-        out.append(inferred_step(u, a_new, last.top_z_m + rise, rise, None))
-        added += 1
-        a, anchor = a_new, _refined_top(view, a_new, anchor + rise, rise)
+        stop = False
+        for _ in range(n_new):
+            last = out[-1]
+            a_new = a + run
+            if walls.size and float(np.min(np.abs(walls - a_new))) < config.merge_distance_m:
+                stop = True  # a wall across the stairs there: its joints and edges are no nosings
+                break
+            if _floor_where_the_riser_would_be(planes, P, view, a_new, last.top_z_m, rise):
+                stop = True  # the samples see the last tread go on (a landing's tiles, a platform)
+                break
+            out[-1] = dataclasses.replace(last, run_m=run)
+            out.append(inferred_step(u, a_new, last.top_z_m + rise, rise, None))
+            added += 1
+            a, anchor = a_new, _refined_top(view, a_new, anchor + rise, rise)
+        if stop:
+            break
     return out, added, split
+
+
+def _next_nosing_or_edge(
+    view: StairView,
+    a: float,
+    top: float,
+    rise: float,
+    run: float,
+    config: TerrainConfig,
+    smoothed: Callable[[], np.ndarray] | None,
+) -> bool:
+    """Whether the next nosing after the step at ``(a, top)`` shows, in the segments
+    (:func:`next_nosing`) or else in the grey levels (:func:`edge_nosing`)."""
+    if next_nosing(view, a, top, rise, run, config, smoothed) is not None:
+        return True
+    return smoothed is not None and edge_nosing(view, smoothed(), a, top, rise, run, config) is not None
+
+
+def _tread_edge_on(view: StairView, a: float, top: float, rise: float, run: float) -> bool:
+    """Whether the next step's tread (from its nosing at ``(a + run, top + rise)`` to the
+    foot of the riser after it, ``run`` further) is seen edge-on: its nosing within half a
+    rise of the cameras' height and the tread under ``EDGE_ON_PX`` tall in the image at
+    the staircase's lateral middle."""
+    if abs(top + rise - float(view.lines.centre[2])) > 0.5 * rise:
+        return False
+    mid = 0.5 * (view.lat[0] + view.lat[1]) * view.v + np.array([0.0, 0.0, top + rise])
+    nosing = mid + (a + run) * view.u
+    pts = np.array([nosing, nosing + 0.1 * view.v, mid + (a + 2.0 * run) * view.u])
+    uv, depth = view.lines.project(pts)
+    if not (depth > 0).all():
+        return False
+    # the foot's distance from the nosing's image line
+    along = uv[1] - uv[0]
+    across = abs(float(along[0] * (uv[2, 1] - uv[0, 1]) - along[1] * (uv[2, 0] - uv[0, 0])))
+    return across < EDGE_ON_PX * float(np.hypot(*along))
 
 
 def nosing_heights(
