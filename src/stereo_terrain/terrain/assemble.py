@@ -16,7 +16,7 @@ from .below import Link as _Link
 from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
-from .nosings import ImageLines, nosing_heights, nosing_steps
+from .nosings import ImageLines, nosing_heights, nosing_steps, pitched_steps
 from .polytope import _classify_single_step, _polytope
 from .risers import (
     _LOW_INLIER_PCT,
@@ -457,7 +457,13 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     u = np.array([math.cos(chain.yaw), math.sin(chain.yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     steps = list(chain.steps)
-    from_lines = split = 0
+    from_lines = split = pitched = 0
+    one_riser = len(chain.ordered) == 1 and not chain.inferred_first
+    if lines is not None and config.nosing_steps and config.nosing_pitch and one_riser:
+        steps, pitched = pitched_steps(
+            steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
+        )
+        pitch = (steps[0].rise_m, steps[0].run_m or 0.0)
     if lines is not None and config.nosing_steps:
         steps, from_lines, split = nosing_steps(
             steps, chain.planes, chain.P, u, v, chain.lateral, lines, config
@@ -484,7 +490,12 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             f"; the {chain.below} step(s) below the lowest riser plane formed none: inferred at the"
             " staircase's rise and run"
         )
-    if chain.continued:
+    if pitched:
+        note += (
+            f"; the image's nosings show the pitch from the riser's foot: {pitched} step(s) at"
+            f" {100.0 * pitch[0]:.1f} cm rise and {100.0 * pitch[1]:.1f} cm run"
+        )
+    elif chain.continued:
         note += (
             f"; {chain.continued} more beyond the last riser plane, from their samples' positions"
             " (rise: the median of the others)"

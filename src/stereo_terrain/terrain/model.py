@@ -109,6 +109,11 @@ class TerrainConfig:
         too few or too noisy for either). Their rise is the median of the measured ones
         and their position the median run beyond the step before (``rise_inferred``). See
         :mod:`.nosings`.
+    nosing_pitch : bool
+        With ``nosing_steps``: a chain that stands on one riser plane is rebuilt on the
+        pitch (rise and run) that puts the most nosings, from the first on, on the image's
+        segments, anchored at the riser's foot (:func:`~stereo_terrain.terrain.nosings.pitched_steps`;
+        its guards there). Default true (issue 11).
     max_nosing_steps : int
         At most this many steps are added so.
     nosing_run_tolerance : float
@@ -192,6 +197,7 @@ class TerrainConfig:
     continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
     nosing_steps: bool = True
+    nosing_pitch: bool = True
     max_nosing_steps: int = 4
     nosing_run_tolerance: float = 0.35
     nosing_min_cover: float = 0.4

@@ -39,7 +39,7 @@ height beyond it (a landing the matcher holds: tile joints are long lines too) o
 stands across the stairs there.
 
 A nosing at the cameras' height is seen edge-on: its tread is no taller than a line in
-the image (``steps.EDGE_ON_PX``) and the foot of the riser above meets it there, so nothing
+the image (``view.EDGE_ON_PX``) and the foot of the riser above meets it there, so nothing
 tells its line from the horizon. Where it does not show and its tread is so seen, the
 nosing after it (a step further along the same pitch line) is asked of the segments
 alone; where that one shows, both steps are added. Level cameras at a staircase's foot
@@ -79,7 +79,7 @@ grey-level tests) -> ``next_nosing`` (the test of one nosing and its foot) -> ``
 :func:`nosing_heights`).
 """
 
-from .steps import nosing_heights, nosing_steps
+from .steps import nosing_heights, nosing_steps, pitched_steps
 from .view import ImageLines
 
-__all__ = ["ImageLines", "nosing_heights", "nosing_steps"]
+__all__ = ["ImageLines", "nosing_heights", "nosing_steps", "pitched_steps"]

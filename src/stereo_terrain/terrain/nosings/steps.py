@@ -15,8 +15,10 @@ from ..continuation import INLIERS, walls_across
 from ..model import Step, TerrainConfig
 from .edges import edge_nosing, smoothed_image
 from .next_nosing import LAM_GROUP, inferred_step, next_nosing
+from .pitch import pitch_from_nosings
 from .splits import split_double_steps, split_too_tall
 from .view import (
+    EDGE_ON_PX,
     ImageLines,
     Segments,
     StairView,
@@ -24,6 +26,7 @@ from .view import (
     inner_lateral,
     lateral_on_height,
     parallel_segments,
+    tread_height_px,
     visible_span,
 )
 
@@ -33,12 +36,6 @@ _TOP_GROUP_M = 0.01
 
 #: ... and cover this share of the step's visible width.
 _TOP_MIN_COVER = 0.3
-
-
-#: A tread under this many pixels tall in the image is seen edge-on (at the cameras'
-#: height): the lines of its nosing and of the foot of the riser above it are one, so
-#: its nosing is not looked for; the next one is (:func:`nosing_steps`).
-EDGE_ON_PX = 4.0
 
 
 #: Samples on the tread's height beyond a would-be riser that make it a landing.
@@ -143,6 +140,64 @@ def nosing_steps(
     return out, added, split
 
 
+#: A pitch from the nosings replaces a one-riser chain only where its rise is within this
+#: ratio of the riser's measured one (the second opinions' rule for rises that agree,
+#: ``stereo_terrain.pipeline.config.AGREEING_RISE_RATIO``).
+PITCH_RISE_RATIO = 1.5
+
+
+def pitched_steps(
+    steps: list[Step],
+    planes: PlaneSet,
+    P: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    ground_z: float,
+    lines: ImageLines,
+    config: TerrainConfig,
+) -> tuple[list[Step], int]:
+    """For a chain of one riser plane standing on the ground, ``steps`` rebuilt on the pitch
+    that the image's nosings show (:func:`~.pitch.pitch_from_nosings`): the first riser where
+    it was, with the pitch's rise, and a step at each further nosing shown (rise and
+    position inferred); and how many steps that gave (0: ``steps`` unchanged). Taken where
+    the pitch shows three nosings or more, at least as many as the chain has steps, its
+    rise is within ``PITCH_RISE_RATIO`` of the riser's measured one, and no step it adds
+    stands at a wall across the stairs or where the samples see the tread before it go on
+    (:func:`nosing_steps` asks the same of each step it adds)."""
+    segs = parallel_segments(lines, v) if steps and not steps[0].rise_inferred else None
+    if segs is None:
+        return steps, 0
+    view = StairView(lines, segs, u, v, inner_lateral(lateral))
+    first = steps[0]
+    pitch = pitch_from_nosings(view, first.axis_position_m, ground_z, config)
+    if pitch is None or pitch.nosings < len(steps):
+        return steps, 0
+    if max(pitch.rise_m, first.rise_m) > PITCH_RISE_RATIO * min(pitch.rise_m, first.rise_m):
+        return steps, 0
+    rise, run = pitch.rise_m, pitch.run_m
+    walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
+    for k in range(1, pitch.nosings):
+        # as nosing_steps asks of a step it adds: no wall across the stairs there, and not
+        # where the samples see the tread before it go on (a box's top, a landing)
+        a = first.axis_position_m + k * run
+        if walls.size and float(np.min(np.abs(walls - a))) < config.merge_distance_m:
+            return steps, 0
+        if _floor_where_the_riser_would_be(planes, P, view, a, ground_z + k * rise, rise):
+            return steps, 0
+    out = [
+        dataclasses.replace(
+            first, rise_m=rise, top_z_m=ground_z + rise, run_m=run, measured_rise_m=first.rise_m
+        )
+    ]
+    for k in range(2, pitch.nosings + 1):
+        last_run = run if k < pitch.nosings else None
+        out.append(
+            inferred_step(u, first.axis_position_m + (k - 1) * run, ground_z + k * rise, rise, last_run)
+        )
+    return out, len(out)
+
+
 def _next_nosing_or_edge(
     view: StairView,
     a: float,
@@ -166,16 +221,7 @@ def _tread_edge_on(view: StairView, a: float, top: float, rise: float, run: floa
     the staircase's lateral middle."""
     if abs(top + rise - float(view.lines.centre[2])) > 0.5 * rise:
         return False
-    mid = 0.5 * (view.lat[0] + view.lat[1]) * view.v + np.array([0.0, 0.0, top + rise])
-    nosing = mid + (a + run) * view.u
-    pts = np.array([nosing, nosing + 0.1 * view.v, mid + (a + 2.0 * run) * view.u])
-    uv, depth = view.lines.project(pts)
-    if not (depth > 0).all():
-        return False
-    # the foot's distance from the nosing's image line
-    along = uv[1] - uv[0]
-    across = abs(float(along[0] * (uv[2, 1] - uv[0, 1]) - along[1] * (uv[2, 0] - uv[0, 0])))
-    return across < EDGE_ON_PX * float(np.hypot(*along))
+    return tread_height_px(view, a + run, a + 2.0 * run, top + rise) < EDGE_ON_PX
 
 
 def nosing_heights(

@@ -31,6 +31,12 @@ _MIN_VISIBLE_M = 0.15
 FOOT_VISIBLE_M = 0.03
 
 
+#: A tread under this many pixels tall in the image is seen edge-on (at the cameras'
+#: height): the lines of its nosing and of the foot of the riser above it are one
+#: (:func:`tread_height_px`; :func:`~.steps.nosing_steps` steps over such a nosing).
+EDGE_ON_PX = 4.0
+
+
 @dataclass(frozen=True)
 class ImageLines:
     """The rectified left image's line segments and the camera that saw them, for the
@@ -190,3 +196,18 @@ def lateral_on_height(view: StairView, z: np.ndarray) -> tuple[np.ndarray, np.nd
     a = on_height(lines, segs.d0, z) @ v
     b = on_height(lines, segs.d1, z) @ v
     return np.minimum(a, b), np.maximum(a, b)
+
+
+def tread_height_px(view: StairView, front: float, back: float, z: float) -> float:
+    """How tall in the image (pixels, at the staircase's lateral middle) a tread at height
+    ``z`` is from its nosing at ``front`` to the foot of the riser behind it at ``back``
+    (along ``u``): the foot's distance from the nosing's image line; NaN where either is
+    behind the camera."""
+    mid = 0.5 * (view.lat[0] + view.lat[1]) * view.v + np.array([0.0, 0.0, z])
+    nosing = mid + front * view.u
+    uv, depth = view.lines.project(np.array([nosing, nosing + 0.1 * view.v, mid + back * view.u]))
+    if not (depth > 0).all():
+        return math.nan
+    along = uv[1] - uv[0]
+    across = abs(float(along[0] * (uv[2, 1] - uv[0, 1]) - along[1] * (uv[2, 0] - uv[0, 0])))
+    return across / float(np.hypot(*along))
