@@ -1,6 +1,8 @@
 """The staircase's pitch from its nosings' lines, anchored at its first riser's foot
 (terrain/nosings/pitch.py): for a chain that stands on one riser plane."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -88,7 +90,7 @@ def test_a_one_riser_chain_is_rebuilt_on_the_pitch_where_its_rise_agrees():
     steps, n = pitched_steps(
         [_first_step(0.21, distance)], *samples, u, v, LATERAL, 0.0, lines, TerrainConfig()
     )
-    assert n == 5 and len(steps) == 5
+    assert n == 4 and len(steps) == 5
     for k, s in enumerate(steps):
         assert s.axis_position_m == pytest.approx(distance + k * run, abs=0.02)
         assert s.rise_m == pytest.approx(rise, abs=0.004)
@@ -117,8 +119,30 @@ def test_a_staircase_of_one_riser_plane_with_a_high_top_is_counted_from_its_nosi
     lines = _lines(_stair_lines(5, rise, run, distance))
     model = build_terrain(high, NO_SAMPLES, lines=lines)
     assert model.obstacle == STAIRS and len(model.steps) == 5
-    assert "the image's nosings show the pitch" in model.note
+    assert "the image's nosings show the staircase's pitch" in model.note
     for k, s in enumerate(model.steps):
         assert s.distance_m == pytest.approx(distance + k * run, abs=0.02)
     off = build_terrain(high, TerrainConfig(continue_steps=False, nosing_steps=False), lines=lines)
     assert "pitch" not in off.note and len(off.steps) < 5
+
+
+def test_a_chain_of_several_risers_on_the_pitch_gains_the_nosings_beyond():
+    rise, run, distance = 0.17, 0.29, 1.3
+    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    lines = _lines(_stair_lines(5, rise, run, distance))
+    planes = _planes(5, rise, run, distance, missing=3)
+    samples = (planes, planes.samples.points.astype(np.float64))
+
+    def step(i: int, shift: float = 0.0) -> Step:
+        a = distance + i * run + shift
+        return Step(rise, run, a, 1.0, (i + 1) * rise, a, Plane(-u, a), None)
+
+    chain = [step(0), step(1)]
+    steps, n = pitched_steps(chain, *samples, u, v, LATERAL, 0.0, lines, TerrainConfig())
+    assert n == 3 and steps[:2] == [chain[0], dataclasses.replace(chain[1], run_m=steps[1].run_m)]
+    for k, s in enumerate(steps):
+        assert s.axis_position_m == pytest.approx(distance + k * run, abs=0.02)
+    assert all(s.position_inferred for s in steps[2:])
+    # A second riser half a run off the pitch is another staircase's: left alone.
+    off = [step(0), step(1, shift=0.5 * run)]
+    assert pitched_steps(off, *samples, u, v, LATERAL, 0.0, lines, TerrainConfig()) == (off, 0)

@@ -458,16 +458,24 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     v = np.array([-u[1], u[0], 0.0])
     steps = list(chain.steps)
     from_lines = split = pitched = 0
-    one_riser = len(chain.ordered) == 1 and not chain.inferred_first
-    if lines is not None and config.nosing_steps and config.nosing_pitch and one_riser:
+    # The nosings' pitch (its first riser's foot seen): a chain of one riser plane is
+    # rebuilt on it before the nosings beyond are looked for one by one; a chain of
+    # several, whose measured rises and runs place those, is carried on by it after.
+    on_ground = not (chain.inferred_first or chain.below)
+    pitch_on = config.nosing_steps and config.nosing_pitch and on_ground
+    if pitch_on and lines is not None and len(chain.ordered) == 1:
         steps, pitched = pitched_steps(
             steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
         )
-        pitch = (steps[0].rise_m, steps[0].run_m or 0.0)
     if lines is not None and config.nosing_steps:
         steps, from_lines, split = nosing_steps(
             steps, chain.planes, chain.P, u, v, chain.lateral, lines, config
         )
+    if pitch_on and lines is not None and len(chain.ordered) > 1:
+        steps, pitched = pitched_steps(
+            steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
+        )
+    pitch = (steps[-1].rise_m, steps[-2].run_m or 0.0) if pitched else (0.0, 0.0)
     fit = None
     if lines is not None and config.nosing_rise:
         heights = nosing_heights(steps, u, v, chain.lateral, lines)
@@ -492,8 +500,8 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
         )
     if pitched:
         note += (
-            f"; the image's nosings show the pitch from the riser's foot: {pitched} step(s) at"
-            f" {100.0 * pitch[0]:.1f} cm rise and {100.0 * pitch[1]:.1f} cm run"
+            f"; the image's nosings show the staircase's pitch from its first riser's foot"
+            f" ({100.0 * pitch[0]:.1f} cm rise, {100.0 * pitch[1]:.1f} cm run): {pitched} more step(s) at it"
         )
     elif chain.continued:
         note += (

@@ -140,7 +140,7 @@ def nosing_steps(
     return out, added, split
 
 
-#: A pitch from the nosings replaces a one-riser chain only where its rise is within this
+#: A pitch from the nosings rebuilds a one-riser chain only where its rise is within this
 #: ratio of the riser's measured one (the second opinions' rule for rises that agree,
 #: ``stereo_terrain.pipeline.config.AGREEING_RISE_RATIO``).
 PITCH_RISE_RATIO = 1.5
@@ -157,45 +157,59 @@ def pitched_steps(
     lines: ImageLines,
     config: TerrainConfig,
 ) -> tuple[list[Step], int]:
-    """For a chain of one riser plane standing on the ground, ``steps`` rebuilt on the pitch
-    that the image's nosings show (:func:`~.pitch.pitch_from_nosings`): the first riser where
-    it was, with the pitch's rise, and a step at each further nosing shown (rise and
-    position inferred); and how many steps that gave (0: ``steps`` unchanged). Taken where
-    the pitch shows three nosings or more, at least as many as the chain has steps, its
-    rise is within ``PITCH_RISE_RATIO`` of the riser's measured one, and no step it adds
-    stands at a wall across the stairs or where the samples see the tread before it go on
-    (:func:`nosing_steps` asks the same of each step it adds)."""
+    """``steps`` (a chain whose first riser stands on the ground) on the pitch that the
+    image's nosings show (:func:`~.pitch.pitch_from_nosings`), and how many steps it added
+    (0: ``steps`` unchanged).
+
+    - A chain of one riser plane is rebuilt on it: the first riser where it was, with the
+      pitch's rise, and a step at each further nosing shown (rise and position inferred).
+      Taken where the pitch's rise is within ``PITCH_RISE_RATIO`` of the riser's measured
+      one (its top edge, where the matcher is worst).
+    - A chain of several keeps its steps and gains one at each further nosing shown,
+      where each of its steps stands within a third of a run and its top within a third
+      of a rise of where the pitch puts them.
+
+    Either way the pitch shows three nosings or more, at least as many as the chain has
+    steps (more, for a chain of several), and no step it adds stands at a wall across the
+    stairs or where the samples see the tread before it go on (:func:`nosing_steps` asks
+    the same of each step it adds)."""
     segs = parallel_segments(lines, v) if steps and not steps[0].rise_inferred else None
     if segs is None:
         return steps, 0
     view = StairView(lines, segs, u, v, inner_lateral(lateral))
     first = steps[0]
-    pitch = pitch_from_nosings(view, first.axis_position_m, ground_z, config)
+    a0 = first.axis_position_m
+    pitch = pitch_from_nosings(view, a0, ground_z, config)
     if pitch is None or pitch.nosings < len(steps):
         return steps, 0
-    if max(pitch.rise_m, first.rise_m) > PITCH_RISE_RATIO * min(pitch.rise_m, first.rise_m):
-        return steps, 0
     rise, run = pitch.rise_m, pitch.run_m
+    if len(steps) == 1:
+        if max(rise, first.rise_m) > PITCH_RISE_RATIO * min(rise, first.rise_m):
+            return steps, 0
+    elif pitch.nosings == len(steps) or not all(
+        abs(s.axis_position_m - (a0 + i * run)) <= run / 3
+        and abs(s.top_z_m - (ground_z + (i + 1) * rise)) <= rise / 3
+        for i, s in enumerate(steps)
+    ):
+        return steps, 0
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
-    for k in range(1, pitch.nosings):
+    for k in range(len(steps), pitch.nosings):
         # as nosing_steps asks of a step it adds: no wall across the stairs there, and not
         # where the samples see the tread before it go on (a box's top, a landing)
-        a = first.axis_position_m + k * run
+        a = a0 + k * run
         if walls.size and float(np.min(np.abs(walls - a))) < config.merge_distance_m:
             return steps, 0
         if _floor_where_the_riser_would_be(planes, P, view, a, ground_z + k * rise, rise):
             return steps, 0
-    out = [
-        dataclasses.replace(
-            first, rise_m=rise, top_z_m=ground_z + rise, run_m=run, measured_rise_m=first.rise_m
-        )
-    ]
-    for k in range(2, pitch.nosings + 1):
+    if len(steps) == 1:
+        out = [dataclasses.replace(first, rise_m=rise, top_z_m=ground_z + rise, measured_rise_m=first.rise_m)]
+    else:
+        out = list(steps)
+    out[-1] = dataclasses.replace(out[-1], run_m=run)
+    for k in range(len(out) + 1, pitch.nosings + 1):
         last_run = run if k < pitch.nosings else None
-        out.append(
-            inferred_step(u, first.axis_position_m + (k - 1) * run, ground_z + k * rise, rise, last_run)
-        )
-    return out, len(out)
+        out.append(inferred_step(u, a0 + (k - 1) * run, ground_z + k * rise, rise, last_run))
+    return out, len(out) - len(steps)
 
 
 def _next_nosing_or_edge(
