@@ -1,5 +1,6 @@
-"""The staircase's pitch from its nosings' lines, anchored at its first riser's foot: for a
-chain that stands on one riser plane (:func:`pitch_from_nosings`).
+"""The staircase's pitch from its nosings' lines, anchored at its first riser's foot
+(:func:`pitch_from_nosings`): a chain that stands on one riser plane is rebuilt on it, one
+of several carried on by it (:func:`~.steps.pitched_steps`).
 
 A chain of one riser plane has one measured rise, its riser's top edge, where the
 matcher's noise is worst; every step after it is placed at that rise and at a run that
@@ -15,6 +16,16 @@ most of them, from the first on, where segments cover ``nosing_min_cover`` of th
 staircase's width in view (as :func:`~.next_nosing.next_nosing` asks of one), is the
 staircase's pitch. A segment is nosing ``k`` where its plane through the camera meets the
 pitch line within ``LAM_GROUP`` steps of ``k``.
+
+Where the cameras see a tread from above (and taller than ``EDGE_ON_PX``), the next
+riser's foot must show too, a run beyond the nosing at its height: plank joints and grain
+lines on wooden risers fit a pitch of half a stair's rise, but have no feet behind them.
+The rise and run are then placed by least squares on the lines they explain (each line's
+plane through the camera holds it: linear in both). No pitch is given where another rise,
+more than a group apart, shows nearly as many nosings (one fewer): cameras at or below the
+treads see a line by its elevation alone, and the two edges of a nosing strip are two
+lines, so short staircases there fit more than one pitch (docs/benchmarks.md,
+"Twenty-fourth session": a wooden staircase seen from 0.34 m read 17.8 cm for 21.3).
 """
 
 from __future__ import annotations
