@@ -40,6 +40,11 @@ def test_the_pitch_is_the_one_that_puts_the_nosings_on_the_lines():
     assert pitch is not None and pitch.nosings == 5
     assert pitch.rise_m == pytest.approx(rise, abs=0.004)
     assert pitch.run_m == pytest.approx(run, abs=0.01)
+    # Looked for near a chain's own rise and run: found near the truth, none far from it.
+    view = _view(_stair_lines(5, rise, run, distance))
+    near = pitch_from_nosings(view, distance, 0.0, TerrainConfig(), near=(0.15, 0.3))
+    assert near is not None and near.rise_m == pytest.approx(rise, abs=0.004)
+    assert pitch_from_nosings(view, distance, 0.0, TerrainConfig(), near=(0.28, 0.3)) is None
     # Two nosings are not a pitch; nor lines that start elsewhere than the first nosing.
     assert (
         pitch_from_nosings(_view(_stair_lines(2, rise, run, distance)), distance, 0.0, TerrainConfig())

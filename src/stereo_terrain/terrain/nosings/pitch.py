@@ -71,12 +71,20 @@ class Pitch:
 
 
 def pitch_from_nosings(
-    view: StairView, a0: float, z0: float, config: TerrainConfig, *, min_nosings: int = 3
+    view: StairView,
+    a0: float,
+    z0: float,
+    config: TerrainConfig,
+    *,
+    min_nosings: int = 3,
+    near: tuple[float, float] | None = None,
 ) -> Pitch | None:
     """The rise and run that put the most nosings, from the first on and at least
     ``min_nosings``, where the image's segments show them (the module docstring), for a
     staircase whose first riser stands at ``a0`` along ``view.u`` on the ground at height
-    ``z0``; None where no pair puts that many."""
+    ``z0``; None where no pair puts that many. ``near``: a rise and run known already (a
+    chain of several riser planes); only those within a third of each are tried (of the
+    ordinary range), and a fit at the edge of that is none."""
     segs = view.segs
     if len(segs.normal) < min_nosings:
         return None
@@ -84,8 +92,15 @@ def pitch_from_nosings(
     u, v = view.u, view.v
     z = np.array([0.0, 0.0, 1.0])
     mid = 0.5 * (view.lat[0] + view.lat[1]) * v
-    rises = np.arange(config.min_rise_m, config.max_rise_m + 1e-9, _RISE_STEP_M)
-    runs = np.arange(config.continue_min_run_m, config.continue_max_run_m + 1e-9, _RUN_STEP_M)
+    rise_lo, rise_hi = config.min_rise_m, config.max_rise_m
+    run_lo, run_hi = config.continue_min_run_m, config.continue_max_run_m
+    if near is not None:
+        rise_lo, rise_hi = max(rise_lo, near[0] * 2.0 / 3.0), min(rise_hi, near[0] * 4.0 / 3.0)
+        run_lo, run_hi = max(run_lo, near[1] * 2.0 / 3.0), min(run_hi, near[1] * 4.0 / 3.0)
+    rises = np.arange(rise_lo, rise_hi + 1e-9, _RISE_STEP_M)
+    runs = np.arange(run_lo, run_hi + 1e-9, _RUN_STEP_M)
+    if len(rises) < 3 or len(runs) < 3:
+        return None
     R, L = (g.ravel() for g in np.meshgrid(rises, runs, indexing="ij"))
     # Nosing k is N0 + k p: N0 = (a0 - run) u + z0 z (the foot's line a run before the
     # first riser), p = run u + rise z. Each segment's plane meets that line at one lam.
@@ -116,16 +131,15 @@ def pitch_from_nosings(
     # takes there, at a rise within a group of its (a neighbour of it: the same lines),
     # is not looked at again.
     verified: list[tuple[int, float, int]] = []  # (nosings shown, spread, index)
-    taken: list[list[set[int]]] = []  # each verified pitch's segments per nosing
+    taken: list[np.ndarray] = []  # each verified pitch's segments per nosing, (K, S) bool
+    ks = np.arange(1, MAX_NOSINGS + 1, dtype=np.float32)[:, None]
     for i in order:
         if quick[i] < min_nosings or len(verified) == _VERIFIED:
             break
-        mine = [
-            {int(s) for s in np.flatnonzero(np.abs(lam[i] - k) < LAM_GROUP)}
-            for k in range(1, int(quick[i]) + 1)
-        ]
+        mine = np.abs(lam[i][None, :] - ks[: int(quick[i])]) < LAM_GROUP
         if any(
-            abs(R[i] - R[j]) <= LAM_GROUP * R[j] and all(a & b for a, b in zip(mine, other, strict=False))
+            abs(R[i] - R[j]) <= LAM_GROUP * R[j]
+            and bool((mine[: len(other)] & other[: len(mine)]).any(axis=1).all())
             for (_, _, j), other in zip(verified, taken, strict=True)
         ):
             continue
@@ -157,6 +171,19 @@ def pitch_from_nosings(
         if _nosings_shown(view, lam_refined, a0, z0, rise, run, shown, config) == shown:
             return Pitch(rise, run, shown)
     return Pitch(float(R[i]), float(L[i]), shown)
+
+
+def lines_beyond(view: StairView, a0: float, z0: float, rise: float, run: float, steps: int) -> bool:
+    """Whether any segment's plane through the camera meets the pitch line of a staircase
+    of ``rise`` and ``run`` (first riser at ``a0`` on the ground at ``z0``) beyond its
+    ``steps``-th nosing (a quarter of a step on, up to ``MAX_NOSINGS``): else no pitch
+    found near it can carry a chain of ``steps`` on (:func:`~.steps.pitched_steps`)."""
+    n = view.segs.normal
+    anchor = 0.5 * (view.lat[0] + view.lat[1]) * view.v + a0 * view.u + np.array([0.0, 0.0, z0])
+    nu = n @ view.u
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = -(n @ (anchor - view.lines.centre) - run * nu) / (run * nu + rise * n[:, 2])
+    return bool(np.any((lam > steps + 0.25) & (lam < MAX_NOSINGS + 0.5)))
 
 
 def _at_edge(rise: float, run: float, rises: np.ndarray, runs: np.ndarray) -> bool:

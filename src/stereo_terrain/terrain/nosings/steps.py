@@ -15,7 +15,7 @@ from ..continuation import INLIERS, walls_across
 from ..model import Step, TerrainConfig
 from .edges import edge_nosing, smoothed_image
 from .next_nosing import LAM_GROUP, inferred_step, next_nosing
-from .pitch import pitch_from_nosings
+from .pitch import lines_beyond, pitch_from_nosings
 from .splits import split_double_steps, split_too_tall
 from .view import (
     EDGE_ON_PX,
@@ -179,7 +179,17 @@ def pitched_steps(
     view = StairView(lines, segs, u, v, inner_lateral(lateral))
     first = steps[0]
     a0 = first.axis_position_m
-    pitch = pitch_from_nosings(view, a0, ground_z, config)
+    near = None
+    if len(steps) > 1:
+        # the chain's own rise and run place its steps: the pitch is looked for near them
+        rises = [s.rise_m for s in steps if not s.rise_inferred]
+        runs = [s.run_m for s in steps if s.run_m is not None]
+        if not rises or not runs:
+            return steps, 0
+        near = (float(np.median(rises)), float(np.median(runs)))
+        if not lines_beyond(view, a0, ground_z, near[0], near[1], len(steps)):
+            return steps, 0  # nothing beyond it to carry it on (most frames)
+    pitch = pitch_from_nosings(view, a0, ground_z, config, near=near)
     if pitch is None or pitch.nosings < len(steps):
         return steps, 0
     rise, run = pitch.rise_m, pitch.run_m
