@@ -167,7 +167,9 @@ def pitched_steps(
       one (its top edge, where the matcher is worst).
     - A chain of several keeps its steps and gains one at each further nosing shown,
       where each of its steps stands within a third of a run and its top within a third
-      of a rise of where the pitch puts them.
+      of a rise of where the pitch puts them. Its pitch is looked for within a third of
+      its own median rise and run, and only where a segment lies beyond its last nosing
+      at its own pitch (:func:`~.pitch.lines_beyond`; on most frames none does).
 
     Either way the pitch shows three nosings or more, at least as many as the chain has
     steps (more, for a chain of several), and no step it adds stands at a wall across the
