@@ -23,16 +23,15 @@ from ..stereo.sgm import SGMConfig
 from ..stereo.vertical import VerticalAlignConfig
 from ..swing import SwingConfig
 from ..terrain import TerrainConfig
+from ..terrain.model import AGREEING_RISE_RATIO as AGREEING_RISE_RATIO
 from ..tracking import TrackingConfig
 
 #: The rematch's matcher (``PipelineConfig.rematch_sgbm``): issue 11, wood seen by webcams.
 REMATCH_SGBM = OpenCVSGBMConfig(match_exposure=True, p1_per_px=24, p2_per_px=96, penalty_width_px=640)
 
-#: A staircase's measured rises agree when the largest is at most this many times the
-#: smallest (a stair's rises are equal; steps of 9 and 29 cm are a wrong match or a room's
-#: furniture): the coarse rematch's staircase must agree (``PipelineConfig.rematch_coarse``),
-#: and one that does not is matched again (``rematch_disagreeing``).
-AGREEING_RISE_RATIO = 1.5
+#: ``AGREEING_RISE_RATIO`` (:mod:`stereo_terrain.terrain.model`): the coarse rematch's
+#: staircase must agree (``PipelineConfig.rematch_coarse``), and one that does not is
+#: matched again (``rematch_disagreeing``).
 
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")

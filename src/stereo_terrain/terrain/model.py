@@ -14,6 +14,13 @@ from ..msac import Plane
 
 STAIRS, BOX, NONE = "stairs", "box", "none"
 
+#: A staircase's rises agree when the largest is at most this many times the smallest (a
+#: stair's rises are equal; steps of 9 and 29 cm are a wrong match or a room's
+#: furniture): the pipeline's second opinions keep only staircases whose measured rises
+#: agree (``stereo_terrain.pipeline.config``), and the nosings' pitch rebuilds a one-riser
+#: chain only at a rise that agrees with its measured one (:func:`.nosings.pitched_steps`).
+AGREEING_RISE_RATIO = 1.5
+
 
 @dataclass(frozen=True)
 class TerrainConfig:

@@ -88,10 +88,6 @@ def pitch_from_nosings(
     segs = view.segs
     if len(segs.normal) < min_nosings:
         return None
-    c = view.lines.centre
-    u, v = view.u, view.v
-    z = np.array([0.0, 0.0, 1.0])
-    mid = 0.5 * (view.lat[0] + view.lat[1]) * v
     rise_lo, rise_hi = config.min_rise_m, config.max_rise_m
     run_lo, run_hi = config.continue_min_run_m, config.continue_max_run_m
     if near is not None:
@@ -104,9 +100,8 @@ def pitch_from_nosings(
     R, L = (g.ravel() for g in np.meshgrid(rises, runs, indexing="ij"))
     # Nosing k is N0 + k p: N0 = (a0 - run) u + z0 z (the foot's line a run before the
     # first riser), p = run u + rise z. Each segment's plane meets that line at one lam.
-    n = segs.normal
-    base = n @ (mid + a0 * u + z0 * z - c)  # (S,)
-    nu, nz = n @ u, n @ z
+    terms = _foot_terms(view, a0, z0)
+    base, nu, nz = terms  # (S,) each
     Lf, Rf = L.astype(np.float32)[:, None], R.astype(np.float32)[:, None]
     den = Lf * nu.astype(np.float32)[None, :] + Rf * nz.astype(np.float32)[None, :]  # (C, S)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -144,7 +139,7 @@ def pitch_from_nosings(
         ):
             continue
         shown = _nosings_shown(
-            view, lam[i].astype(np.float64), a0, z0, float(R[i]), float(L[i]), int(quick[i]), config
+            view, terms, lam[i].astype(np.float64), a0, z0, float(R[i]), float(L[i]), int(quick[i]), config
         )
         verified.append((shown, float(spread[i]), int(i)))
         taken.append(mine)
@@ -164,13 +159,33 @@ def pitch_from_nosings(
     shown, _, i = best
     if _at_edge(R[i], L[i], rises, runs):
         return None  # at the edge of the ordinary range: the lines' best fit lies outside it
-    rise, run = _refined(base, nu, nz, lam[i].astype(np.float64), float(R[i]), float(L[i]), shown, config)
+    rise, run = _refined(terms, lam[i].astype(np.float64), float(R[i]), float(L[i]), shown, config)
     if (rise, run) != (float(R[i]), float(L[i])):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            lam_refined = -(base - run * nu) / (run * nu + rise * nz)
-        if _nosings_shown(view, lam_refined, a0, z0, rise, run, shown, config) == shown:
+        lam_refined = _on_pitch(terms, rise, run)
+        if _nosings_shown(view, terms, lam_refined, a0, z0, rise, run, shown, config) == shown:
             return Pitch(rise, run, shown)
     return Pitch(float(R[i]), float(L[i]), shown)
+
+
+def _foot_terms(view: StairView, a0: float, z0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each segment's plane (through the camera) against the staircase's first riser's
+    foot line, at its lateral middle: ``n . (F0 - c)``, ``n . u`` and ``n . z`` (for
+    :func:`_on_pitch`)."""
+    n = view.segs.normal
+    foot = 0.5 * (view.lat[0] + view.lat[1]) * view.v + a0 * view.u + np.array([0.0, 0.0, z0])
+    return n @ (foot - view.lines.centre), n @ view.u, n[:, 2]
+
+
+def _on_pitch(
+    terms: tuple[np.ndarray, np.ndarray, np.ndarray], rise: float, run: float, *, feet: bool = False
+) -> np.ndarray:
+    """Where each segment's plane meets the pitch line of ``rise`` and ``run`` (``terms``:
+    :func:`_foot_terms`), in steps: nosing ``k`` at ``k`` (``(k - 1) run`` along and ``k
+    rise`` up from the first riser's foot), or with ``feet`` the foot of riser ``j + 1`` at
+    ``j`` (``j`` runs along, ``j`` rises up); NaN where a plane holds the line's direction."""
+    base, nu, nz = terms
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return -(base - (0.0 if feet else run) * nu) / (run * nu + rise * nz)
 
 
 def lines_beyond(view: StairView, a0: float, z0: float, rise: float, run: float, steps: int) -> bool:
@@ -178,11 +193,7 @@ def lines_beyond(view: StairView, a0: float, z0: float, rise: float, run: float,
     of ``rise`` and ``run`` (first riser at ``a0`` on the ground at ``z0``) beyond its
     ``steps``-th nosing (a quarter of a step on, up to ``MAX_NOSINGS``): else no pitch
     found near it can carry a chain of ``steps`` on (:func:`~.steps.pitched_steps`)."""
-    n = view.segs.normal
-    anchor = 0.5 * (view.lat[0] + view.lat[1]) * view.v + a0 * view.u + np.array([0.0, 0.0, z0])
-    nu = n @ view.u
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam = -(n @ (anchor - view.lines.centre) - run * nu) / (run * nu + rise * n[:, 2])
+    lam = _on_pitch(_foot_terms(view, a0, z0), rise, run)
     return bool(np.any((lam > steps + 0.25) & (lam < MAX_NOSINGS + 0.5)))
 
 
@@ -192,9 +203,7 @@ def _at_edge(rise: float, run: float, rises: np.ndarray, runs: np.ndarray) -> bo
 
 
 def _refined(
-    base: np.ndarray,
-    nu: np.ndarray,
-    nz: np.ndarray,
+    terms: tuple[np.ndarray, np.ndarray, np.ndarray],
     lam: np.ndarray,
     rise: float,
     run: float,
@@ -209,8 +218,8 @@ def _refined(
     # Nosing k lies in segment s's plane where base_s + (k - 1) run nu_s + k rise nz_s = 0;
     # the foot of riser k + 1 (a run beyond nosing k, at its height) where
     # base_s + k run nu_s + k rise nz_s = 0.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam_foot = -base / (run * nu + rise * nz)
+    base, nu, nz = terms
+    lam_foot = _on_pitch(terms, rise, run, feet=True)
     rows, rhs = [], []
     for k in range(1, shown + 1):
         for s in np.flatnonzero(np.abs(lam - k) < LAM_GROUP):
@@ -232,6 +241,7 @@ def _refined(
 
 def _nosings_shown(
     view: StairView,
+    terms: tuple[np.ndarray, np.ndarray, np.ndarray],
     lam: np.ndarray,
     a0: float,
     z0: float,
@@ -241,15 +251,13 @@ def _nosings_shown(
     config: TerrainConfig,
 ) -> int:
     """How many nosings, from the first on (at most ``most``), the segments at pitch
-    positions ``lam`` show over ``nosing_min_cover`` of the staircase's width in view."""
+    positions ``lam`` show over ``nosing_min_cover`` of the staircase's width in view
+    (``terms``: :func:`_foot_terms`, for the risers' feet)."""
     with np.errstate(invalid="ignore"):  # rays along the height's plane: NaN
         lo, hi = lateral_on_height(view, z0 + lam * rise)
     ok = np.isfinite(lam) & np.isfinite(lo) & np.isfinite(hi)
     # The risers' feet: foot j (of riser j + 1) lies a run beyond nosing j, at its height.
-    c, u, n = view.lines.centre, view.u, view.segs.normal
-    anchor = 0.5 * (view.lat[0] + view.lat[1]) * view.v + a0 * u + np.array([0.0, 0.0, z0])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam_foot = -(n @ (anchor - c)) / (n @ (run * u + np.array([0.0, 0.0, rise])))
+    lam_foot = _on_pitch(terms, rise, run, feet=True)
     with np.errstate(invalid="ignore"):
         flo, fhi = lateral_on_height(view, z0 + lam_foot * rise)
     foot_ok = np.isfinite(lam_foot) & np.isfinite(flo) & np.isfinite(fhi)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ...planes.orientation import PlaneSet
 from ..continuation import INLIERS, walls_across
-from ..model import Step, TerrainConfig
+from ..model import AGREEING_RISE_RATIO, Step, TerrainConfig
 from .edges import edge_nosing, smoothed_image
 from .next_nosing import LAM_GROUP, inferred_step, next_nosing
 from .pitch import lines_beyond, pitch_from_nosings
@@ -125,11 +125,8 @@ def nosing_steps(
         for _ in range(n_new):
             last = out[-1]
             a_new = a + run
-            if walls.size and float(np.min(np.abs(walls - a_new))) < config.merge_distance_m:
-                stop = True  # a wall across the stairs there: its joints and edges are no nosings
-                break
-            if _floor_where_the_riser_would_be(planes, P, view, a_new, last.top_z_m, rise):
-                stop = True  # the samples see the last tread go on (a landing's tiles, a platform)
+            if _no_riser_at(planes, P, view, walls, a_new, last.top_z_m, rise, config):
+                stop = True
                 break
             out[-1] = dataclasses.replace(last, run_m=run)
             out.append(inferred_step(u, a_new, last.top_z_m + rise, rise, None))
@@ -138,12 +135,6 @@ def nosing_steps(
         if stop:
             break
     return out, added, split
-
-
-#: A pitch from the nosings rebuilds a one-riser chain only where its rise is within this
-#: ratio of the riser's measured one (the second opinions' rule for rises that agree,
-#: ``stereo_terrain.pipeline.config.AGREEING_RISE_RATIO``).
-PITCH_RISE_RATIO = 1.5
 
 
 def pitched_steps(
@@ -163,8 +154,8 @@ def pitched_steps(
 
     - A chain of one riser plane is rebuilt on it: the first riser where it was, with the
       pitch's rise, and a step at each further nosing shown (rise and position inferred).
-      Taken where the pitch's rise is within ``PITCH_RISE_RATIO`` of the riser's measured
-      one (its top edge, where the matcher is worst).
+      Taken where the pitch's rise agrees with the riser's measured one (its top edge,
+      where the matcher is worst) within ``AGREEING_RISE_RATIO``.
     - A chain of several keeps its steps and gains one at each further nosing shown,
       where each of its steps stands within a third of a run and its top within a third
       of a rise of where the pitch puts them. Its pitch is looked for within a third of
@@ -196,7 +187,7 @@ def pitched_steps(
         return steps, 0
     rise, run = pitch.rise_m, pitch.run_m
     if len(steps) == 1:
-        if max(rise, first.rise_m) > PITCH_RISE_RATIO * min(rise, first.rise_m):
+        if max(rise, first.rise_m) > AGREEING_RISE_RATIO * min(rise, first.rise_m):
             return steps, 0
     elif pitch.nosings == len(steps) or not all(
         abs(s.axis_position_m - (a0 + i * run)) <= run / 3
@@ -205,13 +196,8 @@ def pitched_steps(
     ):
         return steps, 0
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
-    for k in range(len(steps), pitch.nosings):
-        # as nosing_steps asks of a step it adds: no wall across the stairs there, and not
-        # where the samples see the tread before it go on (a box's top, a landing)
-        a = a0 + k * run
-        if walls.size and float(np.min(np.abs(walls - a))) < config.merge_distance_m:
-            return steps, 0
-        if _floor_where_the_riser_would_be(planes, P, view, a, ground_z + k * rise, rise):
+    for k in range(len(steps), pitch.nosings):  # as nosing_steps asks of a step it adds
+        if _no_riser_at(planes, P, view, walls, a0 + k * run, ground_z + k * rise, rise, config):
             return steps, 0
     if len(steps) == 1:
         out = [dataclasses.replace(first, rise_m=rise, top_z_m=ground_z + rise, measured_rise_m=first.rise_m)]
@@ -278,6 +264,25 @@ def nosing_heights(
     view = StairView(lines, segs, u, v, inner_lateral(lateral))
     rise = float(np.median(rises))
     return [_nosing_top(view, s.axis_position_m, s.top_z_m, rise) for s in steps]
+
+
+def _no_riser_at(
+    planes: PlaneSet,
+    P: np.ndarray,
+    view: StairView,
+    walls: np.ndarray,
+    s_new: float,
+    top: float,
+    rise: float,
+    config: TerrainConfig,
+) -> bool:
+    """Whether no riser may be added at ``s_new`` on the tread at ``top``: a wall across the
+    stairs there (``walls``: :func:`walls_across`; its joints and edges are no nosings), or
+    the samples see that tread go on beyond it (:func:`_floor_where_the_riser_would_be`: a
+    landing's tiles, a platform, a box's top)."""
+    if walls.size and float(np.min(np.abs(walls - s_new))) < config.merge_distance_m:
+        return True
+    return _floor_where_the_riser_would_be(planes, P, view, s_new, top, rise)
 
 
 def _floor_where_the_riser_would_be(
