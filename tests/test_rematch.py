@@ -56,7 +56,8 @@ def test_without_the_rematch_nothing_is_nothing():
 
 def test_a_lone_step_from_the_rematch_is_not_kept():
     """Its harder smoothing can make an object's front a step: one step (a box here) is not
-    enough; the first pass's empty result stands, and the time spent is reported."""
+    enough; the first pass's empty result stands, and the time spent is reported. The
+    coarse rematch finding the same step is (``agreed_lone_step``)."""
     base = default_scene_spec()
     box = BoxSpec(height_m=0.2, depth_m=0.6, width_m=1.0, distance_m=1.4, yaw_rad=0.1)
     scene = render_scene(dataclasses.replace(base, obstacle=box))
@@ -65,9 +66,13 @@ def test_a_lone_step_from_the_rematch_is_not_kept():
     as_first = PipelineConfig(sgbm=REMATCH_SGBM, rematch=False)
     alone = Pipeline(scene.calibration, scene.rig, as_first).run(scene.left, scene.right)
     assert alone.terrain.obstacle == "box"
-    result = _blind_first(scene).run(scene.left, scene.right)
+    alone = PipelineConfig(agreed_lone_step=False)
+    result = _blind_first(scene, alone).run(scene.left, scene.right)
     assert result.terrain.obstacle == "none" and not result.rematched
     assert result.timing_ms["rematch"] > 0
+    agreed = _blind_first(scene).run(scene.left, scene.right)
+    assert agreed.terrain.obstacle == "box" and agreed.rematched
+    assert "the coarse rematch found the same lone step" in agreed.terrain.note
 
 
 def test_a_frame_that_finds_something_is_not_matched_again(monkeypatch):

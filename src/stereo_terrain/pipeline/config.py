@@ -165,6 +165,13 @@ class PipelineConfig:
         the real rooms; a frame with nothing in view pays for the draws on the half-size
         samples (8-10 ms on the empty renders, 19-64 ms on the real rooms: 10-15% of
         their frame).
+    agreed_lone_step : bool
+        With ``rematch``: when no pass finds an obstacle (nor do the far planes), the lone
+        step (a box, a one-step staircase) that the rematch and the coarse rematch each
+        find alike (the same riser, rises within ``terrain.common_rise_tolerance_m``, its
+        top seen, no taller than ``terrain.max_rise_m``) is kept, and the terrain note says
+        so (:func:`~.second_opinions.agreed_lone_step`). One second opinion's lone step is
+        not enough. Default true (issue 11; docs/benchmarks.md, "Twenty-fifth session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -207,6 +214,7 @@ class PipelineConfig:
     far_planes_wider_sigmas: float = 1.6  # issue 11
     far_planes_wider_max_deg: float = 40.0  # issue 11
     redraw_planes: int = 3  # issue 11
+    agreed_lone_step: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

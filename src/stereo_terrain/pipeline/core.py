@@ -56,6 +56,7 @@ from .second_opinions import (
     FOCUS_NOTE,
     REMATCH_NOTE,
     Passes,
+    agreed_lone_step,
     corroborated_up,
     far_planes,
     redrawn_planes,
@@ -198,6 +199,10 @@ class Pipeline:
             # No pass found an obstacle: their samples' planes with the far normal tests
             # widened, a second opinion too (issue 11; PipelineConfig.far_planes_sigmas).
             result = far_planes(tried, result, self.config)
+        if rematch and result.terrain.obstacle == NONE and self.config.agreed_lone_step:
+            # Still nothing: a lone step (a box) that two second opinions find alike
+            # (issue 11; PipelineConfig.agreed_lone_step).
+            result = agreed_lone_step(tried, result, self.config)
         if result is tried[0][1] and result.terrain.obstacle == NONE:
             result = corroborated_up(tried, result)
         if rematch and wants_rematch(result.terrain, self.config) and self._redraw_on and len(tried) > 1:

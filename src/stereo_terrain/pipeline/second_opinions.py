@@ -9,6 +9,8 @@ here:
   the far samples' noise, where no pass found an obstacle;
 - :func:`corroborated_up`: without a rig, the up that most passes agree on, where all of
   them found nothing;
+- :func:`agreed_lone_step`: the lone step (a box, a one-step staircase) that two
+  second opinions find alike, where no pass found more;
 - :func:`redrawn_planes`: the last pass's samples with other seeds of the plane stage's
   random draws;
 - :func:`kept_staircase`: what every one of them asks of a staircase before it is kept.
@@ -136,6 +138,51 @@ def _far_planes_with(
         if found is not None:
             return found
     return None
+
+
+def agreed_lone_step(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """``kept`` (no pass found an obstacle, nor did the far planes), or the lone step that
+    two second opinions of ``tried`` (the rematch, the coarse rematch) each found alike:
+    the earlier pass's result, its note saying so (``PipelineConfig.agreed_lone_step``).
+
+    A second opinion's lone step is not kept on its own (:func:`rematch_kept`: the
+    rematch's harder smoothing can make the front of a room's object a "step"), but the
+    band fill is what finds a box's painted or grained front, and the first pass goes
+    without it (realistic renders: 19 of 25 boxes missed; the rematch and the coarse
+    rematch found 8 of them alike, at 20.5 and 20.6 cm for 21.1). Each step must be one
+    the terrain stage measured whole: its top seen (a tread or a box's top, not a riser
+    whose top edge is all there is), its rise measured and no taller than a stair's
+    (``terrain.max_rise_m``: taller, two steps merged). The two are alike where their
+    risers are one (``terrain.merge_distance_m`` apart at most, along the stair axis)
+    and their rises agree as a staircase's do (``terrain.common_rise_tolerance_m``)."""
+    t = config.terrain
+    lone = [(name, done) for name, done in tried[1:] if _whole_lone_step(done.terrain, t)]
+    for k, (name, done) in enumerate(lone):
+        a = done.terrain.steps[0]
+        for other, seen in lone[k + 1 :]:
+            b = seen.terrain.steps[0]
+            if abs(a.distance_m - b.distance_m) > t.merge_distance_m:
+                continue
+            if abs(a.own_rise_m - b.own_rise_m) > t.common_rise_tolerance_m:
+                continue
+            found_by = (
+                f"found by the {name}, and the {other} found the same lone step (rises "
+                f"{100.0 * a.own_rise_m:.1f} and {100.0 * b.own_rise_m:.1f} cm, "
+                f"{a.distance_m:.2f} and {b.distance_m:.2f} m ahead; before them nothing: "
+                "agreed_lone_step)"
+            )
+            terrain = dataclasses.replace(done.terrain, note=f"{done.terrain.note}; {found_by}")
+            return dataclasses.replace(done, terrain=terrain, timing_ms={**kept.timing_ms}, rematched=True)
+    return kept
+
+
+def _whole_lone_step(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether ``terrain`` is one step (a box, a one-step staircase) measured whole: its
+    top seen and its rise measured, no taller than a stair's (:func:`agreed_lone_step`)."""
+    if terrain.obstacle == NONE or len(terrain.steps) != 1:
+        return False
+    step = terrain.steps[0]
+    return step.tread is not None and not step.rise_inferred and step.own_rise_m <= config.max_rise_m
 
 
 def redrawn_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
