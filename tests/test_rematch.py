@@ -66,7 +66,7 @@ def test_a_lone_step_from_the_rematch_is_not_kept():
     as_first = PipelineConfig(sgbm=REMATCH_SGBM, rematch=False)
     alone = Pipeline(scene.calibration, scene.rig, as_first).run(scene.left, scene.right)
     assert alone.terrain.obstacle == "box"
-    alone = PipelineConfig(agreed_lone_step=False)
+    alone = PipelineConfig(agreed_lone_step=False, whole_box=False)
     result = _blind_first(scene, alone).run(scene.left, scene.right)
     assert result.terrain.obstacle == "none" and not result.rematched
     assert result.timing_ms["rematch"] > 0
@@ -97,6 +97,10 @@ def test_rematch_config():
         PipelineConfig.from_dict({"rematch_sgbm": {"p2_per_pixel": 200}})
     with pytest.raises(ConfigError, match="rematch"):
         PipelineConfig.from_dict({"rematch": "yes"})
+    # Its default is a preset's copy, not the class: still type-checked (a fuzzed None
+    # once reached the downsample check as an AttributeError).
+    with pytest.raises(ConfigError, match="rematch_sgbm must be a OpenCVSGBMConfig"):
+        PipelineConfig(rematch_sgbm=None)
     # Only behind the config's own OpenCV matcher.
     scene = render_scene(default_scene_spec())
     assert Pipeline(scene.calibration, scene.rig, PipelineConfig(backend="sgm"))._rematcher is None
@@ -252,6 +256,7 @@ def test_nothing_from_both_matchers_then_the_coarse_rematch_finds_the_staircase(
 
 
 def test_a_lone_step_from_the_coarse_rematch_is_not_kept():
+    """Not on its own, unless it is a box seen whole (``whole_box``)."""
     base = default_scene_spec()
     box = BoxSpec(height_m=0.2, depth_m=0.6, width_m=1.0, distance_m=1.4, yaw_rad=0.1)
     scene = render_scene(dataclasses.replace(base, obstacle=box))
@@ -261,9 +266,13 @@ def test_a_lone_step_from_the_coarse_rematch_is_not_kept():
         Pipeline(scene.calibration, scene.rig, as_first).run(scene.left, scene.right).terrain.obstacle
         == "box"
     )
-    result = _blind_twice(scene).run(scene.left, scene.right)
+    no_box = PipelineConfig(whole_box=False)
+    result = _blind_twice(scene, no_box).run(scene.left, scene.right)
     assert result.terrain.obstacle == "none" and not result.rematched
     assert result.timing_ms["rematch"] > 0
+    # A box it sees whole is kept (PipelineConfig.whole_box).
+    whole = _blind_twice(scene).run(scene.left, scene.right)
+    assert whole.terrain.obstacle == "box" and "a box seen whole" in whole.terrain.note
 
 
 # A staircase whose rises disagree (PipelineConfig.rematch_disagreeing): matched again, and

@@ -111,8 +111,13 @@ def check_fields(config: Any) -> None:
     owner = type(config).__name__
     for f in dataclasses.fields(config):
         if f.default is dataclasses.MISSING:
-            nested = f.default_factory
-            if isinstance(nested, type) and dataclasses.is_dataclass(nested):
+            factory = f.default_factory
+            if factory is dataclasses.MISSING:
+                continue
+            # a nested config's class, or the class of what a factory function makes
+            # (PipelineConfig.rematch_sgbm: a copy of a preset)
+            nested = factory if isinstance(factory, type) else type(factory())
+            if dataclasses.is_dataclass(nested):
                 value = getattr(config, f.name)
                 if not isinstance(value, nested):
                     raise ConfigError(

@@ -172,6 +172,12 @@ class PipelineConfig:
         top seen, no taller than ``terrain.max_rise_m``) is kept, and the terrain note says
         so (:func:`~.second_opinions.agreed_lone_step`). One second opinion's lone step is
         not enough. Default true (issue 11; docs/benchmarks.md, "Twenty-fifth session").
+    whole_box : bool
+        With ``rematch``: where that keeps nothing either, the first box that one second
+        opinion sees whole (the terrain stage found its front, its top and the ground
+        beyond the top; no taller than ``terrain.max_rise_m``) is kept, and the note says
+        so (:func:`~.second_opinions.whole_box`). Default true (issue 11; docs/benchmarks.md,
+        "Twenty-fifth session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -215,6 +221,7 @@ class PipelineConfig:
     far_planes_wider_max_deg: float = 40.0  # issue 11
     redraw_planes: int = 3  # issue 11
     agreed_lone_step: bool = True  # issue 11
+    whole_box: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

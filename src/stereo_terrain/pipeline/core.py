@@ -62,6 +62,7 @@ from .second_opinions import (
     redrawn_planes,
     rematch_kept,
     wants_rematch,
+    whole_box,
 )
 from .threads import background, find_blas, one_blas_thread
 from .warm_up import warm_up_kernels
@@ -203,6 +204,9 @@ class Pipeline:
             # Still nothing: a lone step (a box) that two second opinions find alike
             # (issue 11; PipelineConfig.agreed_lone_step).
             result = agreed_lone_step(tried, result, self.config)
+        if rematch and result.terrain.obstacle == NONE and self.config.whole_box:
+            # Else a box that one second opinion sees whole (PipelineConfig.whole_box).
+            result = whole_box(tried, result, self.config)
         if result is tried[0][1] and result.terrain.obstacle == NONE:
             result = corroborated_up(tried, result)
         if rematch and wants_rematch(result.terrain, self.config) and self._redraw_on and len(tried) > 1:

@@ -11,6 +11,8 @@ here:
   them found nothing;
 - :func:`agreed_lone_step`: the lone step (a box, a one-step staircase) that two
   second opinions find alike, where no pass found more;
+- :func:`whole_box`: else, a box that one second opinion sees whole (its front, its top
+  and the ground beyond it);
 - :func:`redrawn_planes`: the last pass's samples with other seeds of the plane stage's
   random draws;
 - :func:`kept_staircase`: what every one of them asks of a staircase before it is kept.
@@ -29,7 +31,7 @@ from ..gravity import angle_deg
 from ..planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation, noise_widened
 from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
-from ..terrain.model import NONE, STAIRS, TerrainConfig
+from ..terrain.model import BOX, NONE, STAIRS, TerrainConfig
 from .config import AGREEING_RISE_RATIO, PipelineConfig
 from .result import TerrainResult
 
@@ -173,6 +175,27 @@ def agreed_lone_step(tried: Passes, kept: TerrainResult, config: PipelineConfig)
             )
             terrain = dataclasses.replace(done.terrain, note=f"{done.terrain.note}; {found_by}")
             return dataclasses.replace(done, terrain=terrain, timing_ms={**kept.timing_ms}, rematched=True)
+    return kept
+
+
+def whole_box(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """``kept`` (no pass found an obstacle, nor did the far planes or two second opinions
+    alike), or the first box that a second opinion of ``tried`` sees whole: the terrain
+    stage called it a box (its front, its top, and the ground beyond the top), its rise
+    measured and no taller than ``terrain.max_rise_m`` (``PipelineConfig.whole_box``).
+
+    A box is three faces at right angles standing on the ground, a much narrower shape
+    than a lone riser plane: on the realistic renders, the empty ones and the 13 real
+    scenes, no second opinion made one where there was none, where lone "steps" without
+    a top seen did (a real room's motorbike, its pipes). The rematch and the coarse
+    rematch see a box's front where the first matcher does not (the band fill runs in
+    them), but only one of them often does (docs/benchmarks.md, "Twenty-fifth session")."""
+    for name, done in tried[1:]:
+        if done.terrain.obstacle != BOX or not _whole_lone_step(done.terrain, config.terrain):
+            continue
+        found_by = f"found by the {name} (a box seen whole; before it nothing: whole_box)"
+        terrain = dataclasses.replace(done.terrain, note=f"{done.terrain.note}; {found_by}")
+        return dataclasses.replace(done, terrain=terrain, timing_ms={**kept.timing_ms}, rematched=True)
     return kept
 
 

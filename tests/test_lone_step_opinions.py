@@ -1,7 +1,8 @@
 """Where no pass of a frame finds an obstacle, the lone step (a box) that two second
-opinions find alike (pipeline/second_opinions.py ``agreed_lone_step``, issue 11): the
-band fill that finds a box's front runs in the second opinions only, and one of them
-alone is not trusted with a lone step."""
+opinions find alike, or a box that one of them sees whole (pipeline/second_opinions.py
+``agreed_lone_step`` and ``whole_box``, issue 11): the band fill that finds a box's front
+runs in the second opinions only, and one of them alone is not trusted with a lone step
+that is not a box."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
-from stereo_terrain.pipeline.second_opinions import agreed_lone_step
+from stereo_terrain.pipeline.second_opinions import agreed_lone_step, whole_box
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 from stereo_terrain.terrain import TerrainConfig
 
@@ -112,7 +113,7 @@ def test_a_realistic_box_that_only_the_second_opinions_see():
     spec = random_scene_spec(np.random.default_rng(2), profile="realistic", kind="box")
     scene = render_scene(spec)
     truth = scene.truth["steps"][0]
-    off = PipelineConfig(agreed_lone_step=False)
+    off = PipelineConfig(agreed_lone_step=False, whole_box=False)
     assert (
         Pipeline(scene.calibration, scene.rig, off, warm_up=False)
         .run(scene.left, scene.right)
@@ -124,3 +125,19 @@ def test_a_realistic_box_that_only_the_second_opinions_see():
     (step,) = got.terrain.steps
     assert abs(step.rise_m - truth["rise"]) < 0.015
     assert abs(step.distance_m - truth["distance"]) < 0.05
+
+
+def test_a_box_one_second_opinion_sees_whole():
+    box, nothing = _box_and_nothing()
+    cfg = PipelineConfig()
+    tried = [("first matcher", nothing), ("rematch", nothing), ("coarse rematch", box)]
+    got = whole_box(tried, nothing, cfg)
+    assert got.terrain.steps == box.terrain.steps and got.rematched
+    assert "found by the coarse rematch (a box seen whole" in got.terrain.note
+    assert got.timing_ms == nothing.timing_ms
+    # A one-step staircase, a box taller than a stair rise or one the first pass found
+    # (and the frame did not keep) is not.
+    for other in (_moved(box, obstacle="stairs"), _moved(box, rise=TERRAIN.max_rise_m)):
+        tried = [("first matcher", nothing), ("rematch", other), ("coarse rematch", nothing)]
+        assert whole_box(tried, nothing, cfg) is nothing
+    assert whole_box([("first matcher", box), ("rematch", nothing)], nothing, cfg) is nothing
