@@ -156,6 +156,22 @@ def test_band_config_checks_and_pipeline_section():
         PipelineConfig.from_dict({"bands": {"enabeld": False}})
 
 
+def test_without_a_rig_or_lines_the_band_fill_takes_the_first_pass_up():
+    """A frame without a rig whose lines do not fix up: the band fill of its second
+    opinions sweeps with the up the first pass found from the scene's planes."""
+    from concurrent.futures import Future
+
+    from stereo_terrain.gravity.from_lines import SceneLines
+    from stereo_terrain.pipeline.core import _band_planes
+
+    disp, pair, segments = _pair()
+    job: Future = Future()
+    job.set_result(SceneLines(None, None, segments))
+    assert _band_planes(job, pair, None, 64, BandFillConfig()) is None
+    found = _band_planes(job, pair, None, 64, BandFillConfig(), UP)
+    assert found is not None and any(b.kept for b in found.bands)
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     x0=st.floats(0, 200),

@@ -188,8 +188,10 @@ class PipelineConfig:
         rematch): the sweep starts on the lines' thread when the first pass wants a
         rematch (``rematch``; nothing found, a lone step, steps that disagree) and runs
         while the rematch's matcher does; the first pass goes without it. Needs up in
-        the camera: the rig's, or the image's vertical lines'. Default on (issue 11;
-        docs/benchmarks.md, "Twenty-third session").
+        the camera: the rig's, or the image's vertical lines', or else the up the first
+        pass found from the scene (without a rig, where its sigma is finite). Default on
+        (issue 11; docs/benchmarks.md, "Twenty-third session" and "Twenty-fifth
+        session").
     """
 
     backend: str = "opencv"

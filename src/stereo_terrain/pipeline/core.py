@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -194,7 +195,7 @@ class Pipeline:
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
             passes = [(self._rematcher, REMATCH_NOTE), (self._coarse_rematcher, COARSE_NOTE)]
             # The second opinions' passes get the band fill (PipelineConfig.bands)
-            image_jobs = self._with_bands(pair, image_jobs)
+            image_jobs = self._with_bands(pair, image_jobs, _scene_up(result))
             result = self._rematched(pair, image_jobs, result, tried, passes)
         if rematch and result.terrain.obstacle == NONE and self._far_planes_on:
             # No pass found an obstacle: their samples' planes with the far normal tests
@@ -303,14 +304,18 @@ class Pipeline:
             )
         return _ImageJobs(regions, lines_job, rig_up, want_horizontal, None)
 
-    def _with_bands(self, pair: RectifiedPair, jobs: _ImageJobs) -> _ImageJobs:
+    def _with_bands(
+        self, pair: RectifiedPair, jobs: _ImageJobs, scene_up: np.ndarray | None = None
+    ) -> _ImageJobs:
         """``jobs`` with the band fill's sweep started on the lines' thread (after the lines;
         the caller's next matcher runs meanwhile), for the passes after the first
-        (``PipelineConfig.bands``); ``jobs`` where it is off or there are no lines."""
+        (``PipelineConfig.bands``); ``jobs`` where it is off or there are no lines.
+        ``scene_up``: the first pass's up from the scene (rectified camera), for a frame
+        without a rig whose lines do not fix up."""
         if jobs.lines is None or not self.config.bands.enabled or jobs.bands is not None:
             return jobs
         job = background().submit(
-            _band_planes, jobs.lines, pair, jobs.rig_up, self.max_disparity_px, self.config.bands
+            _band_planes, jobs.lines, pair, jobs.rig_up, self.max_disparity_px, self.config.bands, scene_up
         )
         return jobs._replace(bands=job)
 
@@ -504,16 +509,31 @@ def _band_planes(
     rig_up: np.ndarray | None,
     max_disparity_px: int,
     config: BandFillConfig,
+    scene_up: np.ndarray | None = None,
 ) -> BandPlanes | None:
     """The band fill's planes of ``pair`` (:func:`~stereo_terrain.stereo.bands.sweep_bands`)
-    from the lines' job's segments, with the rig's up or else the image's vertical lines';
-    None where neither fixes up."""
+    from the lines' job's segments, with the rig's up, else the image's vertical lines',
+    else ``scene_up`` (the first pass's up from the scene's planes); None where none
+    fixes up."""
     lines = lines_job.result()
     up = known_up(rig_up, lines)
+    if up is None:
+        up = scene_up
     if up is None:
         return None
     segments = np.concatenate([lines.segments, lines.at_border])
     return sweep_bands(pair, segments, up, max_disparity_px, config)
+
+
+def _scene_up(result: TerrainResult) -> np.ndarray | None:
+    """Up in the rectified camera that ``result`` (a pass without a rig) found from the
+    scene and is sure of (a finite sigma), else None (a rig's frame, an assumed level
+    camera, a floor alone)."""
+    g = result.gravity
+    if result.gravity_source != "scene" or g is None or g.sigma_deg is None or not math.isfinite(g.sigma_deg):
+        return None
+    up: np.ndarray = g.up_camera
+    return up
 
 
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
