@@ -47,8 +47,8 @@ class TerrainResult:
         rematch's (``PipelineConfig.rematch``: the first matcher found nothing convincing;
         ``rematch_focus``), or the far planes' (``far_planes_sigmas`` and
         ``far_planes_wider_sigmas``: no pass found an obstacle), the lone step two
-        second opinions agree on (``agreed_lone_step``: nor did the far planes), or the
-        redrawn planes'
+        second opinions agree on or the box one sees whole (``agreed_lone_step``,
+        ``whole_box``: nor did the far planes), or the redrawn planes'
         (``redraw_planes``: nor did the far planes, or every pass found only a lone
         step or steps that disagree); ``timing_ms["rematch"]`` is there whenever the rematch ran,
         ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]`` whenever those did (each

@@ -173,8 +173,7 @@ def agreed_lone_step(tried: Passes, kept: TerrainResult, config: PipelineConfig)
                 f"{a.distance_m:.2f} and {b.distance_m:.2f} m ahead; before them nothing: "
                 "agreed_lone_step)"
             )
-            terrain = dataclasses.replace(done.terrain, note=f"{done.terrain.note}; {found_by}")
-            return dataclasses.replace(done, terrain=terrain, timing_ms={**kept.timing_ms}, rematched=True)
+            return _pass_kept(done, found_by, kept)
     return kept
 
 
@@ -193,10 +192,15 @@ def whole_box(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> Ter
     for name, done in tried[1:]:
         if done.terrain.obstacle != BOX or not _whole_lone_step(done.terrain, config.terrain):
             continue
-        found_by = f"found by the {name} (a box seen whole; before it nothing: whole_box)"
-        terrain = dataclasses.replace(done.terrain, note=f"{done.terrain.note}; {found_by}")
-        return dataclasses.replace(done, terrain=terrain, timing_ms={**kept.timing_ms}, rematched=True)
+        return _pass_kept(done, f"found by the {name} (a box seen whole; before it nothing: whole_box)", kept)
     return kept
+
+
+def _pass_kept(done: TerrainResult, found_by: str, kept: TerrainResult) -> TerrainResult:
+    """A second opinion's own result ``done`` as the frame's, ``found_by`` added to its
+    note, with the frame's timings (``kept``'s)."""
+    terrain = dataclasses.replace(done.terrain, note=f"{done.terrain.note}; {found_by}")
+    return dataclasses.replace(done, terrain=terrain, timing_ms={**kept.timing_ms}, rematched=True)
 
 
 def _whole_lone_step(terrain: StairModel, config: TerrainConfig) -> bool:
