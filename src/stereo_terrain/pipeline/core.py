@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -62,6 +61,7 @@ from .second_opinions import (
     far_planes,
     redrawn_planes,
     rematch_kept,
+    scene_up,
     wants_rematch,
     whole_box,
 )
@@ -195,7 +195,8 @@ class Pipeline:
             # (issue 11; PipelineConfig.rematch, rematch_coarse, rematch_disagreeing).
             passes = [(self._rematcher, REMATCH_NOTE), (self._coarse_rematcher, COARSE_NOTE)]
             # The second opinions' passes get the band fill (PipelineConfig.bands)
-            image_jobs = self._with_bands(pair, image_jobs, _scene_up(result))
+            found = scene_up(result)  # without a rig, the band fill's up where the lines give none
+            image_jobs = self._with_bands(pair, image_jobs, None if found is None else found[0])
             result = self._rematched(pair, image_jobs, result, tried, passes)
         if rematch and result.terrain.obstacle == NONE and self._far_planes_on:
             # No pass found an obstacle: their samples' planes with the far normal tests
@@ -523,17 +524,6 @@ def _band_planes(
         return None
     segments = np.concatenate([lines.segments, lines.at_border])
     return sweep_bands(pair, segments, up, max_disparity_px, config)
-
-
-def _scene_up(result: TerrainResult) -> np.ndarray | None:
-    """Up in the rectified camera that ``result`` (a pass without a rig) found from the
-    scene and is sure of (a finite sigma), else None (a rig's frame, an assumed level
-    camera, a floor alone)."""
-    g = result.gravity
-    if result.gravity_source != "scene" or g is None or g.sigma_deg is None or not math.isfinite(g.sigma_deg):
-        return None
-    up: np.ndarray = g.up_camera
-    return up
 
 
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:

@@ -323,11 +323,7 @@ def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
     if len(tried) < 2 or kept.gravity_source == "rig":
         return kept
     # Each pass's up (rectified camera) and its sigma, where the scene fixed it.
-    ups: list[tuple[np.ndarray, float] | None] = []
-    for _, r in tried:
-        g = r.gravity
-        sigma = None if g is None or r.gravity_source != "scene" else g.sigma_deg
-        ups.append(None if g is None or sigma is None or not math.isfinite(sigma) else (g.up_camera, sigma))
+    ups = [scene_up(r) for _, r in tried]
 
     def agree(i: int, j: int) -> bool:
         a, b = ups[i], ups[j]
@@ -347,6 +343,16 @@ def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
         note = f"{gravity.note}; the {name}'s up, which {support[best]} other pass(es) corroborate"
         gravity = dataclasses.replace(gravity, note=note)
     return dataclasses.replace(other, gravity=gravity, timing_ms=kept.timing_ms)
+
+
+def scene_up(result: TerrainResult) -> tuple[np.ndarray, float] | None:
+    """The up (rectified camera) that a pass without a rig found from the scene and its
+    sigma, where the scene fixed it (a finite sigma); None otherwise (a rig's frame, an
+    assumed level camera, a floor alone)."""
+    g = result.gravity
+    if g is None or result.gravity_source != "scene" or g.sigma_deg is None or not math.isfinite(g.sigma_deg):
+        return None
+    return g.up_camera, g.sigma_deg
 
 
 def steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:
