@@ -15,10 +15,14 @@ from stereo_terrain.errors import ConfigError
 from stereo_terrain.pipeline import Pipeline, PipelineConfig, second_opinions
 from stereo_terrain.stereo.bands import BandFillConfig
 from stereo_terrain.synthetic import default_scene_spec, random_scene_spec, render_scene
+from stereo_terrain.terrain import TerrainConfig
 
 #: The far planes' own tests run with the band fill off: with it the rematch finds these
-#: lab-like stairs before the far planes run (tests/test_bands.py tests the band fill).
-NO_BANDS = PipelineConfig(bands=BandFillConfig(enabled=False))
+#: lab-like stairs before the far planes run (tests/test_bands.py tests the band fill);
+#: likewise the risers moved to where both images put them (tests/test_photometric.py).
+NO_BANDS = PipelineConfig(
+    bands=BandFillConfig(enabled=False), terrain=TerrainConfig(photometric_risers=False)
+)
 
 
 def _lab_stairs(seed: int):

@@ -17,13 +17,17 @@ from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.stereo.bands import BandFillConfig
 from stereo_terrain.synthetic import random_scene_spec, render_scene
+from stereo_terrain.terrain import TerrainConfig
 
 from .test_far_planes import assert_steps_match_truth
 
 OFF = PipelineConfig(redraw_planes=0)
 #: Where the band fill's rematch finds the stairs before the redraw runs, the redraw's own
-#: test turns it off (tests/test_bands.py tests the band fill).
-NO_BANDS = PipelineConfig(bands=BandFillConfig(enabled=False))
+#: test turns it off (tests/test_bands.py tests the band fill); likewise the risers moved
+#: to where both images put them (tests/test_photometric.py).
+NO_BANDS = PipelineConfig(
+    bands=BandFillConfig(enabled=False), terrain=TerrainConfig(photometric_risers=False)
+)
 OFF_NO_BANDS = dataclasses.replace(NO_BANDS, redraw_planes=0)
 
 

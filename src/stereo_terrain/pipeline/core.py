@@ -38,7 +38,7 @@ from ..stereo.blur import match_blur
 from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
-from ..terrain import ImageLines, StairModel, build_terrain, estimate_step_sigmas
+from ..terrain import ImageLines, StairModel, StereoView, build_terrain, estimate_step_sigmas
 from ..terrain.model import NONE
 from .config import PipelineConfig
 from .fill_steps import camera_sample, fill_faces, fill_faces_later, known_up
@@ -499,8 +499,20 @@ def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageL
     (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11)."""
     rect = pair.rectification
     h, w = pair.left.shape[:2]
+    stereo = StereoView(
+        pair.left,
+        pair.right,
+        rect.focal_px,
+        rect.cx,
+        rect.cy,
+        rect.baseline_m,
+        rect.doffs_px,
+        T.matrix,
+        rect.valid_left,
+        rect.valid_right,
+    )
     return ImageLines(
-        lines.segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix, lines.at_border, pair.left
+        lines.segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix, lines.at_border, pair.left, stereo
     )
 
 

@@ -16,7 +16,8 @@ candidates and their edges) -> ``polytope`` (box or stairs, the polytope's verti
 ``continuation`` (steps beyond the last riser plane) -> ``below`` (steps between a known
 floor and a chain that starts above it), ``nosings`` (steps beyond those
 whose nosings the image's line segments show), ``uniform`` (the staircase's common
-rise and run) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
+rise and run), ``photometric`` (risers moved to where both rectified images of their
+faces agree) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
 first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
 ``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
 """
@@ -24,8 +25,9 @@ first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a
 from __future__ import annotations
 
 from .build import build_terrain
-from .model import BOX, NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
+from .model import BOX, NONE, STAIRS, Polytope, RiserMove, StairModel, Step, TerrainConfig
 from .nosings import ImageLines
+from .photometric import StereoView
 from .sigmas import estimate_step_sigmas
 
 __all__ = [
@@ -34,7 +36,9 @@ __all__ = [
     "NONE",
     "STAIRS",
     "Polytope",
+    "RiserMove",
     "StairModel",
+    "StereoView",
     "Step",
     "TerrainConfig",
     "build_terrain",

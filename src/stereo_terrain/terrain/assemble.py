@@ -17,6 +17,7 @@ from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
 from .nosings import ImageLines, nosing_heights, nosing_steps, pitched_steps
+from .photometric import refine_risers
 from .polytope import _classify_single_step, _polytope
 from .risers import (
     _LOW_INLIER_PCT,
@@ -106,9 +107,15 @@ def _assemble(
         if best is None or _chained(model) > _chained(best):
             best, best_found = model, found
     assert best is not None
-    if lines is not None and (config.nosing_steps or config.nosing_rise) and isinstance(best_found, _Chain):
+    images_help = (
+        config.nosing_steps
+        or config.nosing_rise
+        or (config.photometric_risers and lines is not None and lines.stereo is not None)
+    )
+    if lines is not None and images_help and isinstance(best_found, _Chain):
         # The steps the image's lines show beyond the chain and the rise their nosings show,
-        # for the family that won only (they do not count in the choice: they are inferred).
+        # and the risers where the images put them, for the family that won only (they do
+        # not count in the choice: the one is inferred, the other moves centimetres).
         best = _finish(best_found, config, lines)
     return best
 
@@ -457,7 +464,9 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     u = np.array([math.cos(chain.yaw), math.sin(chain.yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     steps = list(chain.steps)
-    from_lines = split = pitched = 0
+    from_lines = split = pitched = refined = 0
+    if lines is not None and lines.stereo is not None and config.photometric_risers:
+        steps, refined = refine_risers(steps, u, v, _faces_lateral(chain, steps, v), lines.stereo, config)
     # The nosings' pitch (its first riser's foot seen): a chain of one riser plane is
     # rebuilt on it before the nosings beyond are looked for one by one; a chain of
     # several, whose measured rises and runs place those, is carried on by it after.
@@ -532,10 +541,34 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
         note += f"; {pooled_rises} measured rises agree: those steps report their median"
     if pooled_runs:
         note += f"; {pooled_runs} measured runs agree: those steps report their median"
+    if refined:
+        note += f"; {refined} riser(s) moved to where both images of their faces agree best"
     if len(steps) == 1:
         obstacle, note, steps = _classify_single_step(steps[0], chain.h_info, chain.ground_z, config, note)
     poly = _polytope(steps, list(chain.ordered), u, v, chain.ground_z)
     return StairModel(obstacle, tuple(steps), chain.yaw, chain.ground_z, poly, chain.planes.frame, note)
+
+
+def _faces_lateral(chain: _Chain, steps: list[Step], v: np.ndarray) -> list[tuple[float, float]]:
+    """Each step's riser face across the stair (metres along ``v``): the middle
+    :data:`_FACE_LATERAL_PCT` of its riser plane's inliers, inside the staircase's extent
+    (a riser plane may run on along a wall's foot in line with it); the staircase's extent
+    for a step whose riser formed no plane."""
+    lo_all, hi_all = chain.lateral
+    out = []
+    for s in steps:
+        own = next((r for r in chain.ordered if r.plane is s.riser), None)
+        if own is None:
+            out.append((lo_all, hi_all))
+            continue
+        lo, hi = percentile(chain.P[own.idx] @ v, _FACE_LATERAL_PCT)
+        out.append((max(float(lo), lo_all), min(float(hi), hi_all)))
+    return out
+
+
+#: The percentiles of a riser plane's inliers, across the stair, that bound its face for
+#: :func:`~.photometric.refine_risers`.
+_FACE_LATERAL_PCT = [10.0, 90.0]
 
 
 def _stands_below(P: np.ndarray, r: _Riser, ground_z: float, config: TerrainConfig) -> bool:

@@ -176,6 +176,27 @@ class TerrainConfig:
         step's, from the floor plane, keeps it all: there half the median gap between a
         top edge and the next riser's bottom edge (where that foot is in view) is added to
         every top, at most this much. 0 = off. See :func:`.risers.edge_bias`.
+    photometric_risers : bool
+        Where the pipeline passes the rectified pair (``ImageLines.stereo``), each measured
+        riser of the staircase found is moved to the distance at which the two images of
+        its face agree best, its normal kept; the runs between moved risers move with them
+        (:mod:`.photometric`). Default true (issue 11: runs of real stairs).
+    photometric_span : float
+        The distances searched: within this fraction of the riser's own (0.08: +-16 cm at
+        2 m), in (0, 0.5).
+    photometric_min_sharpness : float
+        The search's best distance is kept where the cost (1 - the normalised correlation
+        of the two images' horizontal gradients over the face) rises by at least this, on
+        average, ``0.3 * photometric_span`` away on both sides; a flat cost (a uniform
+        face, a face region mixing in the tread) leaves the riser where its samples put it.
+    photometric_max_cost : float
+        ... and where that least cost is at most this (a correlation of at least
+        ``1 - photometric_max_cost``: the two images of the face do match there) ...
+    photometric_max_spread : float
+        ... and where the face's thirds across the image, searched each on its own, put
+        their best distances within this fraction of the span of each other (a minimum
+        that one part of the face makes, a baluster's edge or a repeated grain, is not
+        where the others put theirs).
     """
 
     min_rise_m: float = 0.04
@@ -216,6 +237,11 @@ class TerrainConfig:
     common_min_steps: int = 3
     nosing_rise: bool = True
     max_edge_bias_m: float = 0.04
+    photometric_risers: bool = True
+    photometric_span: float = 0.08
+    photometric_min_sharpness: float = 0.01
+    photometric_max_cost: float = 0.5
+    photometric_max_spread: float = 0.6
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -230,7 +256,14 @@ class TerrainConfig:
             "common_run_tolerance_m",
             "max_edge_bias_m",
             "nosing_edge_contrast",
+            "photometric_min_sharpness",
+            "photometric_max_cost",
+            "photometric_max_spread",
         )
+        if not 0 < self.photometric_span < 0.5:
+            raise ConfigError(
+                f"TerrainConfig.photometric_span must be in (0, 0.5), got {self.photometric_span}"
+            )
         check_min(self, 2, "common_min_steps")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:
             raise ConfigError(
@@ -273,6 +306,25 @@ class TerrainConfig:
 
 
 @dataclass(frozen=True)
+class RiserMove:
+    """A riser moved to where both rectified images of its face agree
+    (:mod:`.photometric`).
+
+    Attributes
+    ----------
+    sampled_riser : Plane
+        The plane its samples gave, around which they lie (the step sigmas find them
+        there).
+    sigma_m : float
+        1-sigma of the moved plane's position along its normal, metres, from how far apart
+        the face's thirds put it.
+    """
+
+    sampled_riser: Plane
+    sigma_m: float
+
+
+@dataclass(frozen=True)
 class Step:
     """One step of a staircase (or the box) in the gravity-aligned frame.
 
@@ -310,6 +362,10 @@ class Step:
         True for a step the image's line segments show (:mod:`.nosings`): its riser is
         placed at the staircase's run from the step before, not measured; its position's
         sigma is the step before's and the runs' spread (:func:`estimate_step_sigmas`).
+    riser_move : RiserMove or None
+        Where ``riser`` was moved to where both images of its face agree
+        (:mod:`.photometric`): the plane its samples gave and the moved position's sigma.
+        None where it was not moved.
     """
 
     rise_m: float
@@ -328,6 +384,7 @@ class Step:
     measured_rise_m: float | None = None
     measured_run_m: float | None = None
     position_inferred: bool = False
+    riser_move: RiserMove | None = field(repr=False, default=None)
 
     @property
     def own_rise_m(self) -> float:

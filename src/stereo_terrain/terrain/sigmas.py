@@ -213,8 +213,11 @@ def estimate_step_sigmas(
     for i, st in enumerate(steps):
         s_next = steps[i + 1].axis_position_m if i + 1 < len(steps) else np.inf
         s_pos = st.axis_position_m
-        on_riser = (st.riser.residuals(P) < band) & (s_all > s_prev) & (s_all < s_next)
-        riser = _face_error(P, normals, cam, st.riser, on_riser, n_factor=n_factor)
+        # The riser's samples lie around the plane they gave, not where both images moved
+        # it (terrain/photometric.py).
+        sampled = st.riser if st.riser_move is None else st.riser_move.sampled_riser
+        on_riser = (sampled.residuals(P) < band) & (s_all > s_prev) & (s_all < s_next)
+        riser = _face_error(P, normals, cam, sampled, on_riser, n_factor=n_factor)
         virtual = riser is None or riser.count < config.min_riser_points
         tread_face = None
         if st.tread is not None:
@@ -260,6 +263,10 @@ def estimate_step_sigmas(
             # Its plane has the staircase's yaw: the step before's lever carries over.
             sig_pos = math.hypot(positions[i - 1], run_spread) if i > 0 else math.nan
             lever = levers[i - 1] if i > 0 else math.nan
+        if st.riser_move is not None and not st.position_inferred:
+            # Where both images put the riser, not its samples: their shared disparity
+            # error (disparity_bias_px) is not in it, the fit's own spread is.
+            sig_pos = st.riser_move.sigma_m
         positions.append(sig_pos)
         levers.append(lever)
         # Top of the step: the tread plane, else the riser's top edge.

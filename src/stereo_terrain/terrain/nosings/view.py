@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..photometric import StereoView
+
 #: A segment is parallel to the nosings when its plane through the camera is within this
 #: of containing ``v``, plus the angle one pixel of end error makes over its length.
 _PARALLEL_DEG = 2.0
@@ -57,6 +59,9 @@ class ImageLines:
     image : (H, W) array or None
         The rectified left image itself, where a nosing no segment shows is looked for
         as a step edge in its grey levels (``TerrainConfig.nosing_edge_contrast``).
+    stereo : StereoView or None
+        The rectified pair, where the risers found are moved to where both images put them
+        (``TerrainConfig.photometric_risers``, :mod:`..photometric`). None: not done.
     """
 
     segments: np.ndarray = field(repr=False)
@@ -67,6 +72,7 @@ class ImageLines:
     T_frame_camera: np.ndarray = field(repr=False)
     at_border: np.ndarray = field(repr=False, default_factory=lambda: np.empty((0, 4)))
     image: np.ndarray | None = field(repr=False, default=None)
+    stereo: StereoView | None = field(repr=False, default=None)
 
     @property
     def centre(self) -> np.ndarray:
