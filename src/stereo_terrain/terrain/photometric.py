@@ -46,10 +46,14 @@ _SIDE_MARGIN = 0.1
 _MIN_FACE_PIXELS = 400
 
 #: Most face pixels a refinement is scored on (a larger face is thinned by rows).
-_MAX_FACE_PIXELS = 6000
+_MAX_FACE_PIXELS = 3000
 
 #: Distances tried across the span (odd: the samples' own is one of them).
 _TRIALS = 41
+
+#: Sub-pixel precision of the face's outline (cv2.fillConvexPoly's ``shift``).
+_SUBPIXEL_BITS = 4
+_SUBPIXEL = float(1 << _SUBPIXEL_BITS)
 
 #: Mean range of three draws of a normal variable, in its sigmas.
 _RANGE_OF_THREE = 1.693
@@ -163,22 +167,11 @@ def fit_riser(
     c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, w - 1), min(r1, h - 1)
     if c1 - c0 < 3 or r1 - r0 < 3:
         return None
-    cols, rows = np.meshgrid(np.arange(c0, c1 + 1, dtype=np.float64), np.arange(r0, r1 + 1))
-    rays = np.stack(
-        [(cols - view.cx) / view.focal_px, (rows - view.cy) / view.focal_px, np.ones_like(cols)], axis=-1
-    )
-    den = rays @ n_c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        depth = np.where(den < -1e-9, -o_c / den, np.nan)
-    pts = (rays * depth[..., None]) @ R.T + t
-    face = (
-        np.isfinite(depth)
-        & (depth > _MIN_DEPTH_M)
-        & (pts[..., 2] > z0)
-        & (pts[..., 2] < z1)
-        & (pts @ v > l0)
-        & (pts @ v < l1)
-    )
+    # The face is a quadrilateral on the plane, so in the image too.
+    quad = np.rint(uv[[0, 1, 3, 2]] * _SUBPIXEL).astype(np.int32)
+    mask = np.zeros((h, w), dtype=np.uint8)
+    cv2.fillConvexPoly(mask, quad, 1, lineType=cv2.LINE_8, shift=_SUBPIXEL_BITS)
+    face = mask[r0 : r1 + 1, c0 : c1 + 1].astype(bool)
     if view.valid_left is not None:
         face &= np.asarray(view.valid_left)[r0 : r1 + 1, c0 : c1 + 1]
     count = int(face.sum())
@@ -188,9 +181,14 @@ def fit_riser(
         # Every k-th row of a large face: the correlation needs thousands of pixels, not
         # tens of thousands (a near riser fills a fifth of the image).
         face[(np.arange(face.shape[0]) % math.ceil(count / _MAX_FACE_PIXELS)) != 0] = False
-    r_idx = rows[face].astype(np.intp)
-    c_f = cols[face]
-    d_plus = view.focal_px * view.baseline_m / depth[face]  # d + doffs on the plane
+    r_rel, c_rel = np.nonzero(face)
+    r_idx = (r_rel + r0).astype(np.intp)
+    c_f = (c_rel + c0).astype(np.float64)
+    rays = np.column_stack(
+        [(c_f - view.cx) / view.focal_px, (r_idx - view.cy) / view.focal_px, np.ones(len(c_f))]
+    )
+    depth = -o_c / np.minimum(rays @ n_c, -1e-9)  # the corners are in front: so is the face
+    d_plus = view.focal_px * view.baseline_m / depth  # d + doffs on the plane
     span = config.photometric_span
     scales = np.linspace(1.0 - span, 1.0 + span, _TRIALS)
     x = c_f[None, :] - (scales[:, None] * d_plus[None, :] - view.doffs_px)  # right image column
