@@ -168,10 +168,10 @@ def fit_riser(
     if c1 - c0 < 3 or r1 - r0 < 3:
         return None
     # The face is a quadrilateral on the plane, so in the image too.
-    quad = np.rint(uv[[0, 1, 3, 2]] * _SUBPIXEL).astype(np.int32)
-    mask = np.zeros((h, w), dtype=np.uint8)
+    quad = np.rint((uv[[0, 1, 3, 2]] - np.array([c0, r0])) * _SUBPIXEL).astype(np.int32)
+    mask = np.zeros((r1 - r0 + 1, c1 - c0 + 1), dtype=np.uint8)  # the bounding box's
     cv2.fillConvexPoly(mask, quad, 1, lineType=cv2.LINE_8, shift=_SUBPIXEL_BITS)
-    face = mask[r0 : r1 + 1, c0 : c1 + 1].astype(bool)
+    face = mask.astype(bool)
     if view.valid_left is not None:
         face &= np.asarray(view.valid_left)[r0 : r1 + 1, c0 : c1 + 1]
     count = int(face.sum())
@@ -191,27 +191,32 @@ def fit_riser(
     d_plus = view.focal_px * view.baseline_m / depth  # d + doffs on the plane
     span = config.photometric_span
     scales = np.linspace(1.0 - span, 1.0 + span, _TRIALS)
-    x = c_f[None, :] - (scales[:, None] * d_plus[None, :] - view.doffs_px)  # right image column
-    ok = np.all((x >= 0) & (x <= w - 2), axis=0)
+    # Where the right image sees each face pixel at the span's two ends and at the samples'
+    # distance: a pixel is scored where all three are inside the right image's valid part
+    # (a row's valid part is one interval, and the column moves monotonically with scale).
+    ends = c_f[None, :] - (scales[[0, _TRIALS // 2, _TRIALS - 1], None] * d_plus[None, :] - view.doffs_px)
+    ok = (ends[2] >= 0) & (ends[0] <= w - 2)
     if view.valid_right is not None:
         vr = np.asarray(view.valid_right)
-        xi = np.clip(np.rint(x).astype(np.intp), 0, w - 1)
+        xi = np.clip(np.rint(ends).astype(np.intp), 0, w - 1)
         ok &= np.all(vr[r_idx[None, :], xi], axis=0)
     if int(ok.sum()) < _MIN_FACE_PIXELS:
         return None
     gl, gr = view.gradients
-    a = gl[r_idx[ok], c_f[ok].astype(np.intp)].astype(np.float64)
-    x = x[:, ok]
-    x0 = np.floor(x).astype(np.intp)
+    c_ok, d_ok = c_f[ok], d_plus[ok]
+    a = gl[r_idx[ok], c_ok.astype(np.intp)]
+    x = (c_ok[None, :] - (scales[:, None] * d_ok[None, :] - view.doffs_px)).astype(np.float32)  # right column
+    x0 = np.floor(x)
     frac = x - x0
     row = r_idx[ok][None, :]
-    b = gr[row, x0] * (1.0 - frac) + gr[row, x0 + 1] * frac
+    col = x0.astype(np.intp)
+    b = gr[row, col] * (1.0 - frac) + gr[row, col + 1] * frac
     cost = _zncc_cost(a, b)
     scale, best, sharp, inside = _best_scale(cost, scales, span)
     # The face's thirds across the image, each on its own: a minimum that the whole face
     # shows because of one part of it (a baluster's edge, a repeated grain) is not where
     # the others put theirs.
-    order = np.argsort(c_f[ok], kind="stable")
+    order = np.argsort(c_ok, kind="stable")
     thirds = [
         _best_scale(_zncc_cost(a[part], b[:, part]), scales, span)[0] for part in np.array_split(order, 3)
     ]
@@ -228,11 +233,11 @@ def fit_riser(
 
 def _zncc_cost(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """1 - the zero-mean normalised cross-correlation of ``a`` (N,) with each row of
-    ``b`` (K, N)."""
+    ``b`` (K, N) (float64 out; float32 in is enough for correlations read to 1e-3)."""
     a = a - a.mean()
     b = b - b.mean(axis=1, keepdims=True)
-    norm = math.sqrt(float(a @ a)) * np.sqrt(np.sum(b * b, axis=1))
-    out: np.ndarray = 1.0 - (b @ a) / np.maximum(norm, 1e-9)
+    norm = math.sqrt(float(a @ a)) * np.sqrt(np.einsum("ij,ij->i", b, b, dtype=np.float64))
+    out: np.ndarray = 1.0 - (b @ a).astype(np.float64) / np.maximum(norm, 1e-9)
     return out
 
 
