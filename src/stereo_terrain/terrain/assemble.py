@@ -549,6 +549,11 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     return StairModel(obstacle, tuple(steps), chain.yaw, chain.ground_z, poly, chain.planes.frame, note)
 
 
+#: The percentiles of a riser plane's inliers, across the stair, that bound its face for
+#: :func:`~.photometric.refine_risers`.
+_FACE_LATERAL_PCT = [10.0, 90.0]
+
+
 def _faces_lateral(chain: _Chain, steps: list[Step], v: np.ndarray) -> list[tuple[float, float]]:
     """Each step's riser face across the stair (metres along ``v``): the middle
     :data:`_FACE_LATERAL_PCT` of its riser plane's inliers, inside the staircase's extent
@@ -564,11 +569,6 @@ def _faces_lateral(chain: _Chain, steps: list[Step], v: np.ndarray) -> list[tupl
         lo, hi = percentile(chain.P[own.idx] @ v, _FACE_LATERAL_PCT)
         out.append((max(float(lo), lo_all), min(float(hi), hi_all)))
     return out
-
-
-#: The percentiles of a riser plane's inliers, across the stair, that bound its face for
-#: :func:`~.photometric.refine_risers`.
-_FACE_LATERAL_PCT = [10.0, 90.0]
 
 
 def _stands_below(P: np.ndarray, r: _Riser, ground_z: float, config: TerrainConfig) -> bool:

@@ -177,13 +177,15 @@ class TerrainConfig:
         top edge and the next riser's bottom edge (where that foot is in view) is added to
         every top, at most this much. 0 = off. See :func:`.risers.edge_bias`.
     photometric_risers : bool
-        Where the pipeline passes the rectified pair (``ImageLines.stereo``), each measured
-        riser of the staircase found is moved to the distance at which the two images of
-        its face agree best, its normal kept; the runs between moved risers move with them
-        (:mod:`.photometric`). Default true (issue 11: runs of real stairs).
+        Where the pipeline passes the rectified pair (``ImageLines.stereo``), each riser of
+        the staircase found (not those the image's lines place a run beyond the step
+        before) is moved to the distance at which the two images of its face agree best,
+        its normal kept; the runs between moved risers move with them (:mod:`.photometric`).
+        Default true (issue 11: runs of real stairs).
     photometric_span : float
-        The distances searched: within this fraction of the riser's own (0.08: +-16 cm at
-        2 m), in (0, 0.5).
+        The distances searched: the riser's disparity (``d + doffs``) scaled by ``1 +-
+        photometric_span``, in (0, 0.5) (0.08: the depth from 7% nearer to 9% farther,
+        -15 to +17 cm at 2 m).
     photometric_min_sharpness : float
         The search's best distance is kept where the cost (1 - the normalised correlation
         of the two images' horizontal gradients over the face) rises by at least this, on
@@ -257,9 +259,11 @@ class TerrainConfig:
             "max_edge_bias_m",
             "nosing_edge_contrast",
             "photometric_min_sharpness",
-            "photometric_max_cost",
-            "photometric_max_spread",
         )
+        for name in ("photometric_max_cost", "photometric_max_spread"):
+            # a cost is 1 - a correlation, in [0, 2]; the thirds' spread is at most 2 spans
+            if not 0 < getattr(self, name) <= 2:
+                raise ConfigError(f"TerrainConfig.{name} must be in (0, 2], got {getattr(self, name)}")
         if not 0 < self.photometric_span < 0.5:
             raise ConfigError(
                 f"TerrainConfig.photometric_span must be in (0, 0.5), got {self.photometric_span}"
@@ -315,12 +319,16 @@ class RiserMove:
     sampled_riser : Plane
         The plane its samples gave, around which they lie (the step sigmas find them
         there).
+    sampled_position_m : float
+        Where along the stair axis its samples put it (the step's ``axis_position_m``
+        before the move; the polytope and the step sigmas find the riser's samples there).
     sigma_m : float
         1-sigma of the moved plane's position along its normal, metres, from how far apart
         the face's thirds put it.
     """
 
     sampled_riser: Plane
+    sampled_position_m: float
     sigma_m: float
 
 

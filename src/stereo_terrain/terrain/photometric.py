@@ -37,8 +37,10 @@ from ..msac import Plane
 from .model import RiserMove, Step, TerrainConfig
 from .risers import riser_distance
 
-#: Fraction of a riser's height left out at its top and foot, and of the staircase's
-#: width at its sides: the nosing, the foot's shadow and the stringers are other faces.
+#: Fraction of a riser's height left out at its top and foot, and of its lateral extent
+#: at its sides (:func:`fit_riser`'s ``lateral``; the terrain stage passes the middle 80% of
+#: the riser plane's inliers): the nosing, the foot's shadow and the stringers are other
+#: faces.
 _FACE_MARGIN = 0.15
 _SIDE_MARGIN = 0.1
 
@@ -57,6 +59,9 @@ _SUBPIXEL = float(1 << _SUBPIXEL_BITS)
 
 #: Mean range of three draws of a normal variable, in its sigmas.
 _RANGE_OF_THREE = 1.693
+
+#: Least |cos| between a riser's normal and the stair axis for its face to be searched.
+_MIN_FACING = 0.2
 
 #: Nearest a face may be for the search (metres): nearer, a plane through the cameras.
 _MIN_DEPTH_M = 0.2
@@ -105,21 +110,36 @@ class StereoView:
 
 @dataclass(frozen=True)
 class RiserFit:
-    """One riser's search: the disparity scale ``(d + doffs)`` that makes the views agree
-    best (1: the plane as given), its cost (1 - correlation), how sharply the cost rises
-    on both sides of it, the face's pixels, whether it is kept (inside the span and within
-    ``TerrainConfig``'s ``photometric_*`` limits), how far apart the best scales of the
-    face's thirds are, and the best scale's 1-sigma from that spread (three draws span
-    1.69 sigma on average, and the whole face averages three thirds), at least a tenth of
-    the trials' spacing."""
+    """One riser's search (:func:`fit_riser`).
+
+    Attributes
+    ----------
+    scale : float
+        The factor on ``d + doffs`` (the inverse of the depth's) at which the two images of
+        the face agree best; 1 is the plane as given.
+    cost : float
+        1 - the normalised correlation there, in [0, 2].
+    sharpness : float
+        How much the cost rises ``0.3 * photometric_span`` away on both sides (their mean);
+        0 where one side is out of the span.
+    pixels : int
+        Face pixels scored.
+    kept : bool
+        Inside the span and within ``TerrainConfig``'s ``photometric_*`` limits.
+    spread : float
+        How far apart the best scales of the face's thirds (across the image) are.
+    scale_sigma : float
+        1-sigma of ``scale`` from that spread (three draws span 1.69 sigma on average, and
+        the whole face averages three thirds), at least half the trials' spacing.
+    """
 
     scale: float
     cost: float
     sharpness: float
     pixels: int
     kept: bool
-    spread: float = 0.0
-    scale_sigma: float = math.nan
+    spread: float
+    scale_sigma: float
 
 
 def fit_riser(
@@ -130,9 +150,30 @@ def fit_riser(
     v: np.ndarray,
     config: TerrainConfig,
 ) -> RiserFit | None:
-    """Search the distance of a riser plane (terrain frame) that best explains both images
-    over its face: heights ``z_range``, lateral extent ``lateral`` along ``v`` (metres,
-    margins are taken off here). None where the face is too small in view or faces away."""
+    """Search the distance of a riser plane that best explains both images over its face.
+
+    Parameters
+    ----------
+    view : StereoView
+    plane : Plane
+        The riser, terrain frame (normal toward the camera).
+    z_range : (float, float)
+        Heights of its foot and top, metres, terrain frame; ``_FACE_MARGIN`` of the height
+        is left out at both.
+    lateral : (float, float)
+        Its extent across the stair, metres along ``v``; ``_SIDE_MARGIN`` of it is left out
+        at both sides.
+    v : (3,) float64
+        The stair's lateral direction (horizontal, unit); the stair axis is ``v`` turned
+        -90 deg about up.
+    config : TerrainConfig
+        ``photometric_span`` and the limits that make a fit ``kept``.
+
+    Returns
+    -------
+    RiserFit, or None where the face is behind or too near the cameras, along the stair
+    axis, or under ``_MIN_FACE_PIXELS`` in view.
+    """
     T = np.asarray(view.T_frame_camera, dtype=np.float64)
     R, t = T[:3, :3], T[:3, 3]
     n_c = R.T @ plane.normal  # the plane in the camera frame: n_c . X + o_c = 0
@@ -148,16 +189,17 @@ def fit_riser(
     z0, z1 = z0 + _FACE_MARGIN * dz, z1 - _FACE_MARGIN * dz
     l0, l1 = l0 + _SIDE_MARGIN * dl, l1 - _SIDE_MARGIN * dl
     h, w = view.left.shape[:2]
-    # The face's bounding box in the image, from its corners on the plane.
+    # The face's corners: on the plane, at the lateral positions and heights asked, found
+    # along the stair axis (a riser turned from it keeps its lateral extent).
+    u = np.array([v[1], -v[0], 0.0])
+    along = float(plane.normal @ u)
+    if abs(along) < _MIN_FACING:
+        return None  # a plane along the stair axis is no riser of it
     corners = []
-    away = -np.array([plane.normal[0], plane.normal[1], 0.0])
-    if float(plane.normal @ away) > -1e-6:
-        return None  # not a vertical face toward the camera
     for lat in (l0, l1):
         for z in (z0, z1):
             p = lat * v + np.array([0.0, 0.0, z])
-            s = -(plane.offset + plane.normal @ p) / float(plane.normal @ away)
-            corners.append(p + s * away)
+            corners.append(p - (plane.offset + plane.normal @ p) / along * u)
     X = (np.asarray(corners) - t) @ R
     if np.any(X[:, 2] < _MIN_DEPTH_M):
         return None
@@ -197,9 +239,11 @@ def fit_riser(
     ends = c_f[None, :] - (scales[[0, _TRIALS // 2, _TRIALS - 1], None] * d_plus[None, :] - view.doffs_px)
     ok = (ends[2] >= 0) & (ends[0] <= w - 2)
     if view.valid_right is not None:
+        # (Both columns the interpolation reads; the valid parts keep SOURCE_MARGIN_PX from
+        # the black border, more than the gradients' 2 px reach.)
         vr = np.asarray(view.valid_right)
-        xi = np.clip(np.rint(ends).astype(np.intp), 0, w - 1)
-        ok &= np.all(vr[r_idx[None, :], xi], axis=0)
+        x0 = np.clip(np.floor(ends).astype(np.intp), 0, w - 2)
+        ok &= np.all(vr[r_idx[None, :], x0] & vr[r_idx[None, :], x0 + 1], axis=0)
     if int(ok.sum()) < _MIN_FACE_PIXELS:
         return None
     gl, gr = view.gradients
@@ -227,7 +271,7 @@ def fit_riser(
         and best <= config.photometric_max_cost
         and spread <= config.photometric_max_spread * span
     )
-    sigma = max(spread / (_RANGE_OF_THREE * math.sqrt(3.0)), 0.1 * float(scales[1] - scales[0]))
+    sigma = max(spread / (_RANGE_OF_THREE * math.sqrt(3.0)), 0.5 * float(scales[1] - scales[0]))
     return RiserFit(scale, best, sharp, int(ok.sum()), kept, spread, sigma)
 
 
@@ -254,8 +298,9 @@ def _best_scale(cost: np.ndarray, scales: np.ndarray, span: float) -> tuple[floa
         if curve > 0:
             scale += float(0.5 * (cost[j - 1] - cost[j + 1]) / curve) * step
     k = max(1, int(round(0.3 * span / step)))
-    sides = [cost[i] for i in (j - k, j + k) if 0 <= i < len(cost)]
-    return scale, float(cost[j]), float(np.mean(sides) - cost[j]), inside
+    if j - k < 0 or j + k >= len(cost):
+        return scale, float(cost[j]), 0.0, inside  # one side out of the span: not sure
+    return scale, float(cost[j]), float(0.5 * (cost[j - k] + cost[j + k]) - cost[j]), inside
 
 
 def refine_risers(
@@ -266,54 +311,80 @@ def refine_risers(
     view: StereoView,
     config: TerrainConfig,
 ) -> tuple[list[Step], int]:
-    """``steps`` (nearest first, along the stair axis ``u``) with their risers where the
-    images put them (:func:`fit_riser`), and how many moved. ``laterals``: each step's
-    lateral extent along ``v`` (metres).
+    """Move each step's riser to where both images of its face put it.
 
-    A moved riser's plane keeps its normal; its position along the axis and its distance
-    move with it, and so do the runs measured between it and its neighbours (a run that
-    is not such a difference, a box's depth, stays). Steps whose position was inferred
-    rather than measured (``position_inferred``) are not searched.
+    Parameters
+    ----------
+    steps : list of Step
+        The staircase's steps, nearest first, terrain frame.
+    u, v : (3,) float64
+        The stair axis (up the stairs) and its lateral direction.
+    laterals : list of (float, float)
+        Each step's riser face across the stair, metres along ``v``.
+    view : StereoView
+    config : TerrainConfig
+
+    Returns
+    -------
+    steps : list of Step
+        Those whose search is kept (:func:`fit_riser`) with their riser plane moved (the
+        normal kept), their position along the axis and their distance with it, and the
+        runs measured between them and their neighbours (a run that is no difference of
+        two positions, a box's depth, stays); ``riser_move`` holds the plane and position
+        their samples gave and the moved position's sigma. A move that would bring two
+        risers nearer than ``min_run_m`` (or past each other) is not made. Steps placed a
+        run beyond the step before by the image's lines (``position_inferred``) are not
+        searched.
+    moved : int
     """
-    T = np.asarray(view.T_frame_camera, dtype=np.float64)
-    t = T[:3, 3]
+    t = np.asarray(view.T_frame_camera, dtype=np.float64)[:3, 3]
     shifts = [0.0] * len(steps)
-    planes = [s.riser for s in steps]
     moves: list[RiserMove | None] = [None] * len(steps)
-    moved = 0
+    planes = [s.riser for s in steps]
     for i, s in enumerate(steps):
-        if s.position_inferred:
+        n = s.riser.normal
+        along = float(n @ u)
+        if s.position_inferred or abs(along) < _MIN_FACING:
             continue
         fit = fit_riser(view, s.riser, (s.top_z_m - s.rise_m, s.top_z_m), laterals[i], v, config)
         if fit is None or not fit.kept:
             continue
-        n = s.riser.normal
-        o_c = float(s.riser.offset + n @ t)
+        o_c = float(s.riser.offset + n @ t)  # the offset in the camera frame
         offset = o_c / fit.scale - float(n @ t)  # depth scales as 1 / (d + doffs)
-        along = float(n @ u)
-        if abs(along) < 1e-6:
-            continue
         planes[i] = Plane(n, offset)
-        moves[i] = RiserMove(s.riser, o_c * fit.scale_sigma / fit.scale**2)
         shifts[i] = (s.riser.offset - offset) / along
-        moved += 1
+        sigma = o_c * fit.scale_sigma / fit.scale**2
+        moves[i] = RiserMove(s.riser, s.axis_position_m, sigma)
+    # No move may bring two risers nearer than a run can be (a search that found the
+    # neighbour's face, or the tread's edge): undone, until none does.
+    pos = [s.axis_position_m + d for s, d in zip(steps, shifts, strict=True)]
+    undone = True
+    while undone:
+        undone = False
+        for i in range(len(steps) - 1):
+            gap, was = pos[i + 1] - pos[i], steps[i + 1].axis_position_m - steps[i].axis_position_m
+            if gap < min(config.min_run_m, was):
+                for k in (i, i + 1):
+                    if moves[k] is not None:
+                        moves[k], planes[k], shifts[k] = None, steps[k].riser, 0.0
+                        pos[k] = steps[k].axis_position_m
+                        undone = True
+    moved = sum(m is not None for m in moves)
     if not moved:
         return steps, 0
     out: list[Step] = []
     for i, s in enumerate(steps):
-        pos = s.axis_position_m + shifts[i]
         run = s.run_m
         if run is not None and i + 1 < len(steps):
-            nxt = steps[i + 1]
-            if abs(run - (nxt.axis_position_m - s.axis_position_m)) < 1e-6:
-                run = run + shifts[i + 1] - shifts[i]
+            if abs(run - (steps[i + 1].axis_position_m - s.axis_position_m)) < 1e-6:
+                run = pos[i + 1] - pos[i]
         out.append(
             dataclasses.replace(
                 s,
                 riser=planes[i],
                 riser_move=moves[i] or s.riser_move,
-                axis_position_m=float(pos),
-                distance_m=riser_distance(planes[i], pos, u),
+                axis_position_m=float(pos[i]),
+                distance_m=riser_distance(planes[i], pos[i], u),
                 run_m=None if run is None else float(run),
             )
         )
