@@ -13,9 +13,13 @@ cross-correlation of the two images' horizontal gradients over the riser's face 
 gradients ignore an exposure difference between the cameras, and the horizontal ones
 are what a horizontal baseline can match: wood grain and plank gaps along the riser add
 nothing and take nothing). The best distance is kept only where the score falls off
-clearly on both sides of it (``photometric_min_sharpness``): a near-uniform face, or a
-riser whose top or foot is wrong so that its face region mixes in the tread, scores flat,
-and then the samples' position stands.
+clearly on both sides of it (``photometric_min_sharpness``; a near-uniform face, or a
+riser whose top or foot is wrong so that its face region mixes in the tread, scores
+flat), where the two views do match there (``photometric_max_cost``), and where the
+face's thirds across the image, each searched alone, put their best near each other
+(``photometric_max_spread``); else, or where the move would bring two risers nearer than
+a run can be, the samples' position stands. docs/benchmarks.md, "Twenty-sixth session",
+has the probe these tests were chosen on.
 
 OpenCV's dense matchers give a disparity per pixel, not the one plane that best explains a
 region; plane sweeps (OpenCV has none for a rectified pair) score whole planes of the
