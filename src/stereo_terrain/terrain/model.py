@@ -401,6 +401,18 @@ class Step:
         return self.rise_m if self.measured_rise_m is None else self.measured_rise_m
 
     @property
+    def sampled_riser(self) -> Plane:
+        """The riser plane its samples gave (``riser`` unless it was moved,
+        :attr:`riser_move`): the samples lie around it."""
+        return self.riser if self.riser_move is None else self.riser_move.sampled_riser
+
+    @property
+    def sampled_position_m(self) -> float:
+        """Where along the stair axis its samples put the riser (``axis_position_m``
+        unless it was moved, :attr:`riser_move`)."""
+        return self.axis_position_m if self.riser_move is None else self.riser_move.sampled_position_m
+
+    @property
     def own_run_m(self) -> float | None:
         """The run this step measured (as :attr:`own_rise_m`; None where not seen)."""
         return self.run_m if self.measured_run_m is None else self.measured_run_m

@@ -342,26 +342,23 @@ def refine_risers(
     moved : int
     """
     t = np.asarray(view.T_frame_camera, dtype=np.float64)[:3, 3]
-    shifts = [0.0] * len(steps)
     moves: list[RiserMove | None] = [None] * len(steps)
     planes = [s.riser for s in steps]
+    pos = [s.axis_position_m for s in steps]
     for i, s in enumerate(steps):
-        n = s.riser.normal
-        along = float(n @ u)
-        if s.position_inferred or abs(along) < _MIN_FACING:
+        if s.position_inferred:
             continue
         fit = fit_riser(view, s.riser, (s.top_z_m - s.rise_m, s.top_z_m), laterals[i], v, config)
-        if fit is None or not fit.kept:
+        if fit is None or not fit.kept:  # (None also for a plane along the stair axis)
             continue
+        n = s.riser.normal
         o_c = float(s.riser.offset + n @ t)  # the offset in the camera frame
         offset = o_c / fit.scale - float(n @ t)  # depth scales as 1 / (d + doffs)
         planes[i] = Plane(n, offset)
-        shifts[i] = (s.riser.offset - offset) / along
-        sigma = o_c * fit.scale_sigma / fit.scale**2
-        moves[i] = RiserMove(s.riser, s.axis_position_m, sigma)
+        pos[i] = s.axis_position_m + (s.riser.offset - offset) / float(n @ u)
+        moves[i] = RiserMove(s.riser, s.axis_position_m, o_c * fit.scale_sigma / fit.scale**2)
     # No move may bring two risers nearer than a run can be (a search that found the
     # neighbour's face, or the tread's edge): undone, until none does.
-    pos = [s.axis_position_m + d for s, d in zip(steps, shifts, strict=True)]
     undone = True
     while undone:
         undone = False
@@ -370,8 +367,7 @@ def refine_risers(
             if gap < min(config.min_run_m, was):
                 for k in (i, i + 1):
                     if moves[k] is not None:
-                        moves[k], planes[k], shifts[k] = None, steps[k].riser, 0.0
-                        pos[k] = steps[k].axis_position_m
+                        moves[k], planes[k], pos[k] = None, steps[k].riser, steps[k].axis_position_m
                         undone = True
     moved = sum(m is not None for m in moves)
     if not moved:

@@ -61,8 +61,7 @@ def _polytope(steps: list[Step], risers: list[_Riser], u, v, ground_z: float) ->
     prev_plane = (np.array([0.0, 0.0, 1.0]), -ground_z)
     for i, st in enumerate(steps):
         # (a riser moved to where both images put it is found where its samples put it)
-        s_found = st.axis_position_m if st.riser_move is None else st.riser_move.sampled_position_m
-        r = by_s.get(round(s_found, 6))
+        r = by_s.get(round(st.sampled_position_m, 6))
         v_lo, v_hi = (r.v_lo, r.v_hi) if r is not None else default_lat
         riser = (st.riser.normal, st.riser.offset)
         top = (

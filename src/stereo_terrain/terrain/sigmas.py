@@ -210,17 +210,12 @@ def estimate_step_sigmas(
     }
     run_spread = float(np.std(list(runs_seen.values()))) if len(runs_seen) > 1 else math.nan
     run_off = _disagreement(runs_seen)
-
-    def sampled_s(st: Step) -> float:
-        # where the samples put a riser moved to where both images put it (photometric.py)
-        return st.axis_position_m if st.riser_move is None else st.riser_move.sampled_position_m
-
     for i, st in enumerate(steps):
-        s_next = sampled_s(steps[i + 1]) if i + 1 < len(steps) else np.inf
-        s_pos = sampled_s(st)
-        # The riser's samples lie around the plane they gave, not where both images moved
-        # it (terrain/photometric.py).
-        sampled = st.riser if st.riser_move is None else st.riser_move.sampled_riser
+        # The riser's samples lie around the plane and position they gave, not where both
+        # images moved it (terrain/photometric.py).
+        s_next = steps[i + 1].sampled_position_m if i + 1 < len(steps) else np.inf
+        s_pos = st.sampled_position_m
+        sampled = st.sampled_riser
         on_riser = (sampled.residuals(P) < band) & (s_all > s_prev) & (s_all < s_next)
         riser = _face_error(P, normals, cam, sampled, on_riser, n_factor=n_factor)
         virtual = riser is None or riser.count < config.min_riser_points
@@ -294,7 +289,7 @@ def estimate_step_sigmas(
 
     # The surface before the first step: the ground (the horizontal samples at its height
     # in front of the first riser).
-    first_s = sampled_s(steps[0])
+    first_s = steps[0].sampled_position_m
     ground_plane = Plane(np.array([0.0, 0.0, 1.0]), -model.ground_z_m)
     on_ground = (ground_plane.residuals(P) < band) & (s_all < first_s)
     ground = _face_error(P, normals, cam, ground_plane, on_ground, n_factor=n_factor)
