@@ -49,6 +49,15 @@ def _stairs(n_steps=3, rise=0.17, run=0.29, yaw=0.0, distance=1.3, width=1.0, la
         ground = ground[(ground @ u < s0) | (np.abs(ground @ v) > width / 2)]
     else:
         ground = ground[(ground @ u < s0) | (ground @ u > s0 + box_depth) | (np.abs(ground @ v) > width / 2)]
+    # Nor the ground the risers hide from the cameras (beside the stairs, behind them): a
+    # disparity map holds one depth per pixel.
+    for i in range(n_steps):
+        d = ground - CAM
+        t = ((s0 + i * run) - CAM @ u) / np.where(np.abs(d @ u) > 1e-9, d @ u, np.nan)
+        X = CAM + t[:, None] * d
+        on_face = (np.abs(X @ v) <= width / 2) & (X[:, 2] >= i * rise) & (X[:, 2] <= (i + 1) * rise)
+        hidden = (t > 0) & (t < 1) & on_face
+        ground = ground[~hidden]
     parts.append((ground, np.tile([0, 0, 1.0], (len(ground), 1)), HORIZONTAL, Plane([0, 0, 1.0], 0.0)))
     for i in range(n_steps):
         s_i = s0 + i * run

@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.cloud import GridSample
@@ -14,7 +16,8 @@ from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
 from stereo_terrain.rectify import read_image
-from stereo_terrain.terrain import NONE, STAIRS, build_terrain
+from stereo_terrain.terrain import NONE, STAIRS, TerrainConfig, build_terrain
+from stereo_terrain.terrain.risers import see_through
 
 from .test_terrain import CAM, MID_ROW, _stairs
 
@@ -171,3 +174,64 @@ def test_a_riser_left_out_of_a_clutter_family_gets_its_own_family():
     model = build_terrain(dataclasses.replace(full, segments=tuple(segs), samples=samples))
     assert model.obstacle == STAIRS and len(model.steps) == 3, model.note
     assert math.degrees(model.yaw_rad) == pytest.approx(15.0, abs=1.0)
+
+
+def _with_railing(full: PlaneSet, x: float = 0.8, top: float = 0.26) -> PlaneSet:
+    """``full`` with a railing across the stair axis at ``x``: balusters 2 cm wide every
+    12 cm, 1 m of them, up to a rail at ``top`` (one vertical plane facing the cameras,
+    as the matcher's samples of a real railing make it)."""
+    u = np.array([1.0, 0.0, 0.0])
+    lateral = [a + da for a in np.arange(-0.5, 0.51, 0.12) for da in (0.0, 0.02)]
+    pts = [(x, a, z) for a in lateral for z in np.arange(0.01, top, 0.02)]
+    pts += [(x, a, top) for a in np.arange(-0.5, 0.51, 0.02)]
+    samples, idx = _add_samples(full, np.array(pts), -u)
+    rail = PlaneSegment(Plane(-u, x), VERTICAL, idx, 0.0)
+    return dataclasses.replace(full, segments=(*full.segments, rail), samples=samples)
+
+
+@pytest.mark.parametrize(("n_steps", "distance"), [(1, 3.0), (2, 2.5), (3, 1.6)])
+def test_a_railing_the_scene_shows_through_is_no_riser(n_steps, distance):
+    """A railing in front of the stairs is a vertical plane facing the cameras, as tall as a
+    step: taken for a riser, it hid the staircase behind it (the webcam-degraded real
+    ``Staircase``: a 28 cm step at 0.7 m). Through its middle the cameras see the ground
+    and the stairs beyond it (a quarter or more farther than the railing): a riser is
+    solid, a railing is not."""
+    scene = _with_railing(_stairs(n_steps=n_steps, rise=0.17, run=0.29, distance=distance))
+    off = build_terrain(scene, TerrainConfig(max_riser_see_through=1.0))
+    assert off.steps[0].distance_m == pytest.approx(0.8, abs=0.01)  # the railing, as before
+    model = build_terrain(scene)
+    assert model.obstacle != NONE and len(model.steps) == n_steps, model.note
+    assert model.steps[0].distance_m == pytest.approx(distance, abs=0.01)
+    assert model.steps[0].rise_m == pytest.approx(0.17, abs=0.01)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    yaw_deg=st.floats(-50.0, 50.0),
+    distance=st.floats(0.5, 3.0),
+    width=st.floats(0.3, 1.5),
+    height=st.floats(0.08, 0.3),
+    cam_z=st.floats(0.2, 0.8),
+    beyond=st.floats(1.3, 3.0),
+    share=st.floats(0.0, 1.0),
+)
+def test_see_through_counts_what_lies_beyond_a_face(yaw_deg, distance, width, height, cam_z, beyond, share):
+    """Samples on a face: nothing seen through it. A share of them pushed ``beyond`` times
+    as far along their rays: that share. Samples well in front of it (a railing before a
+    riser) change nothing, and nor do samples off its middle."""
+    yaw = math.radians(yaw_deg)
+    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    plane = Plane(-u, distance)  # -u . X + distance = 0
+    cam = np.array([0.0, 0.0, cam_z])
+    a, b = np.meshgrid(np.linspace(-0.32, 0.32, 12) * width, np.linspace(0.2, 0.8, 8) * height)
+    face = distance * u + a.reshape(-1, 1) * v + b.reshape(-1, 1) * np.array([0.0, 0.0, 1.0])
+    lateral, z_range = (-0.5 * width, 0.5 * width), (0.0, height)
+    assert see_through(face, cam, plane, v, lateral, z_range) == 0.0
+    k = int(round(share * len(face)))
+    moved = face.copy()
+    moved[:k] = cam + beyond * (face[:k] - cam)
+    in_front = cam + 0.5 * (face[:30] - cam)
+    off_middle = distance * u + np.array([0.0, 0.0, 2.0 * height])  # above the face
+    got = see_through(np.vstack([moved, in_front, off_middle[None]]), cam, plane, v, lateral, z_range)
+    assert got == pytest.approx(k / len(face), abs=1e-9)

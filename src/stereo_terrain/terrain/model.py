@@ -55,6 +55,14 @@ class TerrainConfig:
         that close behind a riser is an object's, e.g. the next leaf of a plant.
     max_facing_angle_deg : float
         A riser must face the robot: its normal within this of the direction to the camera.
+    max_riser_see_through : float
+        A riser is solid: of the samples seen through the middle of its face (inside 15%
+        of its height and width from its edges), at most this share may lie a quarter or
+        more beyond it along their rays. More, and the vertical plane is a railing, a
+        handrail with balusters or clutter that the scene behind shows through, not a
+        riser (the webcam-degraded real ``Staircase``'s railing at 0.7 m; issue 11).
+        A riser's own samples scatter by centimetres, not by a quarter of their range.
+        1 = off.
     axis_spread_deg : float
         Risers of one staircase face the same way within this angle (every pair of them).
     tread_height_tolerance_m : float
@@ -210,6 +218,7 @@ class TerrainConfig:
     merge_distance_m: float = 0.06
     min_run_m: float = 0.15
     max_facing_angle_deg: float = 70.0
+    max_riser_see_through: float = 0.4
     axis_spread_deg: float = 20.0
     tread_height_tolerance_m: float = 0.06
     edge_band_m: float = 0.02
@@ -299,6 +308,10 @@ class TerrainConfig:
             "edge_band_m",
             "chain_tolerance_m",
         )
+        if not 0 < self.max_riser_see_through <= 1:
+            raise ConfigError(
+                f"TerrainConfig.max_riser_see_through must be in (0, 1], got {self.max_riser_see_through}"
+            )
         for name in ("max_facing_angle_deg", "axis_spread_deg"):
             if not 0 < getattr(self, name) <= 90:
                 raise ConfigError(f"TerrainConfig.{name} must be in (0, 90] deg, got {getattr(self, name)}")
