@@ -63,6 +63,13 @@ class TerrainConfig:
         riser (the webcam-degraded real ``Staircase``'s railing at 0.7 m; issue 11).
         A riser's own samples scatter by centimetres, not by a quarter of their range.
         1 = off.
+    max_riser_hidden : float
+        A riser is seen: of all the samples whose rays cross the middle of its face, at most
+        this share may stand well in front of it (the face a quarter farther than them or
+        more). More, and the plane runs through scattered things, most of them nearer than
+        it (the Middlebury ``Playroom``'s 14 cm "riser" through a beanbag's foot, a shelf
+        and a poster: 68%), or the face is too hidden to be measured. A railing before a
+        riser hides a fifth of it or less. 1 = off.
     axis_spread_deg : float
         Risers of one staircase face the same way within this angle (every pair of them).
     tread_height_tolerance_m : float
@@ -219,6 +226,7 @@ class TerrainConfig:
     min_run_m: float = 0.15
     max_facing_angle_deg: float = 70.0
     max_riser_see_through: float = 0.4
+    max_riser_hidden: float = 0.5
     axis_spread_deg: float = 20.0
     tread_height_tolerance_m: float = 0.06
     edge_band_m: float = 0.02
@@ -308,10 +316,9 @@ class TerrainConfig:
             "edge_band_m",
             "chain_tolerance_m",
         )
-        if not 0 < self.max_riser_see_through <= 1:
-            raise ConfigError(
-                f"TerrainConfig.max_riser_see_through must be in (0, 1], got {self.max_riser_see_through}"
-            )
+        for name in ("max_riser_see_through", "max_riser_hidden"):
+            if not 0 < getattr(self, name) <= 1:
+                raise ConfigError(f"TerrainConfig.{name} must be in (0, 1], got {getattr(self, name)}")
         for name in ("max_facing_angle_deg", "axis_spread_deg"):
             if not 0 < getattr(self, name) <= 90:
                 raise ConfigError(f"TerrainConfig.{name} must be in (0, 90] deg, got {getattr(self, name)}")

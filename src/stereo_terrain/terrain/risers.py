@@ -231,32 +231,49 @@ def _riser_beside_wall(
     return float(a), float(b), near[(lat > a) & (lat < b)]
 
 
-#: The middle of a face :func:`see_through` looks through: this share of its width and
-#: height is left out at each edge (a face's outline mixes in what lies beyond its edges).
-_SEE_THROUGH_MARGIN = 0.15
+#: The middle of a face :func:`face_sight` looks at: this share of its width and height is
+#: left out at each edge (a face's outline mixes in what lies beyond its edges).
+_SIGHT_MARGIN = 0.15
 
-#: A sample seen through a face lies beyond it when it is this many times as far from the
-#: camera as the face, along its ray.
+#: A sample lies beyond a face when it is this many times as far from the camera as the
+#: face, along its ray; in front of it when the face is this many times as far as it.
 _BEYOND_RATIO = 1.25
 
-#: Fewest samples seen through a face's middle for :func:`see_through` to judge it.
-_MIN_SEEN_THROUGH = 20
+#: Fewest samples whose rays cross a face's middle for :func:`face_sight` to judge it.
+_MIN_SIGHT = 20
 
 
-def see_through(
+@dataclass(frozen=True)
+class FaceSight:
+    """What the cameras see through the middle of a vertical face (:func:`face_sight`).
+
+    Attributes
+    ----------
+    beyond : float
+        Of the samples whose rays cross it, those not well in front of it: the share lying
+        :data:`_BEYOND_RATIO` times as far as the face or farther (0 for a solid face, most
+        of them for a railing).
+    hidden : float
+        Of all the samples whose rays cross it: the share standing well in front of it
+        (the face as far as them times :data:`_BEYOND_RATIO` or more).
+    """
+
+    beyond: float
+    hidden: float
+
+
+def face_sight(
     P: np.ndarray,
     cam: np.ndarray,
     plane: Plane,
     v: np.ndarray,
     lateral: tuple[float, float],
     z_range: tuple[float, float],
-) -> float:
-    """The share of the samples ``P`` whose rays from ``cam`` cross the middle of a vertical
-    face (on ``plane``, across ``lateral`` along ``v`` and over ``z_range``; the outer
-    :data:`_SEE_THROUGH_MARGIN` left out) that lie :data:`_BEYOND_RATIO` times as far as
-    the face or farther: 0 for a solid face, most of them for a railing. Samples that far
-    in front of the face are left out; 0 where fewer than :data:`_MIN_SEEN_THROUGH` are
-    left."""
+) -> FaceSight:
+    """What the samples ``P`` whose rays from ``cam`` cross the middle of a vertical face (on
+    ``plane``, across ``lateral`` along ``v`` and over ``z_range``; the outer
+    :data:`_SIGHT_MARGIN` left out) say of it: see :class:`FaceSight`. Both shares are 0
+    where fewer than :data:`_MIN_SIGHT` samples count toward them."""
     n = np.asarray(plane.normal, dtype=np.float64)
     d = np.asarray(P, dtype=np.float64) - cam
     along = d @ n
@@ -268,15 +285,19 @@ def see_through(
     X = cam + t[hit, None] * d[hit]
     lat, z = X @ v, X[:, 2]
     (l0, l1), (z0, z1) = lateral, z_range
-    ml, mz = _SEE_THROUGH_MARGIN * (l1 - l0), _SEE_THROUGH_MARGIN * (z1 - z0)
+    ml, mz = _SIGHT_MARGIN * (l1 - l0), _SIGHT_MARGIN * (z1 - z0)
     inside = (lat > l0 + ml) & (lat < l1 - ml) & (z > z0 + mz) & (z < z1 - mz)
-    # (What stands well in front of the face hides it, and says nothing of it: a railing
-    # before a riser.)
-    t_in = t[hit][inside]
-    t_in = t_in[t_in <= _BEYOND_RATIO]
-    if len(t_in) < _MIN_SEEN_THROUGH:
-        return 0.0
-    return float(np.count_nonzero(t_in <= 1.0 / _BEYOND_RATIO)) / len(t_in)
+    t_all = t[hit][inside]
+    in_front = t_all > _BEYOND_RATIO
+    # (What stands well in front of the face hides it, and says nothing of what it is: a
+    # railing before a riser.)
+    t_in = t_all[~in_front]
+    return FaceSight(_share(t_in <= 1.0 / _BEYOND_RATIO), _share(in_front))
+
+
+def _share(which: np.ndarray) -> float:
+    """The share of ``which`` (bool) that is True; 0 under :data:`_MIN_SIGHT` entries."""
+    return float(np.count_nonzero(which)) / len(which) if len(which) >= _MIN_SIGHT else 0.0
 
 
 def _riser_candidates(
@@ -350,9 +371,11 @@ def _riser_candidates(
                 continue
         if z_hi - z_lo < config.min_rise_m / 2:
             continue
-        seen_through = see_through(P, cam, seg.plane, v, (float(v_lo), float(v_hi)), (z_lo, z_hi))
-        if seen_through > config.max_riser_see_through:
+        sight = face_sight(P, cam, seg.plane, v, (float(v_lo), float(v_hi)), (z_lo, z_hi))
+        if sight.beyond > config.max_riser_see_through:
             continue  # a railing or clutter: the scene behind shows through it
+        if sight.hidden > config.max_riser_hidden:
+            continue  # a plane through scattered things, most of them nearer than it
         if float(percentile(grid_row[idx], _LOW_INLIER_PCT)) <= _TOP_CUT_ROWS:
             # The face goes on above the image (a wall, a cupboard's front): the height
             # seen is the image's, not a riser's, and no tread above it can be seen.
