@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from stereo_terrain.calibration import read_calibration
 from stereo_terrain.cloud import GridSample
+from stereo_terrain.errors import ConfigError
 from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
@@ -241,22 +242,57 @@ def test_face_sight_counts_what_lies_beyond_a_face_and_what_hides_it(
     got = face_sight(np.vstack([moved, in_front, off_middle[None]]), cam, plane, v, lateral, z_range)
     assert got.beyond == pytest.approx(k / len(face), abs=1e-9)
     assert got.hidden == pytest.approx(30 / (len(face) + 30), abs=1e-9)
+    planar = np.zeros(len(face) + 31, dtype=bool)
+    planar[len(face) : len(face) + 30] = True  # the things in front form a plane
+    points = np.vstack([moved, in_front, off_middle[None]])
+    assert face_sight(points, cam, plane, v, lateral, z_range, planar) == FaceSight(got.beyond, 0.0)
 
 
 def test_a_face_mostly_hidden_by_nearer_things_is_no_riser():
     """A lone riser 2.5 m away whose face's middle is two thirds hidden by scattered
     things nearer the cameras (a plane fitted through clutter: the Middlebury Playroom's
-    "riser") is no step; a third hidden (a railing before a riser hides less), it is."""
+    "riser") is no step; a third hidden (a railing before a riser hides less), it is. The
+    same things on a plane of their own (a rail, a wall) do not count as hiding it."""
     one = _stairs(n_steps=1, rise=0.2, distance=2.5)
     riser = next(s for s in one.segments if s.kind == VERTICAL)
     face = one.samples.points[riser.indices].astype(np.float64)
-    middle = face[(np.abs(face[:, 1]) < 0.3) & (face[:, 2] > 0.05) & (face[:, 2] < 0.15)]
+    # The riser's samples span |y| <= 0.49 and z 0.01-0.19: face_sight's middle, inside 15%.
+    middle = face[(np.abs(face[:, 1]) < 0.34) & (face[:, 2] > 0.04) & (face[:, 2] < 0.16)]
     for share, reported in ((2.0 / 3.0, False), (1.0 / 3.0, True)):
         k = int(round(share / (1.0 - share) * len(middle)))
         rng = np.random.default_rng(0)
         near = middle[rng.integers(0, len(middle), k)]
         clutter = CAM + rng.uniform(0.3, 0.7, (k, 1)) * (near - CAM)  # on the rays, nearer
-        samples, _ = _add_samples(one, clutter, np.array([0.0, 0.0, 1.0]))
+        samples, added = _add_samples(one, clutter, np.array([0.0, 0.0, 1.0]))
+        sight = face_sight(
+            samples.points, CAM, riser.plane, np.array([0.0, 1.0, 0.0]), (-0.49, 0.49), (0.01, 0.19)
+        )
+        assert sight.hidden == pytest.approx(share, abs=0.03)
         scene = dataclasses.replace(one, samples=samples)
         assert (build_terrain(scene).obstacle != NONE) == reported, share
         assert build_terrain(scene, TerrainConfig(max_riser_hidden=1.0)).obstacle != NONE
+        # The same samples on a vertical plane of their own hide nothing.
+        wall = PlaneSegment(Plane(np.array([-1.0, 0.0, 0.0]), 1.5), VERTICAL, added, 0.0)
+        planar = np.zeros(len(samples.points), dtype=bool)
+        planar[wall.indices] = True
+        assert (
+            face_sight(
+                samples.points,
+                CAM,
+                riser.plane,
+                np.array([0.0, 1.0, 0.0]),
+                (-0.49, 0.49),
+                (0.01, 0.19),
+                planar,
+            ).hidden
+            == 0.0
+        )
+
+
+@pytest.mark.parametrize(
+    "field,value",
+    [("max_riser_see_through", 0.0), ("max_riser_see_through", 1.5), ("max_riser_hidden", -0.1)],
+)
+def test_bad_face_sight_settings_are_refused(field, value):
+    with pytest.raises(ConfigError, match=field):
+        TerrainConfig(**{field: value})

@@ -56,20 +56,23 @@ class TerrainConfig:
     max_facing_angle_deg : float
         A riser must face the robot: its normal within this of the direction to the camera.
     max_riser_see_through : float
-        A riser is solid: of the samples seen through the middle of its face (inside 15%
-        of its height and width from its edges), at most this share may lie a quarter or
-        more beyond it along their rays. More, and the vertical plane is a railing, a
-        handrail with balusters or clutter that the scene behind shows through, not a
-        riser (the webcam-degraded real ``Staircase``'s railing at 0.7 m; issue 11).
-        A riser's own samples scatter by centimetres, not by a quarter of their range.
-        1 = off.
+        A riser is solid: of the samples whose rays cross the middle of its face (inside
+        15% of its height and width from its edges), leaving out those a quarter or more in
+        front of it, at most this share may lie a quarter or more beyond it along their
+        rays. More, and the vertical plane is a railing, a handrail with balusters or
+        clutter that the scene behind shows through, not a riser (the webcam-degraded real
+        ``Staircase``'s railing at 0.7 m; issue 11). A riser's own samples scatter by
+        centimetres, not by a quarter of their range. Past about 3.2 m the samples a
+        quarter beyond are past the cloud's depth limit (``CloudConfig.max_depth_m``, 4 m),
+        and the test cannot fire. 1 = off.
     max_riser_hidden : float
         A riser is seen: of all the samples whose rays cross the middle of its face, at most
-        this share may stand well in front of it (the face a quarter farther than them or
-        more). More, and the plane runs through scattered things, most of them nearer than
-        it (the Middlebury ``Playroom``'s 14 cm "riser" through a beanbag's foot, a shelf
-        and a poster: 68%), or the face is too hidden to be measured. A railing before a
-        riser hides a fifth of it or less. 1 = off.
+        this share may stand a quarter or more in front of it on no vertical plane (a rail,
+        balusters, a wall or a box front that formed a plane is accounted for). More, and
+        the plane runs through scattered things, most of them nearer than it (the
+        Middlebury ``Playroom``'s 14 cm "riser" through a beanbag's foot, a shelf and a
+        poster: 68%). The real ``Staircase``'s first riser, behind its railing: 28-43% in
+        the webcam-degraded runs looked at. 1 = off.
     axis_spread_deg : float
         Risers of one staircase face the same way within this angle (every pair of them).
     tread_height_tolerance_m : float

@@ -254,8 +254,11 @@ class FaceSight:
         :data:`_BEYOND_RATIO` times as far as the face or farther (0 for a solid face, most
         of them for a railing).
     hidden : float
-        Of all the samples whose rays cross it: the share standing well in front of it
-        (the face as far as them times :data:`_BEYOND_RATIO` or more).
+        Of all the samples whose rays cross it: the share standing well in front of it (the
+        face as far as them times :data:`_BEYOND_RATIO` or more) on no plane (``planar``):
+        scattered things. A railing's rail and balusters, a wall or a box front that the
+        plane stage found hide a face too, but are accounted for: they are planes of
+        their own.
     """
 
     beyond: float
@@ -269,30 +272,33 @@ def face_sight(
     v: np.ndarray,
     lateral: tuple[float, float],
     z_range: tuple[float, float],
+    planar: np.ndarray | None = None,
 ) -> FaceSight:
     """What the samples ``P`` whose rays from ``cam`` cross the middle of a vertical face (on
     ``plane``, across ``lateral`` along ``v`` and over ``z_range``; the outer
-    :data:`_SIGHT_MARGIN` left out) say of it: see :class:`FaceSight`. Both shares are 0
-    where fewer than :data:`_MIN_SIGHT` samples count toward them."""
+    :data:`_SIGHT_MARGIN` left out) say of it: see :class:`FaceSight`. ``planar`` (bool per
+    sample, None: none) marks the samples on a plane the plane stage found. Both shares
+    are 0 where fewer than :data:`_MIN_SIGHT` samples count toward them."""
     n = np.asarray(plane.normal, dtype=np.float64)
     d = np.asarray(P, dtype=np.float64) - cam
     along = d @ n
-    near = abs(along) > 1e-9
+    crossing = abs(along) > 1e-9
     # Where each ray meets the plane, as a fraction of the way to its sample.
     t = np.full(len(d), np.inf)
-    t[near] = -(float(cam @ n) + plane.offset) / along[near]
-    hit = np.isfinite(t) & (t > 0)
+    t[crossing] = -(float(cam @ n) + plane.offset) / along[crossing]
+    hit = np.flatnonzero(np.isfinite(t) & (t > 0))
     X = cam + t[hit, None] * d[hit]
     lat, z = X @ v, X[:, 2]
     (l0, l1), (z0, z1) = lateral, z_range
     ml, mz = _SIGHT_MARGIN * (l1 - l0), _SIGHT_MARGIN * (z1 - z0)
-    inside = (lat > l0 + ml) & (lat < l1 - ml) & (z > z0 + mz) & (z < z1 - mz)
-    t_all = t[hit][inside]
-    in_front = t_all > _BEYOND_RATIO
+    inside = hit[(lat > l0 + ml) & (lat < l1 - ml) & (z > z0 + mz) & (z < z1 - mz)]
+    t_all = t[inside]
+    in_front = t_all >= _BEYOND_RATIO
+    scattered = in_front if planar is None else in_front & ~np.asarray(planar)[inside]
     # (What stands well in front of the face hides it, and says nothing of what it is: a
     # railing before a riser.)
     t_in = t_all[~in_front]
-    return FaceSight(_share(t_in <= 1.0 / _BEYOND_RATIO), _share(in_front))
+    return FaceSight(_share(t_in <= 1.0 / _BEYOND_RATIO), _share(scattered))
 
 
 def _share(which: np.ndarray) -> float:
@@ -317,6 +323,9 @@ def _riser_candidates(
     border = 2 * samples.stride_px
     grid_row = samples.grid_index // samples.grid_shape[1]
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
+    planar = np.zeros(len(P), dtype=bool)  # the samples on a vertical plane (face_sight)
+    for seg in verticals:
+        planar[seg.indices] = True
     cands: list[_Riser] = []
     for seg in verticals:
         if seg.count < config.min_riser_points:
@@ -371,7 +380,7 @@ def _riser_candidates(
                 continue
         if z_hi - z_lo < config.min_rise_m / 2:
             continue
-        sight = face_sight(P, cam, seg.plane, v, (float(v_lo), float(v_hi)), (z_lo, z_hi))
+        sight = face_sight(P, cam, seg.plane, v, (float(v_lo), float(v_hi)), (z_lo, z_hi), planar)
         if sight.beyond > config.max_riser_see_through:
             continue  # a railing or clutter: the scene behind shows through it
         if sight.hidden > config.max_riser_hidden:
