@@ -110,6 +110,7 @@ def test_the_staircase_reports_one_rise_and_its_sigma_is_a_median_s():
     [
         {"common_rise_tolerance_m": -0.01},
         {"common_min_steps": 1},
+        {"common_min_runs": 1},
         {"common_run_tolerance_m": -0.01},
         {"min_run_m": -0.1},
     ],
@@ -130,9 +131,10 @@ def test_a_riser_too_near_the_one_before_is_not_the_next_step():
 
 
 @settings(max_examples=40, deadline=None)
-# Noise within +-2.4 cm: no run is then more than 4.8 cm from the median, inside the 5 cm
-# tolerance (+-3 cm could put one 6 cm off, which rightly keeps its own run).
-@given(run=st.floats(0.22, 0.36), noise=st.lists(st.floats(-0.024, 0.024), min_size=3, max_size=6))
+# Noise within +-4.9 cm: no run is then more than 9.8 cm from the median, inside the 10 cm
+# tolerance (+-6 cm could put one 12 cm off, which rightly keeps its own run). Two runs are
+# enough (common_min_runs).
+@given(run=st.floats(0.22, 0.36), noise=st.lists(st.floats(-0.049, 0.049), min_size=2, max_size=6))
 def test_agreeing_runs_report_their_median_and_the_risers_stay(run, noise):
     runs = [run + e for e in noise] + [None]
     given_steps = _steps([0.17] * len(runs), runs=runs)
@@ -148,11 +150,29 @@ def test_agreeing_runs_report_their_median_and_the_risers_stay(run, noise):
 
 
 def test_a_run_that_does_not_agree_keeps_its_own():
-    # the second run is two treads (a riser not found): 8 cm or more off is not averaged
+    # the second run is two treads (a riser not found): 10 cm or more off is not averaged
     steps, _, n_runs = common_steps(_steps([0.17] * 5, runs=[0.28, 0.57, 0.29, 0.27, None]), 0.0, CONFIG)
     assert n_runs == 3
     assert [s.run_m for s in steps] == pytest.approx([0.285, 0.57, 0.285, 0.285, None])
     assert steps[1].measured_run_m is None
+
+
+def test_two_runs_of_a_three_step_staircase_report_their_mean():
+    # The lab's stairs: three risers, two runs, 20 cm rises and 31 cm treads. The two runs
+    # share the middle riser's error with opposite signs; their mean is half the span from
+    # the first riser to the third.
+    given_steps = _steps([0.20] * 3, runs=[0.27, 0.35, None])
+    steps, _, n_runs = common_steps(given_steps, 0.0, CONFIG)
+    assert n_runs == 2
+    assert [s.run_m for s in steps] == pytest.approx([0.31, 0.31, None])
+    assert [s.measured_run_m for s in steps] == pytest.approx([0.27, 0.35, None])
+    assert [s.distance_m for s in steps] == [s.distance_m for s in given_steps]
+    # Two runs more than twice the tolerance apart are no common run: each keeps its own.
+    apart = _steps([0.20] * 3, runs=[0.24, 0.45, None])
+    assert common_steps(apart, 0.0, CONFIG)[2] == 0
+    # Three needed (the setting): two runs keep their own.
+    three = TerrainConfig(common_min_runs=3)
+    assert [s.run_m for s in common_steps(given_steps, 0.0, three)[0]] == pytest.approx([0.27, 0.35, None])
 
 
 def test_the_staircase_reports_one_run_and_keeps_the_measured_ones():

@@ -177,10 +177,17 @@ class TerrainConfig:
         of the two. A step further off keeps its own (a different step, or a measurement
         gone wrong: either way not averaged away; those pooled may differ by up to twice
         this between them). The run tolerance is wider: a riser's position is less sure
-        than a height. 0 = off. See :mod:`.uniform`.
+        than a height (0.05 until the twenty-eighth session, docs/benchmarks.md). 0 = off.
+        See :mod:`.uniform`.
     common_min_steps : int
-        Measured rises (runs) that must agree for a common one (with two, neither can be
-        told to be the odd one).
+        Measured rises that must agree for a common one (with two, neither can be told to
+        be the odd one: two rises that differ may be a first step on a thicker floor).
+    common_min_runs : int
+        Measured runs that must agree for a common one. Two are enough: two runs of one
+        flight differ by their risers' disparity noise, and their mean is half the span
+        from the first riser to the third, whose errors are independent, where each run
+        shares the middle riser's error with a sign of its own (2 for the lab-like
+        three-step staircases, whose two runs were otherwise never pooled).
     nosing_rise : bool
         Where the image's line segments show two or more of a staircase's nosings, its
         common rise is the one that puts them at their heights (a least-squares fit from
@@ -255,8 +262,9 @@ class TerrainConfig:
     nosing_edge_contrast: float = 4.0
     max_steps_below_chain: int = 2
     common_rise_tolerance_m: float = 0.03
-    common_run_tolerance_m: float = 0.05
+    common_run_tolerance_m: float = 0.10
     common_min_steps: int = 3
+    common_min_runs: int = 2
     nosing_rise: bool = True
     max_edge_bias_m: float = 0.04
     photometric_risers: bool = True
@@ -288,7 +296,7 @@ class TerrainConfig:
             raise ConfigError(
                 f"TerrainConfig.photometric_span must be in (0, 0.5), got {self.photometric_span}"
             )
-        check_min(self, 2, "common_min_steps")
+        check_min(self, 2, "common_min_steps", "common_min_runs")
         if not 0 < self.continue_min_run_m < self.continue_max_run_m:
             raise ConfigError(
                 "need 0 < continue_min_run_m < continue_max_run_m, got "

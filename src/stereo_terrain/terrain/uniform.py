@@ -9,7 +9,9 @@ on the far steps. So where a staircase has ``common_min_steps`` or more measured
 within ``common_rise_tolerance_m`` of their median, that median is its rise, and each of
 those steps reports it instead of its own (kept in ``Step.measured_rise_m``); the
 same for the runs (``common_run_tolerance_m``, ``Step.measured_run_m``; the tolerance is
-wider, since a riser's position is less sure than a height). A step further off keeps its
+wider, since a riser's position is less sure than a height, and ``common_min_runs``, two,
+are enough: the mean of two runs is half the span from the first riser to the third,
+which leaves out the middle riser's error). A step further off keeps its
 own: it is either a different step (a first step on a thicker floor, a landing) or a
 measurement gone wrong, and averaging would hide either from the swing plan. Steps whose
 rise was inferred (:mod:`.continuation`, a first step whose foot is out of view) take the
@@ -142,7 +144,7 @@ def common_steps(
     steps : the staircase's steps, nearest first
     ground_z : height of the surface before the first step (the frame's z)
     config : TerrainConfig (``common_rise_tolerance_m``, ``common_run_tolerance_m``,
-        ``common_min_steps``)
+        ``common_min_steps``, ``common_min_runs``)
     rise_m : the staircase's rise measured otherwise (:func:`rise_from_nosings`), or None.
         Given, the steps of ``fits`` (those whose nosings it fits) and those whose measured
         rise is within ``common_rise_tolerance_m`` of it report it, one or more; where none
@@ -160,7 +162,7 @@ def common_steps(
     runs, run = _agreeing(
         {i: s.run_m for i, s in enumerate(steps) if s.run_m is not None},
         config.common_run_tolerance_m,
-        config.common_min_steps,
+        config.common_min_runs,
     )
     if not rises and not runs:
         return steps, 0, 0
