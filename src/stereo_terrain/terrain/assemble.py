@@ -544,7 +544,9 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     if refined:
         note += f"; {refined} riser(s) moved to where both images of their faces agree best"
     if len(steps) == 1:
-        obstacle, note, steps = _classify_single_step(steps[0], chain.h_info, chain.ground_z, config, note)
+        obstacle, note, steps = _classify_single_step(
+            steps[0], chain.h_info, chain.ground_z, config, note, chain.lateral
+        )
     poly = _polytope(steps, list(chain.ordered), u, v, chain.ground_z)
     return StairModel(obstacle, tuple(steps), chain.yaw, chain.ground_z, poly, chain.planes.frame, note)
 

@@ -10,27 +10,72 @@ from .._numeric import percentile  # NumPy's bits, a fraction of its time (issue
 from .model import BOX, STAIRS, Polytope, Step, TerrainConfig
 from .risers import _Riser
 
+#: A box's top ends where its samples along the stair axis, within the riser's width,
+#: leave a gap wider than this (metres): :func:`box_depth`.
+TOP_GAP_M = 0.15
+
+#: How far beside the riser (metres across the stair) a box top's samples may lie.
+_TOP_LATERAL_MARGIN_M = 0.05
+
+#: A box top whose own samples reach less than this beyond its riser (metres) is not
+#: seen beyond its front edge: :func:`box_depth` gives None.
+_MIN_TOP_SEEN_M = 0.05
+
+
+def box_depth(a: float, s: np.ndarray, v: np.ndarray, lateral: tuple[float, float]) -> float | None:
+    """How deep a box's top is along the stair axis from its riser at ``a``: the 98th
+    percentile of its tread plane's samples (positions ``s`` along the axis, ``v``
+    across) beyond the riser and within the riser's lateral extent (``lateral``, with a
+    5 cm margin), up to the first gap wider than :data:`TOP_GAP_M` between them, nearest
+    first. None where no such sample is or they reach less than :data:`_MIN_TOP_SEEN_M`
+    beyond the riser (the top not seen beyond its front edge).
+
+    A horizontal plane's inliers are every sample at its height: the top's own and, beyond
+    it, strips of walls, furniture and the far floor at the same height (or where the
+    matcher carried the top's plane on over a textureless wall). Its 98th percentile over
+    all of them made realistic boxes 0.9-2.9 m deep for 0.3-0.8 m (issue 11, twenty-eighth
+    session in docs/benchmarks.md). The top's own samples follow each other a grid row
+    apart, 2-13 cm along the axis at 1-2 m; what lies beyond is farther. Past about 2 m
+    (with the cameras some 40 cm above the top) a grid row is more than the gap, and the
+    depth comes out short.
+    """
+    keep = (
+        (s > a - 0.02) & (v >= lateral[0] - _TOP_LATERAL_MARGIN_M) & (v <= lateral[1] + _TOP_LATERAL_MARGIN_M)
+    )
+    if not np.any(keep):
+        return None
+    order = np.sort(s[keep])
+    cut = np.flatnonzero(np.diff(order) > TOP_GAP_M)
+    top = order[: cut[0] + 1] if len(cut) else order
+    depth = float(percentile(top, 98)) - a
+    return depth if depth >= _MIN_TOP_SEEN_M else None
+
 
 def _classify_single_step(
-    step: Step, h_info: list, ground_z: float, config: TerrainConfig, note: str
+    step: Step,
+    h_info: list,
+    ground_z: float,
+    config: TerrainConfig,
+    note: str,
+    lateral: tuple[float, float],
 ) -> tuple[str, str, list[Step]]:
-    """One step is a box when its top is bounded: ground seen again beyond it."""
+    """One step is a box when its top is bounded: ground seen again beyond every sample at
+    its height (a strict test: a staircase's floor beside it goes on beyond its first
+    tread). The box's depth is where the top's own samples end (:func:`box_depth`)."""
     if step.tread is None:
         return STAIRS, note + "; top not seen, reported as a one-step staircase", [step]
-    top_z = step.top_z_m
-    top_far = None
-    for _h, z, s_h, _v in h_info:
-        if abs(z - top_z) < 1e-9:
-            top_far = (
-                float(percentile(s_h[s_h > step.axis_position_m - 0.02], 98))
-                if np.any(s_h > step.axis_position_m - 0.02)
-                else None
-            )
-    if top_far is None:
+    a = step.axis_position_m
+    top = next(((s_h, v_h) for _h, z, s_h, v_h in h_info if abs(z - step.top_z_m) < 1e-9), None)
+    if top is None or not np.any(top[0] > a - 0.02):
         return STAIRS, note, [step]
+    beyond_all = float(percentile(top[0][top[0] > a - 0.02], 98))
     for _h, z, s_h, _v in h_info:
-        if abs(z - ground_z) < config.min_rise_m and np.sum(s_h > top_far + 0.02) >= config.min_tread_points:
-            boxed = dataclasses.replace(step, run_m=float(top_far - step.axis_position_m))
+        if (
+            abs(z - ground_z) < config.min_rise_m
+            and np.sum(s_h > beyond_all + 0.02) >= config.min_tread_points
+        ):
+            depth = box_depth(a, top[0], top[1], lateral)
+            boxed = dataclasses.replace(step, run_m=beyond_all - a if depth is None else depth)
             return BOX, note + "; ground seen beyond the top: a box", [boxed]
     return STAIRS, note, [step]
 
