@@ -28,6 +28,7 @@ returned with ``ok=False``: two segments always meet somewhere.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import cv2
@@ -90,6 +91,13 @@ class VerticalLinesConfig:
     horizontal_window_deg : float
         Segments whose horizontal direction is within this angle of the histogram's peak
         (modulo 90 deg) support it.
+    horizontal_max_slope_deg : float
+        Where :func:`horizontal_direction` is given a disparity map, a segment whose 3D
+        line (from the disparity along it) rises more steeply than this is left out: the
+        histogram takes every segment for the image of a horizontal line, and a long
+        sloped one (a handrail, a stair's skirting or string, parallel to its pitch) points
+        it somewhere. 0 = off. On the webcam-degraded real ``Staircase`` three handrail
+        lines outweighed its eleven nosings (docs/benchmarks.md, twenty-eighth session).
     frame : bool
         Without a rig, where the planes do not fix up to ``frame_above_deg`` (or at all),
         fit the scene's Manhattan frame to all the segments, vertical and horizontal, with
@@ -132,6 +140,7 @@ class VerticalLinesConfig:
     overrule_planes: bool = True
     horizontal_scale: float = 0.5
     horizontal_window_deg: float = 4.0
+    horizontal_max_slope_deg: float = 20.0
     frame: bool = True
     frame_start_deg: float = 3.0
     frame_inlier_deg: float = 1.5
@@ -150,6 +159,10 @@ class VerticalLinesConfig:
         for name in ("detect_scale", "horizontal_scale"):
             if not 0 < getattr(self, name) <= 1:
                 raise ConfigError(f"{name} must be in (0, 1], got {getattr(self, name)}")
+        if not 0 <= self.horizontal_max_slope_deg < 90:
+            raise ConfigError(
+                f"horizontal_max_slope_deg must be in [0, 90), got {self.horizontal_max_slope_deg}"
+            )
         if not 0 < self.horizontal_window_deg < 45:
             raise ConfigError(f"horizontal_window_deg must be in (0, 45), got {self.horizontal_window_deg}")
         if not 0 < self.frame_inlier_deg <= self.frame_start_deg < 45:
@@ -413,8 +426,65 @@ def combine_with_lines(
     )
 
 
+#: Points along a segment at which :func:`sloped_segments` reads the disparity.
+_SLOPE_SAMPLES = 8
+
+#: A segment's two halves must lie this far apart in 3D (metres) for its slope to count.
+_SLOPE_MIN_SPAN_M = 0.05
+
+
+def sloped_segments(
+    segments: np.ndarray,
+    rectification: Rectification,
+    disparity: np.ndarray,
+    up: np.ndarray,
+    max_slope_deg: float,
+) -> np.ndarray:
+    """Which of ``segments`` (pixels of the rectified left image) are images of 3D lines
+    rising more steeply than ``max_slope_deg`` against ``up`` (rectified camera), by the
+    disparity along them: :data:`_SLOPE_SAMPLES` points between 10% and 90% of each,
+    each the median of the positive disparities in its 3x3 window, back-projected; the
+    line's direction joins the median point of its near half to that of its far half
+    (robust to a stray disparity or two). A segment with fewer than three points on either
+    half, or whose halves lie less than :data:`_SLOPE_MIN_SPAN_M` apart, is not called
+    sloped."""
+    n = len(segments)
+    out = np.zeros(n, dtype=bool)
+    if n == 0:
+        return out
+    h, w = disparity.shape
+    t = np.linspace(0.1, 0.9, _SLOPE_SAMPLES)
+    x = segments[:, None, 0] + t[None, :] * (segments[:, None, 2] - segments[:, None, 0])
+    y = segments[:, None, 1] + t[None, :] * (segments[:, None, 3] - segments[:, None, 1])
+    xi = np.clip(np.round(x).astype(int), 1, w - 2)
+    yi = np.clip(np.round(y).astype(int), 1, h - 2)
+    window = np.stack([disparity[yi + dy, xi + dx] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=-1)
+    window = np.where(window > 0, window, np.nan).astype(np.float64)  # NaN: unmatched
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN windows and halves
+        d = np.nanmedian(window, axis=-1)
+        f, baseline = rectification.focal_px, rectification.baseline_m
+        Z = f * baseline / (d + rectification.doffs_px)
+        P = np.stack([(x - rectification.cx) * Z / f, (y - rectification.cy) * Z / f, Z], axis=-1)
+        half = _SLOPE_SAMPLES // 2
+        a = np.nanmedian(P[:, :half], axis=1)
+        b = np.nanmedian(P[:, half:], axis=1)
+    seen = np.isfinite(d)
+    enough = (seen[:, :half].sum(axis=1) >= 3) & (seen[:, half:].sum(axis=1) >= 3)
+    direction = b - a
+    span = np.linalg.norm(direction, axis=1)
+    ok = enough & np.isfinite(span) & (span >= _SLOPE_MIN_SPAN_M)
+    unit_up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    out[ok] = np.abs(direction[ok] @ unit_up) / span[ok] > math.sin(math.radians(max_slope_deg))
+    return out
+
+
 def horizontal_direction(
-    segments: np.ndarray, rectification: Rectification, up: np.ndarray, config: VerticalLinesConfig
+    segments: np.ndarray,
+    rectification: Rectification,
+    up: np.ndarray,
+    config: VerticalLinesConfig,
+    disparity: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """The scene's dominant horizontal direction in the rectified left camera, modulo 90
     deg, from its non-vertical line segments, given ``up`` (same frame); None when fewer
@@ -426,13 +496,18 @@ def horizontal_direction(
     built (Manhattan) scene their directions fall in two families 90 deg apart, so the
     length-weighted histogram of the directions' angles in the horizontal plane, modulo 90
     deg, has one peak; the direction is the weighted circular mean of the segments within
-    ``horizontal_window_deg`` of it. Sloped lines (handrails, the staircase's slope line)
-    and grain fall elsewhere and do not move the peak.
+    ``horizontal_window_deg`` of it. Grain falls elsewhere and does not move the peak;
+    sloped lines (handrails, the staircase's slope line) mostly fall elsewhere too, but a
+    few long ones can outweigh the step edges: given the ``disparity`` map of the
+    rectified pair, the segments it shows rising more steeply than
+    ``config.horizontal_max_slope_deg`` are left out (:func:`sloped_segments`).
     """
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
     if len(segments) == 0:
         return None
     s = segments[_tilt_deg(segments) > config.max_tilt_deg]
+    if disparity is not None and config.horizontal_max_slope_deg > 0 and len(s):
+        s = s[~sloped_segments(s, rectification, disparity, up, config.horizontal_max_slope_deg)]
     d = s[:, 2:] - s[:, :2]
     if len(s) < config.min_inliers:
         return None

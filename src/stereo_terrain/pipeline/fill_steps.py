@@ -102,11 +102,15 @@ def fill_faces(
     if not manhattan or lines is None:
         return FilledFaces(planar, planar, regions)
     up, horizontal = known_up(rig_up, lines), lines.horizontal
+    if up is not None and horizontal is not None:
+        horizontal = _without_sloped_lines(horizontal, lines, pair, up, planar, config)
     if up is None:
         coarse = estimate_up(camera_sample(planar, config), config.gravity)
         if coarse.ok and coarse.sigma_deg <= config.fill.manhattan_max_up_sigma_deg:
             up = coarse.up
             horizontal = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
+            if horizontal is not None:
+                horizontal = _without_sloped_lines(horizontal, lines, pair, up, planar, config)
     if up is None:
         return FilledFaces(planar, planar, regions, waited_for_up=True)
     if horizontal is None:
@@ -132,6 +136,8 @@ def fill_faces_later(
     to_camera = T_yaw_camera.inverse()
     up = to_camera.apply_vectors(_UP)
     horizontal = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
+    if horizontal is not None:
+        horizontal = _without_sloped_lines(horizontal, lines, pair, up, disp, config)
     if horizontal is None:
         vertical = [s for s in planes.segments if s.kind == VERTICAL]
         if not vertical:
@@ -139,6 +145,30 @@ def fill_faces_later(
         n = max(vertical, key=lambda s: s.count).plane.normal * np.array([1.0, 1.0, 0.0])
         horizontal = to_camera.apply_vectors(n / float(np.linalg.norm(n)))
     return _manhattan(disp, faces.planar, faces.regions, pair, up, horizontal, config)
+
+
+def _without_sloped_lines(
+    horizontal: np.ndarray,
+    lines: SceneLines,
+    pair: RectifiedPair,
+    up: np.ndarray,
+    disp: DisparityMap,
+    config: PipelineConfig,
+) -> np.ndarray | None:
+    """The scene's horizontal direction from the image's lines (``horizontal``, in the
+    rectified camera) found again without the segments that ``disp`` shows sloped
+    (``vanishing.horizontal_max_slope_deg``, :func:`~stereo_terrain.gravity.from_lines.sloped_segments`):
+    ``horizontal`` itself where the two lie within ``vanishing.horizontal_window_deg`` of each
+    other (modulo 90 deg; the sloped lines did not move the peak), else the new one (None
+    where the level lines are too few for one)."""
+    v = config.vanishing
+    if v.horizontal_max_slope_deg <= 0:
+        return horizontal
+    again = horizontal_direction(lines.segments, pair.rectification, up, v, disparity=disp.disparity)
+    if again is None:
+        return None
+    turn = float(np.degrees(np.arccos(np.clip(abs(float(again @ horizontal)), 0.0, 1.0)))) % 90.0
+    return horizontal if min(turn, 90.0 - turn) <= v.horizontal_window_deg else again
 
 
 def _manhattan(
