@@ -373,6 +373,8 @@ def test_real_middlebury_staircase_railing_at_webcam_quality_is_no_step(shared_d
     after = Pipeline(calibration, config=PipelineConfig(vanishing=_SLOPES_KEPT)).run(left, right).terrain
     assert after.steps and after.steps[0].distance_m >= 2.0, after.note
     assert 0.14 <= after.steps[0].rise_m <= 0.21
+    default = Pipeline(calibration).run(left, right).terrain
+    assert default.steps and default.steps[0].distance_m >= 2.0, default.note
 
 
 def test_real_middlebury_staircase_at_webcam_quality_passes_without_its_sloped_lines(shared_data):
@@ -383,8 +385,6 @@ def test_real_middlebury_staircase_at_webcam_quality_passes_without_its_sloped_l
     found and meets the issue's check: 4 or more steps, rises 14-21 cm within 1.5 cm of
     each other, runs 24-34 cm."""
     calibration, left, right = _webcam_staircase(shared_data, 7)
-    kept = Pipeline(calibration, config=PipelineConfig(vanishing=_SLOPES_KEPT)).run(left, right).terrain
-    assert len(kept.steps) <= 1, kept.note
     steps = Pipeline(calibration).run(left, right).to_json_dict()["steps"]
     assert len(steps) >= 4
     rises = [s["rise"] for s in steps]

@@ -4,6 +4,7 @@ where the disparity shows them sloped (stereo_terrain.gravity.from_lines.sloped_
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -13,7 +14,7 @@ from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.gravity import VerticalLinesConfig, horizontal_direction
-from stereo_terrain.gravity.from_lines import sloped_segments
+from stereo_terrain.gravity.from_lines import level_turn_deg, sloped_segments
 
 from .test_manhattan import B, F, H, W, _angle_mod_90, _camera_R, _rectification
 
@@ -45,20 +46,27 @@ def _scene(R: np.ndarray, lines: list[tuple[np.ndarray, np.ndarray]], doffs: flo
     return np.array(segments), disparity
 
 
-@settings(max_examples=60, deadline=None, derandomize=True)
+@settings(max_examples=80, deadline=None, derandomize=True)
 @given(
     slope=st.floats(0.0, 60.0).filter(lambda s: abs(s - MAX_SLOPE_DEG) > 3.0),
     heading=st.floats(-1.2, 1.2),
     distance=st.floats(1.0, 4.0),
     length=st.floats(0.5, 1.5),
+    pitch=st.floats(-30.0, 30.0),
+    doffs=st.sampled_from([0.0, 8.0, -8.0]),
 )
-def test_a_segment_is_sloped_where_its_3d_line_rises_more_than_the_limit(slope, heading, distance, length):
-    rect = _rectification()
-    R = _camera_R(0.0, 0.0)
+def test_a_segment_is_sloped_where_its_3d_line_rises_more_than_the_limit(
+    slope, heading, distance, length, pitch, doffs
+):
+    # A pitched camera (up is not the image's vertical) and a pair rectified with a
+    # principal point shift between its images (disparity = f B / Z - doffs).
+    rect = dataclasses.replace(_rectification(), doffs_px=doffs)
+    R = _camera_R(0.0, pitch)
     up = R @ np.array([0.0, 0.0, 1.0])
     s = math.radians(slope)
     direction = np.array([-math.sin(heading) * math.cos(s), math.cos(heading) * math.cos(s), math.sin(s)])
-    centre = np.array([distance, 0.0, 0.0])
+    # in front of the camera, on its optical axis
+    centre = distance * (R.T @ np.array([0.0, 0.0, 1.0]))
     a, b = centre - 0.5 * length * direction, centre + 0.5 * length * direction
     segments, disparity = _scene(R, [(a, b)], rect.doffs_px)
     sloped = sloped_segments(segments, rect, disparity, up, MAX_SLOPE_DEG)
@@ -108,6 +116,16 @@ def test_a_long_handrail_no_longer_turns_the_horizontal_direction():
     off = VerticalLinesConfig(horizontal_max_slope_deg=0.0)
     again = horizontal_direction(segments, rect, up, off, disparity=disparity)
     assert again is not None and _angle_mod_90(again, blind, up) < 1e-6
+
+
+@settings(max_examples=60, deadline=None)
+@given(heading=st.floats(-math.pi, math.pi), turn=st.floats(-180.0, 180.0))
+def test_level_turn_is_the_angle_modulo_90_deg(heading, turn):
+    a = np.array([math.cos(heading), math.sin(heading), 0.0])
+    t = heading + math.radians(turn)
+    b = 2.0 * np.array([math.cos(t), math.sin(t), 0.0])  # any length
+    folded = abs(turn) % 90.0
+    assert level_turn_deg(a, b) == pytest.approx(min(folded, 90.0 - folded), abs=1e-6)
 
 
 @pytest.mark.parametrize("bad", [-1.0, 90.0])

@@ -28,7 +28,6 @@ returned with ``ok=False``: two segments always meet somewhere.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import cv2
@@ -433,6 +432,16 @@ _SLOPE_SAMPLES = 8
 _SLOPE_MIN_SPAN_M = 0.05
 
 
+def _nanmedian_rows(a: np.ndarray) -> np.ndarray:
+    """``np.nanmedian(a, axis=-1)``, NaN where a row is all NaN, without the warning that
+    NumPy gives there (the warning filters are process-wide; the lines' thread runs beside
+    the matcher)."""
+    empty = np.isnan(a).all(axis=-1)
+    out: np.ndarray = np.nanmedian(np.where(empty[..., None], 0.0, a), axis=-1)
+    out[empty] = np.nan
+    return out
+
+
 def sloped_segments(
     segments: np.ndarray,
     rectification: Rectification,
@@ -440,14 +449,28 @@ def sloped_segments(
     up: np.ndarray,
     max_slope_deg: float,
 ) -> np.ndarray:
-    """Which of ``segments`` (pixels of the rectified left image) are images of 3D lines
-    rising more steeply than ``max_slope_deg`` against ``up`` (rectified camera), by the
-    disparity along them: :data:`_SLOPE_SAMPLES` points between 10% and 90% of each,
-    each the median of the positive disparities in its 3x3 window, back-projected; the
-    line's direction joins the median point of its near half to that of its far half
-    (robust to a stray disparity or two). A segment with fewer than three points on either
-    half, or whose halves lie less than :data:`_SLOPE_MIN_SPAN_M` apart, is not called
-    sloped."""
+    """Which of ``segments`` are images of 3D lines rising more steeply than
+    ``max_slope_deg``, by the disparity along them.
+
+    Parameters
+    ----------
+    segments : (N, 4) float, (x1, y1, x2, y2) in pixels of the rectified left image
+    rectification : Rectification of the pair (focal length, principal point, baseline,
+        ``doffs_px``)
+    disparity : (H, W) float, the rectified pair's disparity in pixels; NaN or <= 0 where
+        unmatched
+    up : (3,) float, up in the rectified left camera
+    max_slope_deg : float
+
+    Returns
+    -------
+    (N,) bool. At :data:`_SLOPE_SAMPLES` points between 10% and 90% of each segment, the
+    median of the positive disparities in a 3x3 window is back-projected; the line's
+    direction joins the median point of the samples on the segment's first half to that
+    of those on its second half (robust to a stray disparity or two). A segment with fewer
+    than three points on either half (unmatched, or outside the image), or whose halves
+    lie less than :data:`_SLOPE_MIN_SPAN_M` apart, is not called sloped.
+    """
     n = len(segments)
     out = np.zeros(n, dtype=bool)
     if n == 0:
@@ -456,27 +479,39 @@ def sloped_segments(
     t = np.linspace(0.1, 0.9, _SLOPE_SAMPLES)
     x = segments[:, None, 0] + t[None, :] * (segments[:, None, 2] - segments[:, None, 0])
     y = segments[:, None, 1] + t[None, :] * (segments[:, None, 3] - segments[:, None, 1])
-    xi = np.clip(np.round(x).astype(int), 1, w - 2)
-    yi = np.clip(np.round(y).astype(int), 1, h - 2)
+    xi, yi = np.round(x).astype(int), np.round(y).astype(int)
+    inside = (xi >= 1) & (xi <= w - 2) & (yi >= 1) & (yi <= h - 2)
+    xi, yi = np.clip(xi, 1, w - 2), np.clip(yi, 1, h - 2)
     window = np.stack([disparity[yi + dy, xi + dx] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=-1)
     window = np.where(window > 0, window, np.nan).astype(np.float64)  # NaN: unmatched
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN windows and halves
-        d = np.nanmedian(window, axis=-1)
-        f, baseline = rectification.focal_px, rectification.baseline_m
-        Z = f * baseline / (d + rectification.doffs_px)
-        P = np.stack([(x - rectification.cx) * Z / f, (y - rectification.cy) * Z / f, Z], axis=-1)
-        half = _SLOPE_SAMPLES // 2
-        a = np.nanmedian(P[:, :half], axis=1)
-        b = np.nanmedian(P[:, half:], axis=1)
-    seen = np.isfinite(d)
+    d = _nanmedian_rows(window)
+    d[~inside] = np.nan
+    f, baseline = rectification.focal_px, rectification.baseline_m
+    shifted = d + rectification.doffs_px
+    Z = f * baseline / np.where(shifted > 0, shifted, np.nan)
+    half = _SLOPE_SAMPLES // 2
+    seen = np.isfinite(Z)
     enough = (seen[:, :half].sum(axis=1) >= 3) & (seen[:, half:].sum(axis=1) >= 3)
-    direction = b - a
+    if not enough.any():
+        return out
+    P = np.stack([(x - rectification.cx) * Z / f, (y - rectification.cy) * Z / f, Z], axis=-1)[enough]
+    first = np.stack([_nanmedian_rows(P[:, :half, k]) for k in range(3)], axis=-1)
+    second = np.stack([_nanmedian_rows(P[:, half:, k]) for k in range(3)], axis=-1)
+    direction = second - first
     span = np.linalg.norm(direction, axis=1)
-    ok = enough & np.isfinite(span) & (span >= _SLOPE_MIN_SPAN_M)
     unit_up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
-    out[ok] = np.abs(direction[ok] @ unit_up) / span[ok] > math.sin(math.radians(max_slope_deg))
+    rising = np.abs(direction @ unit_up) > math.sin(math.radians(max_slope_deg)) * span
+    out[np.flatnonzero(enough)] = rising & (span >= _SLOPE_MIN_SPAN_M)
     return out
+
+
+def level_turn_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle between two horizontal directions ``a`` and ``b`` modulo 90 deg (a built
+    scene's two horizontal families are one for :func:`horizontal_direction`), degrees in
+    [0, 45]."""
+    cos = abs(float(a @ b)) / float(np.linalg.norm(a) * np.linalg.norm(b))
+    turn = math.degrees(math.acos(min(cos, 1.0)))
+    return min(turn, 90.0 - turn)
 
 
 def horizontal_direction(

@@ -14,6 +14,7 @@ import numpy as np
 from ..cloud import GridSample, sample_disparity
 from ..frames import Transform
 from ..gravity import SceneLines, estimate_up, horizontal_direction
+from ..gravity.from_lines import level_turn_deg
 from ..planes.orientation import VERTICAL, PlaneSet
 from ..rectify import RectifiedPair
 from ..stereo import DisparityMap
@@ -167,8 +168,7 @@ def _without_sloped_lines(
     again = horizontal_direction(lines.segments, pair.rectification, up, v, disparity=disp.disparity)
     if again is None:
         return None
-    turn = float(np.degrees(np.arccos(np.clip(abs(float(again @ horizontal)), 0.0, 1.0)))) % 90.0
-    return horizontal if min(turn, 90.0 - turn) <= v.horizontal_window_deg else again
+    return horizontal if level_turn_deg(again, horizontal) <= v.horizontal_window_deg else again
 
 
 def _manhattan(

@@ -171,8 +171,9 @@ class TerrainConfig:
         A staircase's rises are equal, and so are its runs (building codes allow about a
         centimetre between the largest and the smallest); what differs between measured
         ones is mostly the measurement, worst on the far steps. Where ``common_min_steps``
-        or more measured rises (runs) lie within this of their median, each of those steps
-        reports that median, the staircase's common rise (run); its own stays in
+        or more measured rises (``common_min_runs`` or more runs) lie within this of their
+        median, each of those steps reports that median, the staircase's common rise (run;
+        two runs must also lie within this of each other); its own stays in
         ``Step.measured_rise_m`` (``measured_run_m``), and the swing plan clears the larger
         of the two. A step further off keeps its own (a different step, or a measurement
         gone wrong: either way not averaged away; those pooled may differ by up to twice
@@ -224,6 +225,14 @@ class TerrainConfig:
         their best distances within this fraction of the span of each other (a minimum
         that one part of the face makes, a baluster's edge or a repeated grain, is not
         where the others put theirs).
+    box_top_gap_m : float
+        A box's top ends where its samples along the stair axis, within its riser's
+        width, leave a gap wider than this, nearest first (:func:`.polytope.box_depth`):
+        the top's own samples follow each other a grid row apart, 2-13 cm at 1-2 m, and
+        what stands at its height beyond (a wall, a shelf, the far floor) lies farther.
+        A hole in the top's samples wider than this (a face the matcher does not hold)
+        cuts the depth short; past about 2 m, with the cameras some 40 cm above the top,
+        a grid row is wider than 15 cm and the depth comes out short too.
     """
 
     min_rise_m: float = 0.04
@@ -272,6 +281,7 @@ class TerrainConfig:
     photometric_min_sharpness: float = 0.01
     photometric_max_cost: float = 0.5
     photometric_max_spread: float = 0.6
+    box_top_gap_m: float = 0.15
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -288,6 +298,8 @@ class TerrainConfig:
             "nosing_edge_contrast",
             "photometric_min_sharpness",
         )
+        if not self.box_top_gap_m > 0:
+            raise ConfigError(f"TerrainConfig.box_top_gap_m must be > 0, got {self.box_top_gap_m}")
         for name in ("photometric_max_cost", "photometric_max_spread"):
             # a cost is 1 - a correlation, in [0, 2]; the thirds' spread is at most 2 spans
             if not 0 < getattr(self, name) <= 2:

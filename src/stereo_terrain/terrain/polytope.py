@@ -10,10 +10,6 @@ from .._numeric import percentile  # NumPy's bits, a fraction of its time (issue
 from .model import BOX, STAIRS, Polytope, Step, TerrainConfig
 from .risers import _Riser
 
-#: A box's top ends where its samples along the stair axis, within the riser's width,
-#: leave a gap wider than this (metres): :func:`box_depth`.
-TOP_GAP_M = 0.15
-
 #: How far beside the riser (metres across the stair) a box top's samples may lie.
 _TOP_LATERAL_MARGIN_M = 0.05
 
@@ -22,22 +18,33 @@ _TOP_LATERAL_MARGIN_M = 0.05
 _MIN_TOP_SEEN_M = 0.05
 
 
-def box_depth(a: float, s: np.ndarray, v: np.ndarray, lateral: tuple[float, float]) -> float | None:
-    """How deep a box's top is along the stair axis from its riser at ``a``: the 98th
-    percentile of its tread plane's samples (positions ``s`` along the axis, ``v``
-    across) beyond the riser and within the riser's lateral extent (``lateral``, with a
-    5 cm margin), up to the first gap wider than :data:`TOP_GAP_M` between them, nearest
-    first. None where no such sample is or they reach less than :data:`_MIN_TOP_SEEN_M`
-    beyond the riser (the top not seen beyond its front edge).
+def box_depth(
+    a: float, s: np.ndarray, v: np.ndarray, lateral: tuple[float, float], max_gap_m: float
+) -> float | None:
+    """How deep a box's top is along the stair axis, from its riser.
+
+    The 98th percentile of the top's samples beyond the riser and within its lateral
+    extent (5 cm margin), up to the first gap wider than ``max_gap_m`` between them,
+    nearest first.
+
+    Parameters
+    ----------
+    a : the riser's position along the stair axis, metres
+    s, v : (N,) float, the top plane's samples along the stair axis and across it, metres
+    lateral : (low, high) extent of the riser across the stair, metres
+    max_gap_m : ``TerrainConfig.box_top_gap_m``
+
+    Returns
+    -------
+    The depth in metres; None where no sample is beyond the riser within its width, or
+    those reach less than :data:`_MIN_TOP_SEEN_M` beyond it (the top not seen beyond its
+    front edge).
 
     A horizontal plane's inliers are every sample at its height: the top's own and, beyond
     it, strips of walls, furniture and the far floor at the same height (or where the
-    matcher carried the top's plane on over a textureless wall). Its 98th percentile over
+    matcher carried the top's plane on over a textureless wall). Their 98th percentile over
     all of them made realistic boxes 0.9-2.9 m deep for 0.3-0.8 m (issue 11, twenty-eighth
-    session in docs/benchmarks.md). The top's own samples follow each other a grid row
-    apart, 2-13 cm along the axis at 1-2 m; what lies beyond is farther. Past about 2 m
-    (with the cameras some 40 cm above the top) a grid row is more than the gap, and the
-    depth comes out short.
+    session in docs/benchmarks.md). The gap's limits: ``TerrainConfig.box_top_gap_m``.
     """
     keep = (
         (s > a - 0.02) & (v >= lateral[0] - _TOP_LATERAL_MARGIN_M) & (v <= lateral[1] + _TOP_LATERAL_MARGIN_M)
@@ -45,7 +52,7 @@ def box_depth(a: float, s: np.ndarray, v: np.ndarray, lateral: tuple[float, floa
     if not np.any(keep):
         return None
     order = np.sort(s[keep])
-    cut = np.flatnonzero(np.diff(order) > TOP_GAP_M)
+    cut = np.flatnonzero(np.diff(order) > max_gap_m)
     top = order[: cut[0] + 1] if len(cut) else order
     depth = float(percentile(top, 98)) - a
     return depth if depth >= _MIN_TOP_SEEN_M else None
@@ -61,7 +68,8 @@ def _classify_single_step(
 ) -> tuple[str, str, list[Step]]:
     """One step is a box when its top is bounded: ground seen again beyond every sample at
     its height (a strict test: a staircase's floor beside it goes on beyond its first
-    tread). The box's depth is where the top's own samples end (:func:`box_depth`)."""
+    tread). The box's depth is where the top's own samples end (:func:`box_depth`); None
+    (not known) where they do not show it."""
     if step.tread is None:
         return STAIRS, note + "; top not seen, reported as a one-step staircase", [step]
     a = step.axis_position_m
@@ -74,8 +82,8 @@ def _classify_single_step(
             abs(z - ground_z) < config.min_rise_m
             and np.sum(s_h > beyond_all + 0.02) >= config.min_tread_points
         ):
-            depth = box_depth(a, top[0], top[1], lateral)
-            boxed = dataclasses.replace(step, run_m=beyond_all - a if depth is None else depth)
+            depth = box_depth(a, top[0], top[1], lateral, config.box_top_gap_m)
+            boxed = dataclasses.replace(step, run_m=depth)
             return BOX, note + "; ground seen beyond the top: a box", [boxed]
     return STAIRS, note, [step]
 

@@ -11,7 +11,8 @@ those steps reports it instead of its own (kept in ``Step.measured_rise_m``); th
 same for the runs (``common_run_tolerance_m``, ``Step.measured_run_m``; the tolerance is
 wider, since a riser's position is less sure than a height, and ``common_min_runs``, two,
 are enough: the mean of two runs is half the span from the first riser to the third,
-which leaves out the middle riser's error). A step further off keeps its
+which leaves out the middle riser's error; two runs must lie within the tolerance of each
+other). A step further off keeps its
 own: it is either a different step (a first step on a thicker floor, a landing) or a
 measurement gone wrong, and averaging would hide either from the swing plan. Steps whose
 rise was inferred (:mod:`.continuation`, a first step whose foot is out of view) take the
@@ -61,6 +62,17 @@ def _agreeing(values: dict[int, float], tol: float, min_count: int) -> tuple[lis
     if len(agree) < min_count:
         return [], 0.0  # no majority that agrees: nothing to call the staircase's
     return agree, centre
+
+
+def _agreeing_runs(values: dict[int, float], config: TerrainConfig) -> tuple[list[int], float]:
+    """:func:`_agreeing` for the runs (``common_run_tolerance_m``, ``common_min_runs``),
+    except that two runs agree only where they differ by no more than the tolerance: each
+    is within that of their median (their mean) wherever they differ by up to twice it,
+    which would pool a 28 and a 46 cm tread."""
+    tol = config.common_run_tolerance_m
+    if len(values) == 2 and max(values.values()) - min(values.values()) > tol:
+        return [], 0.0
+    return _agreeing(values, tol, config.common_min_runs)
 
 
 #: Nosings whose heights the staircase's rise is fitted to: at least this many (one more
@@ -159,11 +171,7 @@ def common_steps(
         rise = rise_m
     if not rises:
         rises, rise = _agreeing(measured, config.common_rise_tolerance_m, config.common_min_steps)
-    runs, run = _agreeing(
-        {i: s.run_m for i, s in enumerate(steps) if s.run_m is not None},
-        config.common_run_tolerance_m,
-        config.common_min_runs,
-    )
+    runs, run = _agreeing_runs({i: s.run_m for i, s in enumerate(steps) if s.run_m is not None}, config)
     if not rises and not runs:
         return steps, 0, 0
     out: list[Step] = []
