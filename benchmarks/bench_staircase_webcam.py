@@ -16,7 +16,12 @@ one) and on those reported (the common rise where the measured ones agree within
 ``terrain/uniform.py``: the spread is then zero by construction, so only the count, the
 common rise's range and the runs are checked).
 
-    .venv/bin/python benchmarks/bench_staircase_webcam.py [--seeds 4] [--config CFG.yaml]
+With ``--rooms`` the same degradations go to the real scenes without stairs instead (the
+OAK-D corridor, desk and living room and the eight Middlebury object scenes), and the
+table counts the runs that report an obstacle: a cheap webcam's frames of a room must
+give no steps either.
+
+    .venv/bin/python benchmarks/bench_staircase_webcam.py [--seeds 4] [--config CFG.yaml] [--rooms]
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.rectify import read_image, to_grey
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_real_stairs import DATA  # noqa: E402
+from bench_real_stairs import DATA, real_pairs  # noqa: E402
 
 #: name -> (noise sigma grey, shot-noise factor, blur sigma px, JPEG quality or 0, exposure difference)
 DEGRADATIONS = {
@@ -92,12 +97,56 @@ def passes(steps: list[tuple[float, float | None]]) -> bool:
     )
 
 
+def _degraded_pairs(left0: np.ndarray, right0: np.ndarray, seeds: int):
+    """``(name, seed, left, right)``: ``left0``, ``right0`` with each row of
+    ``DEGRADATIONS`` (one seed for "none"), the right image's exposure drawn first."""
+    for name, (noise, shot, blur, quality, exposure) in DEGRADATIONS.items():
+        for seed in range(1 if name == "none" else seeds):
+            rng = np.random.default_rng(seed)
+            gain = float(rng.uniform(0.85, 1.15)) if exposure else 1.0
+            offset = float(rng.uniform(-10.0, 10.0)) if exposure else 0.0
+            left = degrade(left0, rng, noise, shot, blur, quality)
+            right = degrade(right0, rng, noise, shot, blur, quality, gain, offset)
+            yield name, seed, left, right
+
+
+def rooms(seeds: int, config: PipelineConfig) -> None:
+    """The table of ``--rooms``: per degradation, the runs over the real rooms that report
+    an obstacle, and what each reported."""
+    scenes = [
+        (name, Pipeline(cal, None, config), to_grey(left), to_grey(right))
+        for name, cal, left, right in real_pairs(True)
+        if name not in ("Staircase", "Classroom2")  # the scenes with steps
+    ]
+    if not scenes:
+        sys.exit(f"no real rooms under {DATA}: the shared data folder is needed")
+    print("| degradation | runs reporting an obstacle | what (scene seed: rises, cm) |")
+    print("| --- | --- | --- |")
+    rows: dict[str, list[str]] = {}
+    counts: dict[str, list[int]] = {}
+    for scene, pipeline, left0, right0 in scenes:
+        for name, seed, left, right in _degraded_pairs(left0, right0, seeds):
+            model = pipeline.run(left, right).terrain
+            tally = counts.setdefault(name, [0, 0])
+            tally[1] += 1
+            if model.obstacle != "none":
+                tally[0] += 1
+                rises = ", ".join(f"{s.rise_m * 100:.0f}" for s in model.steps)
+                rows.setdefault(name, []).append(f"{scene} {seed}: {model.obstacle} [{rises}]")
+    for name, (bad, total) in counts.items():
+        print(f"| {name} | {bad} of {total} | {'; '.join(rows.get(name, []))} |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--config", type=Path)
+    ap.add_argument("--rooms", action="store_true", help="the real rooms without stairs instead")
     args = ap.parse_args()
     config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
+    if args.rooms:
+        rooms(args.seeds, config)
+        return
     d = DATA / "middlebury2014Q_noGT" / "Staircase"
     if not d.is_dir():
         sys.exit(f"missing {d}: the shared data folder is needed")
