@@ -27,6 +27,7 @@ give no steps either.
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 from pathlib import Path
 
@@ -157,15 +158,10 @@ def main() -> None:
     near_head = f"first step < {NEAR_M:g} m"
     print(f"| degradation | passes, measured rises | passes, reported rises | {near_head} | {header} |")
     print("| --- | --- | --- | --- | --- |")
-    for name, (noise, shot, blur, quality, exposure) in DEGRADATIONS.items():
-        seeds = 1 if name == "none" else args.seeds
-        found, ok, ok_reported, near = [], 0, 0, 0
-        for seed in range(seeds):
-            rng = np.random.default_rng(seed)
-            gain = float(rng.uniform(0.85, 1.15)) if exposure else 1.0
-            offset = float(rng.uniform(-10.0, 10.0)) if exposure else 0.0
-            left = degrade(left0, rng, noise, shot, blur, quality)
-            right = degrade(right0, rng, noise, shot, blur, quality, gain, offset)
+    for name, runs in itertools.groupby(_degraded_pairs(left0, right0, args.seeds), key=lambda r: r[0]):
+        found, ok, ok_reported, near, seeds = [], 0, 0, 0, 0
+        for _, _, left, right in runs:
+            seeds += 1
             model = pipeline.run(left, right).terrain.steps
             measured = [(s.own_rise_m, s.own_run_m) for s in model]
             ok += passes(measured)

@@ -486,9 +486,8 @@ def sloped_segments(
     window = np.where(window > 0, window, np.nan).astype(np.float64)  # NaN: unmatched
     d = _nanmedian_rows(window)
     d[~inside] = np.nan
-    f, baseline = rectification.focal_px, rectification.baseline_m
-    shifted = d + rectification.doffs_px
-    Z = f * baseline / np.where(shifted > 0, shifted, np.nan)
+    Z = rectification.depth_from_disparity(d)  # NaN where d + doffs <= 0
+    f = rectification.focal_px
     half = _SLOPE_SAMPLES // 2
     seen = np.isfinite(Z)
     enough = (seen[:, :half].sum(axis=1) >= 3) & (seen[:, half:].sum(axis=1) >= 3)

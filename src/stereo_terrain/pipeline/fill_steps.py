@@ -103,15 +103,14 @@ def fill_faces(
     if not manhattan or lines is None:
         return FilledFaces(planar, planar, regions)
     up, horizontal = known_up(rig_up, lines), lines.horizontal
-    if up is not None and horizontal is not None:
+    if up is not None:
         horizontal = _without_sloped_lines(horizontal, lines, pair, up, planar, config)
     if up is None:
         coarse = estimate_up(camera_sample(planar, config), config.gravity)
         if coarse.ok and coarse.sigma_deg <= config.fill.manhattan_max_up_sigma_deg:
             up = coarse.up
-            horizontal = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
-            if horizontal is not None:
-                horizontal = _without_sloped_lines(horizontal, lines, pair, up, planar, config)
+            found = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
+            horizontal = _without_sloped_lines(found, lines, pair, up, planar, config)
     if up is None:
         return FilledFaces(planar, planar, regions, waited_for_up=True)
     if horizontal is None:
@@ -136,9 +135,8 @@ def fill_faces_later(
     disparity. None when there is no horizontal direction (nothing to fill)."""
     to_camera = T_yaw_camera.inverse()
     up = to_camera.apply_vectors(_UP)
-    horizontal = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
-    if horizontal is not None:
-        horizontal = _without_sloped_lines(horizontal, lines, pair, up, disp, config)
+    found = horizontal_direction(lines.segments, pair.rectification, up, config.vanishing)
+    horizontal = _without_sloped_lines(found, lines, pair, up, disp, config)
     if horizontal is None:
         vertical = [s for s in planes.segments if s.kind == VERTICAL]
         if not vertical:
@@ -149,7 +147,7 @@ def fill_faces_later(
 
 
 def _without_sloped_lines(
-    horizontal: np.ndarray,
+    horizontal: np.ndarray | None,
     lines: SceneLines,
     pair: RectifiedPair,
     up: np.ndarray,
@@ -161,9 +159,9 @@ def _without_sloped_lines(
     (``vanishing.horizontal_max_slope_deg``, :func:`~stereo_terrain.gravity.from_lines.sloped_segments`):
     ``horizontal`` itself where the two lie within ``vanishing.horizontal_window_deg`` of each
     other (modulo 90 deg; the sloped lines did not move the peak), else the new one (None
-    where the level lines are too few for one)."""
+    where the level lines are too few for one). None where ``horizontal`` is None."""
     v = config.vanishing
-    if v.horizontal_max_slope_deg <= 0:
+    if horizontal is None or v.horizontal_max_slope_deg <= 0:
         return horizontal
     again = horizontal_direction(lines.segments, pair.rectification, up, v, disparity=disp.disparity)
     if again is None:
