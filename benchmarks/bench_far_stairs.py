@@ -7,12 +7,19 @@ pipeline on them, with the rig and without one, as ``evaluation`` scores it.
 
     .venv/bin/python benchmarks/bench_far_stairs.py [--scenes 15] [--profile default]
         [--near 2.0] [--far 3.5] [--baseline 0.075] [--seed 77] [--per-scene] [--config CFG]
-        [--rise M] [--run M] [--steps N] [--wood] [--lab]
+        [--rise M] [--run M] [--steps N] [--wood] [--lab] [--oakd]
 
 ``--lab`` draws staircases like the paper's wooden lab stairs of the issue's unseen check
 (realistic profile, wood throughout, 3 steps of 20 cm rise and 31 cm run, the first riser
 1.5-2.5 m ahead, 7 cm baseline): the same as ``--profile realistic --near 1.5 --far 2.5
 --baseline 0.07 --rise 0.2 --run 0.31 --steps 3 --wood``.
+
+``--oakd`` draws the issue's unseen OAK-D check as we picture it: the realistic profile's
+staircases (walls, handrails, wood and paint, yaw up to 45 deg) 2-4 m ahead, seen from a
+camera held 0.5-1.4 m above the floor, with an OAK-D Lite's sensor instead of a webcam's:
+a 7.5 cm baseline, Gaussian noise of 1-2 grey levels with a small shot part, 0.2-0.5 px
+of blur and no JPEG (the realistic profile's own sensor is a cheap webcam's: 1.5-3.5 grey,
+0.5-1.5 px, JPEG 60-85).
 
 At these distances a riser 12-22 cm tall is 15-50 px high at 640x480 and its disparity 9-18
 px, so its samples' normals (from 9x9 box means 4 px apart) are noisy: see
@@ -37,6 +44,20 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_oracle_disparity import print_scores  # noqa: E402
 
 
+def _oakd_sensor(rng: np.random.Generator) -> dict:
+    """Overrides of the realistic profile for ``--oakd``: the camera's height and an OAK-D
+    Lite's sensor (both images alike)."""
+    noise, blur = float(rng.uniform(1.0, 2.0)), float(rng.uniform(0.2, 0.5))
+    return {
+        "camera_height_m": float(rng.uniform(0.5, 1.4)),
+        "noise_sigma": (noise, noise),
+        "shot_noise": 0.01,
+        "blur_sigma_px": blur,
+        "right_blur_sigma_px": blur,
+        "jpeg_quality": None,
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=15)
@@ -52,7 +73,12 @@ def main() -> None:
     ap.add_argument("--steps", type=int, help="every staircase's step count (default: drawn)")
     ap.add_argument("--wood", action="store_true", help="realistic profile: wooden treads and risers only")
     ap.add_argument("--lab", action="store_true", help="the wooden lab stairs preset (see the docstring)")
+    ap.add_argument("--oakd", action="store_true", help="the OAK-D staircase preset (see the docstring)")
     args = ap.parse_args()
+    if args.lab and args.oakd:
+        ap.error("--lab and --oakd are two presets: choose one")
+    if args.oakd:
+        args.profile, args.near, args.far, args.baseline = "realistic", 2.0, 4.0, 0.075
     if args.lab:
         args.profile, args.near, args.far, args.baseline = "realistic", 1.5, 2.5, 0.07
         args.rise, args.run, args.steps, args.wood = 0.2, 0.31, 3, True
@@ -66,6 +92,7 @@ def main() -> None:
     for i in range(args.scenes):
         while True:
             distance = float(rng.uniform(args.near, args.far))
+            sensor = _oakd_sensor(rng) if args.oakd else {}
             spec = random_scene_spec(
                 rng,
                 profile=args.profile,
@@ -74,6 +101,7 @@ def main() -> None:
                 baseline_m=args.baseline,
                 weak_texture=False if args.wood else None,
                 **fixed,
+                **sensor,
             )
             if not args.wood or spec.tread.texture == "planks":  # not carpet
                 break
@@ -90,6 +118,8 @@ def main() -> None:
         f"{args.profile}, {args.scenes} staircases {args.near}-{args.far} m ahead, "
         f"baseline {args.baseline} m, seed {args.seed}"
     )
+    if args.oakd:
+        title += ", OAK-D sensor, camera 0.5-1.4 m high"
     if fixed or args.wood:
         title += ", " + ", ".join([f"{k} {v}" for k, v in fixed.items()] + (["wood"] if args.wood else []))
     if args.config:
