@@ -13,18 +13,22 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from stereo_terrain.bench import read_truth
+from stereo_terrain.calibrate import parse_pattern
 from stereo_terrain.calibration import (
     read_calibration,
     read_middlebury_calib,
     read_opencv_yaml,
     read_stereodemo_json,
 )
-from stereo_terrain.errors import StereoTerrainError
+from stereo_terrain.errors import InputError, StereoTerrainError
 from stereo_terrain.frames import load_rig
 from stereo_terrain.pipeline import PipelineConfig
 from stereo_terrain.rectify import read_image
 from stereo_terrain.runtime.capture import read_pairs_index
+from stereo_terrain.runtime.simulate import ApproachConfig, _approach_json, load_approach
 from stereo_terrain.stereo.io import read_pfm
+from stereo_terrain.swing import SwingConfig
 
 FUZZ = settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
 
@@ -34,6 +38,8 @@ _YAML_BITS = [
     "1e300", "-1", "0", "64", "48", "54.4", "abc", "- ", ": ", "# cam0 baseline\n", "<?xml version=\"1.0\"?>",
     "<opencv_storage>", "</opencv_storage>", "<K1>", "</K1>", "cam0=", "baseline=", "width=", "height=",
     "ndisp=", "doffs=", "\"fx\": ", "\"width\": ", "NaN", "Infinity", "true", "null", "\xe9", "\x00",
+    "\"obstacle\": ", "\"stairs\"", "\"steps\": ", "\"rise\": ", "\"approach\": ", "\"swing\": ",
+    "\"image_size\": ", "\"stair_rise_m\": ", "\"nominal_height_m\": ", "\"",
 ]  # fmt: skip
 
 text_like = st.one_of(
@@ -63,6 +69,11 @@ def _file(data: bytes, name: str) -> Path:
     return p
 
 
+def _approach_folder(path: Path):
+    """:func:`load_approach` of the folder holding ``path`` (it reads ``approach.json``)."""
+    return load_approach(path.parent)
+
+
 def _only_own_errors(fn, *args) -> None:
     try:
         fn(*args)
@@ -85,6 +96,8 @@ def _only_own_errors(fn, *args) -> None:
         (read_pfm, "disp.pfm"),
         (read_image, "image.png"),
         (read_image, "image.jpg"),
+        (read_truth, "truth.json"),
+        (_approach_folder, "approach.json"),
     ],
     ids=lambda v: getattr(v, "__qualname__", v),
 )
@@ -92,6 +105,37 @@ def _only_own_errors(fn, *args) -> None:
 @given(data=text_like)
 def test_readers_raise_only_their_own_errors(reader, name, data):
     _only_own_errors(reader, _file(data, name))
+
+
+@pytest.mark.parametrize("reader, name", [(read_truth, "truth.json"), (_approach_folder, "approach.json")])
+def test_deeply_nested_json_is_refused_before_the_parser(reader, name):
+    """Python's JSON parser recurses: brackets nested 100000 deep ended in a
+    ``RecursionError`` (a traceback from ``bench`` or ``replay``) before the nesting check."""
+    with pytest.raises(InputError, match="nests brackets deeper"):
+        reader(_file(("[" * 100000 + "]" * 100000).encode(), name))
+
+
+@FUZZ
+@given(cfg=st.fixed_dictionaries({"image_size": st.tuples(st.integers(32, 2000), st.integers(32, 2000))}))
+def test_approach_file_round_trips(cfg):
+    """What ``simulate`` writes, :func:`load_approach` reads back unchanged."""
+    approach, swing = ApproachConfig(**cfg), SwingConfig()
+    folder = _file(_approach_json(approach, swing).encode(), "approach.json").parent
+    assert load_approach(folder) == (approach, swing)
+
+
+@FUZZ
+@given(text=st.one_of(st.text(max_size=12), st.tuples(st.integers(-5, 99), st.integers(-5, 99)).map(
+    lambda t: f"{t[0]}x{t[1]}")))  # fmt: skip
+def test_board_pattern_text(text):
+    """``--pattern``: two integers, or the package's own error naming the text."""
+    try:
+        cols, rows = parse_pattern(text)
+    except StereoTerrainError as exc:
+        assert repr(text)[1:-1] in str(exc) or text in str(exc)
+        return
+    assert isinstance(cols, int) and isinstance(rows, int)
+    assert f"{cols}x{rows}" == "x".join(str(int(v)) for v in text.lower().split("x"))
 
 
 _PFM_HEADERS = st.tuples(

@@ -15,7 +15,6 @@ timing) over a Ray cluster.
 
 from __future__ import annotations
 
-import json
 import math
 import statistics
 import time
@@ -27,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from .calibration import StereoCalibration, read_calibration
+from .checks import load_json_file
 from .errors import InputError
 from .evaluation import SceneScore, score_result, summarize
 from .frames import Rig, load_rig
@@ -176,16 +176,9 @@ def check_truth(data: Any, path: str | Path) -> dict[str, Any]:
 
 
 def read_truth(path: str | Path) -> dict[str, Any]:
-    """Read and check ``truth.json`` (:func:`check_truth`)."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not UTF-8 text") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
-    return check_truth(data, path)
+    """Read and check ``truth.json`` (:func:`check_truth`); :class:`InputError` for a file
+    that is not UTF-8 JSON (:func:`~.checks.load_json_file`)."""
+    return check_truth(load_json_file(path, "truth file"), path)
 
 
 def read_bench_scene(folder: str | Path, *, use_rig: bool = True) -> BenchScene:

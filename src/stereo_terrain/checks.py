@@ -1,6 +1,7 @@
 """Validators shared by the stage configs: each raises :class:`ConfigError` naming the
 field, what was expected and what came; and the readers of small text files (rig, config,
-``pairs.csv``) that refuse what is not UTF-8 text or YAML before a parser trips on it."""
+``pairs.csv``, ``truth.json``, ``approach.json``) that refuse what is not UTF-8 text, YAML
+or JSON before a parser trips on it."""
 
 from __future__ import annotations
 
@@ -72,6 +73,24 @@ def load_yaml_file(path: str | Path, what: str) -> Any:
         raise InputError(f"{what} {path} is not valid YAML: {first}") from None
     except (RecursionError, ValueError, OverflowError, TypeError) as exc:
         raise InputError(f"{what} {path} is not valid YAML: {type(exc).__name__}") from None
+
+
+def load_json_file(path: str | Path, what: str) -> Any:
+    """Parse a small JSON file; :class:`InputError` naming ``what`` and the path for a file
+    that is missing, not UTF-8, nested deeper than :data:`MAX_NESTING` (Python's parser
+    recurses: a file of deeply nested brackets would end in a ``RecursionError``) or not
+    JSON."""
+    import json
+
+    text = read_text_file(path, what)
+    if nesting_depth(text) > MAX_NESTING:
+        raise InputError(f"{what} {path} nests brackets deeper than {MAX_NESTING} levels")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{what} {path} is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    except (RecursionError, ValueError) as exc:
+        raise InputError(f"{what} {path} is not valid JSON: {type(exc).__name__}") from None
 
 
 def _unique_key_loader() -> Any:

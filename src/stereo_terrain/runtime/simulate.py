@@ -570,17 +570,16 @@ def _approach_json(cfg: ApproachConfig, swing: SwingConfig) -> str:
 
 def load_approach(folder: str | Path) -> tuple[ApproachConfig, SwingConfig]:
     """The :class:`ApproachConfig` and :class:`SwingConfig` saved with a simulated recording."""
-    import json
-
+    from ..checks import load_json_file
     from ..errors import InputError
 
     path = Path(folder) / "approach.json"
+    if not path.is_file():
+        raise InputError(f"{path} not found: not a recording written by 'stereo-terrain simulate'")
+    data = load_json_file(path, "approach file")
     try:
-        data = json.loads(path.read_text())
         a = dict(data["approach"])
         a["image_size"] = tuple(a["image_size"])
         return ApproachConfig(**a), SwingConfig(**data["swing"])
-    except FileNotFoundError:
-        raise InputError(f"{path} not found: not a recording written by 'stereo-terrain simulate'") from None
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f"{path} is not a valid approach description: {exc}") from None
