@@ -235,6 +235,40 @@ def test_what_the_coarse_rematch_keeps():
     assert not steps_disagree(stairs, config)
 
 
+def test_a_second_opinion_keeps_no_staircase_with_a_step_taller_than_a_stair():
+    """Every opinion after the first (the rematch too, which otherwise needs two steps
+    only) refuses a staircase with a measured rise above ``max_rise_m``: two steps taken
+    for one, or no staircase. An inferred rise does not count; nor does a box."""
+    from stereo_terrain.pipeline.second_opinions import (
+        REMATCH_NOTE,
+        rematch_kept,
+        stair_rises,
+        steps_agree,
+        steps_disagree,
+    )
+
+    config = PipelineConfig()
+    scene = render_scene(default_scene_spec())
+    stairs = Pipeline(scene.calibration, scene.rig).run(scene.left, scene.right).terrain
+    steps = list(stairs.steps)
+    nothing = dataclasses.replace(stairs, obstacle="none", steps=())
+    t = config.terrain
+    assert stair_rises(stairs, t) and steps_agree(stairs, t)
+    assert rematch_kept(REMATCH_NOTE[0], stairs, nothing, config)[0]
+    # Two steps of 1.2 x max_rise_m: they agree with each other, but no stair is so tall.
+    tall = [dataclasses.replace(s, rise_m=1.2 * t.max_rise_m, measured_rise_m=None) for s in steps[:2]]
+    doubled = dataclasses.replace(stairs, steps=tuple(tall))
+    assert not stair_rises(doubled, t) and not steps_agree(doubled, t)
+    assert not steps_disagree(doubled, t)  # the ratio and run rule alone would keep them
+    for name in (REMATCH_NOTE[0], "coarse rematch"):
+        assert not rematch_kept(name, doubled, nothing, config)[0]
+    # At max_rise_m it is still a stair's; inferred at any height it does not count.
+    at_limit = [dataclasses.replace(s, rise_m=t.max_rise_m, measured_rise_m=None) for s in steps[:2]]
+    assert stair_rises(dataclasses.replace(stairs, steps=tuple(at_limit)), t)
+    inferred = (steps[0], dataclasses.replace(tall[1], rise_inferred=True))
+    assert stair_rises(dataclasses.replace(stairs, steps=inferred), t)
+
+
 def _blind_twice(scene, config: PipelineConfig | None = None) -> Pipeline:
     pipeline = _blind_first(scene, config)
     pipeline._rematcher = _Blind()  # the coarse rematch keeps the config's own settings

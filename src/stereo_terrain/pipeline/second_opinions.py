@@ -55,14 +55,15 @@ def rematch_kept(
     """Whether a rematch pass named ``name`` that found ``terrain`` replaces ``kept`` (the
     terrain kept so far), and why it was run, for the note (:meth:`Pipeline._rematched`):
 
-    - nothing or a lone step: with two steps or more (the rematch; its harder smoothing
-      can make an object's front a lone "step", as a real room's motorbike did), with
-      steps that agree (the coarse and focus rematches; the coarse one's smoothness
-      reaches further across a room's furniture too: :func:`steps_agree`);
+    - nothing or a lone step: with two steps or more, none taller than a stair's (the
+      rematch; its harder smoothing can make an object's front a lone "step", as a real
+      room's motorbike did; :func:`stair_rises`), with steps that agree (the coarse and
+      focus rematches; the coarse one's smoothness reaches further across a room's
+      furniture too: :func:`steps_agree`);
     - steps whose rises disagree: with steps that agree, no fewer than one less."""
     if unconvincing(kept):
         better = (
-            terrain.obstacle == STAIRS and len(terrain.steps) >= 2
+            terrain.obstacle == STAIRS and len(terrain.steps) >= 2 and stair_rises(terrain, config.terrain)
             if name == REMATCH_NOTE[0]
             else steps_agree(terrain, config.terrain)
         )
@@ -370,16 +371,29 @@ def steps_disagree(terrain: StairModel, config: TerrainConfig) -> bool:
 
 def steps_agree(terrain: StairModel, config: TerrainConfig) -> bool:
     """Whether ``terrain`` is a staircase whose steps agree, as a second opinion must find
-    one: two steps or more, one measured rise or more, and nothing :func:`steps_disagree`
-    refuses. (A measured riser continued by steps inferred at its rise counts: on the
-    realistic renders 26 such coarse staircases were all true ones, 12 counted right;
-    asking for two measured rises lost 3-7 points of detection. docs/benchmarks.md,
-    "Thirteenth session".)"""
+    one: two steps or more, one measured rise or more, none taller than a stair's
+    (:func:`stair_rises`), and nothing :func:`steps_disagree` refuses. (A measured riser
+    continued by steps inferred at its rise counts: on the realistic renders 26 such
+    coarse staircases were all true ones, 12 counted right; asking for two measured rises
+    lost 3-7 points of detection. docs/benchmarks.md, "Thirteenth session".)"""
     if terrain.obstacle != STAIRS or len(terrain.steps) < 2:
         return False
     if all(s.rise_inferred for s in terrain.steps):
         return False
-    return not steps_disagree(terrain, config)
+    return stair_rises(terrain, config) and not steps_disagree(terrain, config)
+
+
+def stair_rises(terrain: StairModel, config: TerrainConfig) -> bool:
+    """Whether every measured rise of ``terrain`` is one a stair can have: no taller than
+    ``max_rise_m`` (the terrain stage notes a taller one as "a step taller than a stair
+    rise"). A second opinion's staircase with a taller step is two steps taken for one, or
+    no staircase; the first pass's is kept as it is (a real bench in front of a step is
+    such a step), but a second opinion, the weaker evidence, must not replace what the
+    frame has with it. On the realistic, lab-like and far renders, the 16 second-opinion
+    staircases with such a step all measured stairs of 14-21 cm; refused, 7 of them came
+    out nearer the truth from a later opinion (redrawn or far planes), 5 as a lone step,
+    and 4 found nothing (docs/benchmarks.md, "Twenty-ninth session")."""
+    return all(s.own_rise_m <= config.max_rise_m for s in terrain.steps if not s.rise_inferred)
 
 
 def unconvincing(terrain: StairModel) -> bool:
