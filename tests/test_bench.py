@@ -245,3 +245,17 @@ def test_a_forked_child_runs_the_pipeline(scenes):
         child.join(10)
         if child.is_alive():
             child.kill()
+
+
+def test_a_truth_without_a_yaw_scores_no_yaw_error():
+    """``check_truth`` lets ``"yaw": null`` through; the score then has no yaw error (it
+    was ``float(None)``, an internal error from ``bench``)."""
+    from stereo_terrain.evaluation import score_result
+
+    step = {"rise": 0.2, "run": 0.3, "distance": 1.5, "width": 1.0}
+    result = {"obstacle": "stairs", "steps": [step], "yaw": 0.1}
+    for truth_yaw in (None, 0.05):
+        truth = check_truth({"obstacle": "stairs", "steps": [step], "yaw": truth_yaw}, "truth.json")
+        score = score_result(result, truth)
+        assert score.detected and score.rise_errors_m == [0.0]
+        assert (score.yaw_error_rad is None) == (truth_yaw is None)

@@ -111,6 +111,33 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(scene_dir, tmp
     assert rig.read_text() == (scene_dir / "rig.yaml").read_text()
 
 
+def test_no_output_overwrites_a_file_a_folder_or_glob_argument_reads(scene_dir, tmp_path, capsys):
+    """The inputs are also every file of ``bench``'s scene folders and of a recording
+    folder, what a ``calibrate`` glob matches, and a video given as a camera: an output
+    naming one of them was written over it (a scene's truth.json by ``bench --json``, a
+    recorded image by ``replay --summary-json``). A new file in those folders is fine."""
+    import shutil
+
+    scenes = tmp_path / "scenes"
+    shutil.copytree(scene_dir, scenes / "s0")
+    truth = scenes / "s0" / "truth.json"
+    before = truth.read_bytes()
+    code, _, err = run_cli(["bench", scenes, "--repeat", "1", "--json", truth], capsys)
+    assert code == 2 and "one of the inputs" in err and len(err.strip().splitlines()) == 1
+    assert truth.read_bytes() == before
+    image = scenes / "s0" / "left.png"
+    code, _, err = run_cli(
+        ["calibrate", "--left", str(scenes / "s0" / "l*.png"), "--right", str(scenes / "s0" / "r*.png"),
+         "--pattern", "9x6", "--square", "0.025", "--out", tmp_path / "c.yaml", "--figure", image],
+        capsys,
+    )  # fmt: skip
+    assert code == 2 and "one of the inputs" in err
+    assert image.read_bytes() == (scene_dir / "left.png").read_bytes()
+    code, _, err = run_cli(["bench", scenes, "--repeat", "1", "--json", scenes / "s0" / "new.json"], capsys)
+    assert code == 0, err
+    assert (scenes / "s0" / "new.json").is_file()
+
+
 def test_verbose_before_and_after_the_command_is_parsed():
     from stereo_terrain.cli import build_parser
 

@@ -21,7 +21,7 @@ from stereo_terrain.calibration import (
     read_opencv_yaml,
     read_stereodemo_json,
 )
-from stereo_terrain.errors import InputError, StereoTerrainError
+from stereo_terrain.errors import ConfigError, InputError, StereoTerrainError
 from stereo_terrain.frames import load_rig
 from stereo_terrain.pipeline import PipelineConfig
 from stereo_terrain.rectify import read_image
@@ -138,6 +138,34 @@ def test_board_pattern_text(text):
     assert f"{cols}x{rows}" == "x".join(str(int(v)) for v in text.lower().split("x"))
 
 
+def test_file_names_that_are_not_utf8(tmp_path):
+    """OpenCV's imread, imwrite and FileStorage crashed the process (a segfault, no message)
+    on a file name that is not UTF-8, which Python hands over as a str with surrogate
+    escapes. The readers and writers go through Python's own file calls instead."""
+    import os
+
+    from stereo_terrain.calibration import write_opencv_yaml
+    from stereo_terrain.rectify import write_image
+    from stereo_terrain.synthetic import default_scene_spec, render_scene
+
+    folder = Path(os.fsdecode(os.fsencode(str(tmp_path)) + b"/caf\xe9"))
+    try:
+        folder.mkdir()
+    except (OSError, UnicodeError):
+        pytest.skip("this file system takes only UTF-8 names")
+    scene = render_scene(default_scene_spec())
+    image = folder / "l\udce9.png"
+    write_image(image, scene.left)
+    assert np.array_equal(read_image(image), scene.left)
+    calib = folder / "c\udce9.yaml"
+    write_opencv_yaml(scene.calibration, calib)
+    back = read_calibration(calib)
+    assert back.image_size == scene.calibration.image_size and np.allclose(back.K1, scene.calibration.K1)
+    xml = folder / "c\udce9.xml"
+    write_opencv_yaml(scene.calibration, xml)
+    assert xml.read_text().startswith("<?xml") and np.allclose(read_calibration(xml).T, scene.calibration.T)
+
+
 _PFM_HEADERS = st.tuples(
     st.sampled_from([b"Pf", b"PF", b"P5", b""]),
     st.one_of(st.tuples(st.integers(-10, 70), st.integers(-10, 70)).map(lambda t: f"{t[0]} {t[1]}".encode()),
@@ -225,3 +253,26 @@ def test_config_dataclasses_raise_only_their_own_errors(cls, data):
                             max_size=3))  # fmt: skip
 def test_pipeline_config_from_dict(data):
     _only_own_errors(PipelineConfig.from_dict, data)
+
+
+@pytest.mark.parametrize(
+    "data, field",
+    [
+        ({"orientation": {"seed": -1}}, "seed"),
+        ({"fill": {"seed": -3}}, "seed"),
+        ({"terrain": {"disparity_sigma_px": 1e300}}, "disparity_sigma_px"),
+        ({"gravity": {"correlation_px": 1e300}}, "correlation_px"),
+        ({"cloud": {"max_depth_m": 1e300}}, "max_depth_m"),
+        ({"fill": {"smooth_sigma_px": 1e4}}, "smooth_sigma_px"),
+        ({"tracking": {"drift_fraction": 1e8}}, "drift_fraction"),
+        ({"tracking": {"yaw_drift_rad_per_m": 10.0}}, "yaw_drift_rad_per_m"),
+    ],
+)
+def test_config_values_that_crashed_a_stage_are_refused(data, field):
+    """Values the type checks let through and a stage then tripped on (a negative seed for
+    NumPy's generator, overflows at 1e300, a singular tracking filter, a Gaussian wider
+    than any image that asked for memory without end): refused when the config is built,
+    naming the field."""
+    with pytest.raises(ConfigError, match=field):
+        PipelineConfig.from_dict(data)
+    assert PipelineConfig.from_dict({next(iter(data)): {}})  # the section's defaults are fine

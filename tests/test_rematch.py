@@ -183,6 +183,21 @@ def test_half_size_matching_gives_the_full_size_disparity_at_half_the_precision(
     assert np.array_equal(block, half[1 : h // 2 * 2 : 2, 1 : w // 2 * 2 : 2], equal_nan=True)
 
 
+def test_half_size_matching_of_an_image_too_narrow_for_it_gives_no_disparity():
+    """A 32-pixel-wide pair is 16 wide at half size, no wider than the smallest range
+    OpenCV takes (16): the coarse rematch gives no disparity instead of OpenCV's error (an
+    internal error from ``reconstruct`` on a ``render --size 32x32`` scene)."""
+    from stereo_terrain.rectify import rectify
+    from stereo_terrain.stereo.opencv import OpenCVSGBM, OpenCVSGBMConfig
+
+    scene = render_scene(dataclasses.replace(default_scene_spec(), image_size=(32, 32)))
+    pipeline = Pipeline(scene.calibration, scene.rig, warm_up=False)
+    pair = rectify(scene.left, scene.right, pipeline.rectification)
+    half = OpenCVSGBM(OpenCVSGBMConfig(downsample=2)).compute(pair, 16).disparity
+    assert half.shape == pair.left.shape and not np.isfinite(half).any()
+    assert pipeline.run(scene.left, scene.right).terrain.obstacle in ("none", "stairs", "box")
+
+
 def test_coarse_rematch_config():
     from stereo_terrain.stereo.opencv import OpenCVSGBMConfig
 

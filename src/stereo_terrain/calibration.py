@@ -199,7 +199,9 @@ def read_opencv_yaml(path: str | Path) -> StereoCalibration:
     if nesting_depth(text) > MAX_NESTING:
         raise CalibrationError(f"calibration file {path} nests brackets deeper than {MAX_NESTING} levels")
     try:
-        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        # From the text, not the path: OpenCV's own open crashes the process on a file name
+        # that is not UTF-8 (Python hands it a str with surrogate escapes).
+        fs = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
     except (cv2.error, SystemError):  # OpenCV's parser raises SystemError on garbage
         raise CalibrationError(
             f"calibration file {path} is not OpenCV FileStorage YAML/XML (nor Middlebury calib.txt "
@@ -268,10 +270,13 @@ def _read_matrix(node, key: str, path: Path) -> np.ndarray:
 
 
 def write_opencv_yaml(calib: StereoCalibration, path: str | Path) -> None:
-    """Write ``calib`` as OpenCV FileStorage YAML (readable by :func:`read_opencv_yaml`)."""
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
-    if not fs.isOpened():
-        raise InputError(f"cannot write calibration to {path}")
+    """Write ``calib`` as OpenCV FileStorage YAML, or XML for a ``.xml`` path (readable by
+    :func:`read_opencv_yaml`)."""
+    path = Path(path)
+    # Composed in memory and written by Python: OpenCV's own open crashes the process on a
+    # file name that is not UTF-8.
+    kind = ".xml" if path.suffix.lower() == ".xml" else ".yaml"
+    fs = cv2.FileStorage(kind, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
     try:
         fs.write("image_width", int(calib.width))
         fs.write("image_height", int(calib.height))
@@ -282,7 +287,11 @@ def write_opencv_yaml(calib: StereoCalibration, path: str | Path) -> None:
         fs.write("R", np.ascontiguousarray(calib.R))
         fs.write("T", np.ascontiguousarray(calib.T.reshape(3, 1)))
     finally:
-        fs.release()
+        text = fs.releaseAndGetString()
+    try:
+        path.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot write calibration to {path}: {exc.strerror}") from None
 
 
 _MB_MATRIX = re.compile(r"(cam[01])\s*=\s*\[([^\]]*)\]")

@@ -15,6 +15,11 @@ from .errors import ConfigError, InputError
 #: Integer config fields must fit a C int (OpenCV takes them as one).
 INT_LIMIT = 2**31 - 1
 
+#: Real config fields must be no larger in magnitude than this: every setting is metres,
+#: pixels, degrees, seconds or a factor, and a value like 1e300 overflowed (or asked for
+#: memory without end) deep in a stage instead of being refused here.
+FLOAT_LIMIT = 1e9
+
 #: Text files the package reads (rig, config, ``pairs.csv``) larger than this are refused.
 MAX_TEXT_BYTES = 64 << 20
 
@@ -121,8 +126,9 @@ def _unique_key_loader() -> Any:
 def check_fields(config: Any) -> None:
     """Type-check a config dataclass against the types of its defaults.
 
-    A field whose default is an ``int`` must be an integer (not a bool), a ``float`` field a
-    finite real number, a ``bool`` field a bool, a ``str`` field a string; a field whose
+    A field whose default is an ``int`` must be an integer (not a bool; a ``seed`` one not
+    negative), a ``float`` field a finite real number no larger in magnitude than
+    :data:`FLOAT_LIMIT`, a ``bool`` field a bool, a ``str`` field a string; a field whose
     default comes from a dataclass (a nested config) must be an instance of it (a mapping
     there is a mistake: ``from_dict`` builds the nested configs). Fields whose default is
     None or another type are left to the config's own checks.
@@ -151,9 +157,16 @@ def check_fields(config: Any) -> None:
         elif isinstance(default, int):
             ok = isinstance(value, int) and not isinstance(value, bool) and abs(value) <= INT_LIMIT
             want = f"an integer of magnitude <= {INT_LIMIT}"
+            if ok and f.name == "seed" and value < 0:
+                ok, want = False, "an integer >= 0 (a random generator's seed)"
         elif isinstance(default, float):
-            ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-            want = "a finite number"
+            ok = (
+                isinstance(value, int | float)
+                and not isinstance(value, bool)
+                and math.isfinite(value)
+                and abs(value) <= FLOAT_LIMIT
+            )
+            want = f"a finite number of magnitude <= {FLOAT_LIMIT:g}"
         elif isinstance(default, str):
             ok = isinstance(value, str)
             want = "a string"

@@ -88,7 +88,9 @@ def score_result(result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: 
     yaw_err = None
     if has and det:
         first = abs(r_steps[0]["distance"] - t_steps[0]["distance"])
-        yaw_err = abs(float(result.get("yaw", 0.0)) - float(truth.get("yaw", 0.0)))
+        # A truth.json may leave its yaw out or null (bench.check_truth allows it): no error.
+        if truth.get("yaw", 0.0) is not None and result.get("yaw", 0.0) is not None:
+            yaw_err = abs(float(result.get("yaw", 0.0)) - float(truth.get("yaw", 0.0)))
     return SceneScore(has, det, count_right, rises, runs, first, yaw_err)
 
 

@@ -473,6 +473,10 @@ class RectifiedPair:
 #: 50000x50000 would otherwise allocate gigabytes): 64 megapixels, far above any webcam.
 MAX_IMAGE_PIXELS = 1 << 26
 
+#: An image file larger than this is refused before it is read (8 bytes a pixel of the
+#: largest image accepted, with room for a header).
+_MAX_IMAGE_BYTES = 8 * MAX_IMAGE_PIXELS + (1 << 20)
+
 # What libjpeg and libpng print for a file they could only partly decode.
 _CORRUPT_MARKERS = ("Premature end of JPEG", "Corrupt JPEG", "libpng error", "JPEG datastream", "Bogus")
 
@@ -554,10 +558,18 @@ def read_image(path: str | Path) -> np.ndarray:
         )
     if size is not None and size[0] * size[1] == 0:
         raise InputError(f"cannot decode image {path}: its header says {size[0]}x{size[1]} pixels")
+    if path.stat().st_size > _MAX_IMAGE_BYTES:
+        raise InputError(f"image {path} is larger than {_MAX_IMAGE_BYTES >> 20} MiB")
+    try:
+        # Decoded from its bytes, not opened by OpenCV: imread crashes the process on a
+        # file name that is not UTF-8 (Python hands it a str with surrogate escapes).
+        data = np.fromfile(path, dtype=np.uint8)
+    except OSError as exc:
+        raise InputError(f"cannot read image {path}: {exc.strerror}") from None
     img = None
     try:
         with captured_native_stderr() as native:
-            img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+            img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     except cv2.error:
         img = None
     problems = [
@@ -571,6 +583,26 @@ def read_image(path: str | Path) -> np.ndarray:
     if problems:
         raise InputError(f"image {path} is truncated or corrupt: {problems[0]}")
     return to_grey(img, name=f"image {path}")
+
+
+def write_image(path: str | Path, image: np.ndarray) -> None:
+    """Write ``image`` in the format of ``path``'s extension (``.png``, ``.jpg``, ...);
+    :class:`InputError` when it cannot be encoded or written. Encoded by OpenCV and
+    written by Python: OpenCV's own imwrite crashes the process on a file name that is not
+    UTF-8."""
+    path = Path(path)
+    try:
+        ok, buf = cv2.imencode(path.suffix or ".png", np.ascontiguousarray(image))
+    except cv2.error:
+        ok = False
+    if not ok:
+        raise InputError(
+            f"cannot write {path}: OpenCV cannot encode a {path.suffix or 'png'} image of this type"
+        )
+    try:
+        path.write_bytes(buf.tobytes())
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {exc.strerror}") from None
 
 
 def check_same_size(left: np.ndarray, right: np.ndarray) -> None:

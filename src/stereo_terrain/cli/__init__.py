@@ -15,6 +15,7 @@ their extra, progress bars only on a terminal.
 from __future__ import annotations
 
 import argparse
+import glob
 import logging
 import os
 import sys
@@ -52,16 +53,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: Arguments that name files a command reads.
 _INPUT_ARGS = ("left", "right", "calib", "rig", "config")
-#: Files a recording folder (``replay FOLDER``) is read from, besides its images.
-_RECORDING_FILES = ("pairs.csv", "calib.yaml", "rig.yaml")
 
 
 def _input_files(args: argparse.Namespace) -> list[Path]:
-    """The files the command's arguments name as inputs (for :data:`.outputs.INPUTS`)."""
-    files = [getattr(args, name, None) for name in _INPUT_ARGS]
-    folder = getattr(args, "folder", None)
-    if isinstance(folder, Path) and folder.is_dir():
-        files += [folder / name for name in _RECORDING_FILES]
+    """The files the command's arguments name as inputs (for :data:`.outputs.INPUTS`): the
+    files named, those a folder argument holds (a recording's ``replay FOLDER``, every
+    file of it; ``bench``'s scenes, every file of every scene), those a glob names
+    (``calibrate --left 'left*.png'``) and a video file given as a camera (``run``,
+    ``record``). No output may be one of them: it would be overwritten by what was made
+    from it."""
+    files: list[Any] = [getattr(args, name, None) for name in _INPUT_ARGS]
+    for name in ("folder", "scenes"):
+        folder = getattr(args, name, None)
+        if isinstance(folder, Path) and folder.is_dir():
+            files += [f for f in folder.iterdir() if f.is_file()]
+            if name == "scenes":  # a folder of scene folders
+                files += [f for d in folder.iterdir() if d.is_dir() for f in d.iterdir() if f.is_file()]
+    for name in ("left", "right"):
+        value = getattr(args, name, None)
+        if isinstance(value, str):  # a glob (calibrate) or a camera: index, device or video file
+            files += [Path(p) for p in glob.glob(value)]
     return [f for f in files if isinstance(f, Path)]
 
 

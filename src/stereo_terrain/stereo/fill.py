@@ -48,6 +48,10 @@ TEXTURE_MODES = ("total", "horizontal")
 _OCCLUDED = np.full(3, np.nan)
 
 
+#: The widest Gaussian the planar fill smooths the image with (``smooth_sigma_px``).
+_MAX_SMOOTH_SIGMA_PX = 100.0
+
+
 @dataclass(frozen=True)
 class PlanarFillConfig:
     """Parameters of the texture-poor fill.
@@ -213,6 +217,12 @@ class PlanarFillConfig:
         check_min(self, 0, "min_region_fraction", "edge_gradient")
         if self.smooth_sigma_px <= 0 or self.flat_gradient <= 0 or self.inlier_threshold_px <= 0:
             raise ConfigError("smooth_sigma_px, flat_gradient and inlier_threshold_px must be > 0")
+        if self.smooth_sigma_px > _MAX_SMOOTH_SIGMA_PX:
+            # A Gaussian wider than any image: seconds a frame at 1e4, memory without end
+            # at 1e300, and nothing flat left to find.
+            raise ConfigError(
+                f"smooth_sigma_px must be <= {_MAX_SMOOTH_SIGMA_PX:g} px, got {self.smooth_sigma_px}"
+            )
         if not 0 < self.min_inlier_ratio <= 1 or not 0 < self.min_span_ratio <= 1:
             raise ConfigError("min_inlier_ratio and min_span_ratio must be in (0, 1]")
 

@@ -6,10 +6,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..rectify import write_image
 
 #: Largest PFM accepted (values); the header is checked against it and the file size
 #: before anything is allocated.
@@ -85,8 +85,7 @@ def write_disparity(path: str | Path, disparity: np.ndarray) -> None:
             np.save(path, disparity.astype(np.float32))
         elif ext == ".png":
             d = np.where(np.isfinite(disparity), np.clip(disparity * 256.0, 1, 65535), 0).astype(np.uint16)
-            if not cv2.imwrite(str(path), d):
-                raise InputError(f"cannot write {path}")
+            write_image(path, d)
         else:
             raise InputError(f"unknown disparity file type '{ext}'; use .pfm, .npy or .png")
     except OSError as exc:

@@ -170,6 +170,10 @@ class OpenCVSGBM:
         h, w = left.shape
         small_left, small_right = cv2.pyrDown(left), cv2.pyrDown(right)
         n_small = max(16, -(-n // 32) * 16)  # half the range, a multiple of 16
+        if n_small >= small_left.shape[1]:
+            # Too narrow to match at half size (OpenCV needs the range below the width):
+            # no disparity, as where nothing matches (a 32-pixel-wide image).
+            return np.full((h, w), -1, np.int16)
         raw = self._matcher(n_small, small_left.shape[1]).compute(small_left, small_right)
         # Doubled; invalid where the half-size range (rounded up to 16) went past n.
         doubled = np.where((raw >= 0) & (raw < n * 8), raw * 2, -1).astype(np.int16)

@@ -6,12 +6,12 @@ import json
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from ..calibration import write_opencv_yaml
 from ..errors import InputError
 from ..frames import save_rig
+from ..rectify import write_image
 from .random_scenes import random_scene_spec
 from .render import SyntheticScene, render_scene
 from .spec import PROFILES, _check_int
@@ -36,8 +36,7 @@ def write_scene(scene: SyntheticScene, out_dir: str | Path) -> Path:
     except OSError as exc:
         raise InputError(f"cannot create scene directory {out}: {exc.strerror}") from None
     for name, img in (("left.png", scene.left), ("right.png", scene.right)):
-        if not cv2.imwrite(str(out / name), np.ascontiguousarray(img)):
-            raise InputError(f"cannot write {out / name}")
+        write_image(out / name, img)
     write_opencv_yaml(scene.calibration, out / "calib.yaml")
     save_rig(scene.rig, out / "rig.yaml")
     (out / "truth.json").write_text(json.dumps(scene.truth, indent=2) + "\n")

@@ -137,6 +137,16 @@ class TrackingConfig:
             )
         if self.max_inflation < 1:
             raise ConfigError(f"TrackingConfig.max_inflation must be >= 1, got {self.max_inflation}")
+        # Drift per metre travelled: a fraction of the distance, an angle per metre. Beyond
+        # these the filter's covariances overflow (a singular matrix, not a track).
+        if self.drift_fraction > 1:
+            raise ConfigError(
+                f"TrackingConfig.drift_fraction must be <= 1 (per metre), got {self.drift_fraction}"
+            )
+        if self.yaw_drift_rad_per_m > math.pi:
+            raise ConfigError(
+                f"TrackingConfig.yaw_drift_rad_per_m must be <= pi, got {self.yaw_drift_rad_per_m}"
+            )
         floor = self.floor_z_m
         if floor is not None and (
             isinstance(floor, bool) or not isinstance(floor, int | float) or not math.isfinite(floor)

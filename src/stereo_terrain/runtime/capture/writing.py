@@ -9,10 +9,8 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-import cv2
-import numpy as np
-
 from ...errors import InputError
+from ...rectify import write_image
 from .events import END, FRAME, NONE, Capture, Clock, StereoFrame
 from .folder import PAIRS_FILE, POSE_KEYS
 
@@ -49,8 +47,7 @@ class PairWriter:
         n = self.count
         names = (f"left_{n:06d}.png", f"right_{n:06d}.png")
         for name, img in zip(names, (f.left, f.right), strict=True):
-            if not cv2.imwrite(str(self.out / name), np.ascontiguousarray(img)):
-                raise InputError(f"cannot write {self.out / name}")
+            write_image(self.out / name, img)
         row = [str(n), f"{f.t_left_s:.6f}", f"{f.t_right_s:.6f}", *names]
         if self._with_pose:
             if f.odometry is None or f.body_rpy is None:
