@@ -701,3 +701,12 @@ def test_missing_extras_are_named_before_any_work(good, tmp_path, capfd, monkeyp
         code, err = _run_cli(argv, tmp_path, capfd, False)
         assert code == 2 and extra in err and err.count("\n") == 1, err
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_an_lcm_url_liblcm_refuses_is_one_line(good, tmp_path, capfd):
+    """liblcm prints its own "Error: LCM provider ... not found" on the terminal before it
+    fails; that goes into the command's one line instead."""
+    pytest.importorskip("lcm", reason="the lcm extra is not installed")
+    code, err = _run_cli(["replay", good.rec, "--as-fast", "--lcm-url", "bogus://x"], tmp_path, capfd, False)
+    assert code == 2 and err.count("\n") == 1, err
+    assert "cannot open LCM" in err and "bogus" in err

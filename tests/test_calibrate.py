@@ -348,3 +348,21 @@ def test_a_figure_that_cannot_be_written_leaves_no_calibration(
     _one_line(code, last, "cannot write", str(fig))
     assert sorted(p.name for p in out_dir.iterdir()) == ["calib.yaml"]
     assert out.read_text() == "previous calibration\n"
+
+
+def test_mistakes_that_looked_like_a_zero_baseline_are_named(tmp_path):
+    """Both globs matching the same images, or a square side far below a millimetre, made
+    a calibration whose baseline was zero, and the error said so; and a Middlebury
+    calib.txt without its baseline line was called no calibration format at all."""
+    for name in ("left01.png", "left02.png", "left03.png"):
+        (tmp_path / name).write_bytes(b"not read")
+    with pytest.raises(InputError, match="match the same files"):
+        find_image_pairs(str(tmp_path / "left*.png"), str(tmp_path / "left*.png"))
+    with pytest.raises(ConfigError, match="smaller than a millimetre"):
+        BoardConfig(9, 6, 1e-6)
+    assert BoardConfig(9, 6, 0.001).square_m == 0.001
+    calib = tmp_path / "calib.txt"
+    calib.write_text("cam0=[700 0 300; 0 700 200; 0 0 1]\ncam1=[700 0 310; 0 700 200; 0 0 1]\ndoffs=10\n"
+                     "width=640\nheight=480\nndisp=64\n")  # fmt: skip
+    with pytest.raises(InputError, match="lacks 'baseline'"):
+        read_calibration(calib)

@@ -138,6 +138,14 @@ def test_no_output_overwrites_a_file_a_folder_or_glob_argument_reads(scene_dir, 
     assert (scenes / "s0" / "new.json").is_file()
 
 
+def test_two_outputs_may_not_name_one_file(scene_dir, tmp_path, capsys):
+    """``--mcap X --json X``: the second written replaced the first (the MCAP became JSON)."""
+    same = tmp_path / "both.out"
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--json", same, "--mcap", same), capsys)
+    assert code == 2 and "give each output its own file" in err and len(err.strip().splitlines()) == 1
+    assert not same.exists()
+
+
 def test_verbose_before_and_after_the_command_is_parsed():
     from stereo_terrain.cli import build_parser
 

@@ -83,6 +83,12 @@ class BoardConfig:
             raise ConfigError(
                 f"square size {sq} m is larger than a metre; give it in metres (25 mm is 0.025)"
             )
+        if sq < 1e-3:
+            # Smaller than a printer draws; the baseline comes out at that scale, and the
+            # calibration then says "baseline is zero", which points at the wrong mistake.
+            raise ConfigError(
+                f"square size {sq} m is smaller than a millimetre; give it in metres (25 mm is 0.025)"
+            )
         if self.subpix_window_px < 1:
             raise ConfigError(f"subpix_window_px must be >= 1, got {self.subpix_window_px}")
 
@@ -130,6 +136,12 @@ def find_image_pairs(left_glob: str, right_glob: str) -> list[tuple[Path, Path]]
         raise InputError(
             f"{len(left)} left images but {len(right)} right images; every left image needs its right "
             f"partner (first unmatched in sorted order: {extra})"
+        )
+    same = [a for a, b in zip(left, right, strict=True) if a.resolve() == b.resolve()]
+    if same:
+        raise InputError(
+            f"the left and right globs match the same files (first: {same[0]}); give each camera's "
+            "images, e.g. --left 'left*.png' --right 'right*.png'"
         )
     return list(zip(left, right, strict=True))
 

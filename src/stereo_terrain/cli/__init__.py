@@ -26,7 +26,7 @@ from .. import __version__
 from ..errors import EXIT_INTERNAL, EXIT_USAGE, exit_code
 from . import bench, calib, live, scene
 from .options import Parser
-from .outputs import CREATED, INPUTS, end_progress, remove_created
+from .outputs import CREATED, INPUTS, OUTPUTS, end_progress, remove_created
 
 log = logging.getLogger("stereo_terrain")
 
@@ -142,6 +142,7 @@ def main(argv: list[str] | None = None) -> int:
 
     silence_opencv_logging()
     CREATED.clear()
+    OUTPUTS.clear()
     INPUTS[:] = _input_files(args)
     end_progress()
     stdout = sys.stdout
@@ -165,4 +166,5 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         sys.stdout = stdout
         CREATED.clear()
+        OUTPUTS.clear()
         INPUTS.clear()

@@ -26,6 +26,9 @@ CREATED: list[Path] = []
 # Files this command reads (set from its arguments by the command line's main): no output
 # may name one (it would be overwritten by what was made from it).
 INPUTS: list[Path] = []
+# The output files this command has checked so far, and the option naming each: two
+# options may not name one file (the second would replace the first's).
+OUTPUTS: dict[str, str] = {}
 # While all_or_none() runs: the files written in it, (temporary, target), renamed at its end.
 _STAGED: list[list[tuple[Path, Path]]] = []
 # The progress bar now drawn, if any (an error must close it and start on a fresh line).
@@ -53,6 +56,9 @@ def check_output_file(path: Path | None, option: str) -> None:
     if path.exists() and any(source.exists() and os.path.samefile(path, source) for source in INPUTS):
         # it would be overwritten by what was made from it
         raise InputError(f"{option} {path} is one of the inputs; give another file name")
+    key = os.path.realpath(path)
+    if OUTPUTS.setdefault(key, option) != option:
+        raise InputError(f"{option} {path} is also {OUTPUTS[key]}'s file; give each output its own file")
 
 
 def check_output_dir(path: Path, option: str) -> None:

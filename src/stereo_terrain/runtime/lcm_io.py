@@ -36,14 +36,25 @@ def import_lcm() -> Any:
 
 def open_lcm(url: str) -> Any:
     """An ``lcm.LCM`` on ``url``; :class:`InputError` if the provider cannot be opened."""
+    from ..native import captured_native_stderr
+
     lcm = import_lcm()
     try:
-        return lcm.LCM(url)
+        # liblcm prints its own line (e.g. 'Error: LCM provider "x" not found') before it
+        # fails: it goes into the message instead of the terminal.
+        with captured_native_stderr() as native:
+            opened = lcm.LCM(url)
     except (RuntimeError, OSError, ValueError) as exc:
+        said = " ".join(line.strip() for line in native.lines() if line.strip())
         raise InputError(
-            f"cannot open LCM on {url!r}: {exc}; check the URL (e.g. {DEFAULT_URL}) and that "
-            "multicast is routed (on one host: ttl=0, or 'ip route add 224.0.0.0/4 dev lo')"
+            f"cannot open LCM on {url!r}: {exc}{f' ({said})' if said else ''}; check the URL "
+            f"(e.g. {DEFAULT_URL}) and that multicast is routed (on one host: ttl=0, or "
+            "'ip route add 224.0.0.0/4 dev lo')"
         ) from None
+    for line in native.lines():
+        if line.strip():
+            log.warning("liblcm on %s: %s", url, line.strip())
+    return opened
 
 
 class LcmPublisher:
