@@ -276,3 +276,37 @@ def test_config_values_that_crashed_a_stage_are_refused(data, field):
     with pytest.raises(ConfigError, match=field):
         PipelineConfig.from_dict(data)
     assert PipelineConfig.from_dict({next(iter(data)): {}})  # the section's defaults are fine
+
+
+def test_values_that_read_as_something_else_are_refused(tmp_path):
+    """JSON ``true`` is no focal length (Python reads it as 1.0); a ground truth with no
+    known pixel scored every matcher 0% bad; ``max_disparity_px: -1`` was refused by the
+    backend, in a message that did not name the config file."""
+    import json
+
+    from stereo_terrain.evaluation import read_middlebury_scene
+    from stereo_terrain.stereo.io import write_pfm
+
+    good = {"fx": 450.0, "fy": 450.0, "cx0": 320.0, "cx1": 320.0, "cy": 240.0, "baseline_meters": 0.075,
+            "width": 64, "height": 48}  # fmt: skip
+    path = tmp_path / "stereodemo_calibration.json"
+    path.write_text(json.dumps(good))
+    assert read_calibration(path).image_size == (64, 48)
+    path.write_text(json.dumps({**good, "fx": True}))
+    with pytest.raises(InputError, match="non-numeric"):
+        read_calibration(path)
+    scene = tmp_path / "scene"
+    scene.mkdir()
+    (scene / "calib.txt").write_text(
+        "cam0=[100 0 32; 0 100 24; 0 0 1]\ncam1=[100 0 32; 0 100 24; 0 0 1]\ndoffs=0\nbaseline=100\n"
+        "width=64\nheight=48\nndisp=32\n"
+    )
+    for name in ("im0.png", "im1.png"):
+        cv2.imwrite(str(scene / name), np.full((48, 64), 128, np.uint8))
+    write_pfm(scene / "disp0GT.pfm", np.full((48, 64), np.nan, np.float32))
+    with pytest.raises(InputError, match="no known disparity"):
+        read_middlebury_scene(scene)
+    config = tmp_path / "config.yaml"
+    config.write_text("max_disparity_px: -1\n")
+    with pytest.raises(ConfigError, match="config.yaml.*max_disparity_px must be positive"):
+        PipelineConfig.from_yaml(config)

@@ -370,6 +370,8 @@ def read_stereodemo_json(path: str | Path) -> StereoCalibration:
             f"{path}: a stereodemo calibration must be a JSON object, got {type(d).__name__}"
         )
     try:
+        if any(isinstance(d[k], bool) for k in ("fx", "fy", "cx0", "cx1", "cy", "baseline_meters")):
+            raise TypeError  # JSON true is no focal length (Python's float(True) is 1.0)
         fx, fy = float(d["fx"]), float(d["fy"])
         cx0, cx1, cy = float(d["cx0"]), float(d["cx1"]), float(d["cy"])
         baseline = float(d["baseline_meters"])

@@ -214,6 +214,11 @@ def read_middlebury_scene(folder: str | Path) -> MiddleburyScene:
                 f"{folder / name} is {a.shape[1]}x{a.shape[0]} but {folder / 'calib.txt'} says "
                 f"{size[0]}x{size[1]}; every file of a scene must have the same resolution"
             )
+    if not np.isfinite(truth).any():
+        raise InputError(
+            f"{folder / 'disp0GT.pfm'} has no known disparity (every pixel inf or NaN): "
+            "nothing to score against"
+        )
     mask_path = folder / "mask0nocc.png"
     nonoccluded = None
     if mask_path.is_file():

@@ -231,6 +231,9 @@ class PipelineConfig:
         mdp = self.max_disparity_px
         if mdp is not None and (isinstance(mdp, bool) or not isinstance(mdp, int)):
             raise ConfigError(f"max_disparity_px must be an integer or null, got {mdp!r}")
+        if mdp is not None and mdp <= 0:
+            # (the backend checks the rest, against the image: a multiple of 16 below its width)
+            raise ConfigError(f"max_disparity_px must be positive (or null: from the calibration), got {mdp}")
         check_min(self, 0, "far_planes_sigmas", "far_planes_wider_sigmas", "redraw_planes")
         if self.far_planes_wider_sigmas > 0 and not (
             self.orientation.normal_agreement_deg <= self.far_planes_wider_max_deg < 45
