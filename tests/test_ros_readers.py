@@ -367,3 +367,24 @@ def test_sigterm_stops_the_loop_with_a_complete_mcap(tiny_rec, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["live.mcap"]
     decoded = read_mcap(out)  # complete: it has its summary and every message decodes
     assert len(decoded["/tf"]) == len(decoded["/stereo_terrain/cloud"])
+
+
+def test_replay_outputs_beside_and_over_its_inputs(tiny_rec, good_mcap, tmp_path, capsys):
+    """A new file in the recording folder may be written, and written again; a recorded
+    image, or the bag itself (``replay BAG --mcap BAG`` wrote over the recording), may not."""
+    from .cli_run import run_cli
+
+    summary = tiny_rec / "summary.json"
+    replay = ["replay", tiny_rec, "--no-lcm", "--as-fast"]
+    for _ in range(2):
+        code, _, err = run_cli([*replay, "--summary-json", summary], capsys)
+        assert code == 0, err
+    summary.unlink()
+    image = sorted(tiny_rec.glob("left_*.png"))[0]
+    before = image.read_bytes()
+    code, _, err = run_cli([*replay, "--summary-json", image], capsys)
+    assert code == 2 and "one of the inputs" in err and image.read_bytes() == before
+    bag = tmp_path / "b.mcap"
+    bag.write_bytes(good_mcap)
+    code, _, err = run_cli(["replay", bag, "--no-lcm", "--as-fast", "--mcap", bag], capsys)
+    assert code == 2 and "one of the inputs" in err and bag.read_bytes() == good_mcap

@@ -6,6 +6,7 @@ or JSON before a parser trips on it."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,7 @@ INT_LIMIT = 2**31 - 1
 #: Real config fields must be no larger in magnitude than this: every setting is metres,
 #: pixels, degrees, seconds or a factor, and a value like 1e300 overflowed (or asked for
 #: memory without end) deep in a stage instead of being refused here.
-FLOAT_LIMIT = 1e9
+FLOAT_LIMIT = 1e9  # (the messages say 1e9)
 
 #: Text files the package reads (rig, config, ``pairs.csv``) larger than this are refused.
 MAX_TEXT_BYTES = 64 << 20
@@ -85,8 +86,6 @@ def load_json_file(path: str | Path, what: str) -> Any:
     that is missing, not UTF-8, nested deeper than :data:`MAX_NESTING` (Python's parser
     recurses: a file of deeply nested brackets would end in a ``RecursionError``) or not
     JSON."""
-    import json
-
     text = read_text_file(path, what)
     if nesting_depth(text) > MAX_NESTING:
         raise InputError(f"{what} {path} nests brackets deeper than {MAX_NESTING} levels")
@@ -95,7 +94,7 @@ def load_json_file(path: str | Path, what: str) -> Any:
     except json.JSONDecodeError as exc:
         raise InputError(f"{what} {path} is not valid JSON ({exc.msg} at line {exc.lineno})") from None
     except (RecursionError, ValueError) as exc:
-        raise InputError(f"{what} {path} is not valid JSON: {type(exc).__name__}") from None
+        raise InputError(f"{what} {path} is not valid JSON: {type(exc).__name__}: {str(exc)[:200]}") from None
 
 
 def _unique_key_loader() -> Any:
@@ -166,7 +165,7 @@ def check_fields(config: Any) -> None:
                 and math.isfinite(value)
                 and abs(value) <= FLOAT_LIMIT
             )
-            want = f"a finite number of magnitude <= {FLOAT_LIMIT:g}"
+            want = "a finite number of magnitude <= 1e9"
         elif isinstance(default, str):
             ok = isinstance(value, str)
             want = "a string"

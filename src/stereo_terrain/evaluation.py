@@ -88,7 +88,8 @@ def score_result(result: dict[str, Any], truth: dict[str, Any], *, match_tol_m: 
     yaw_err = None
     if has and det:
         first = abs(r_steps[0]["distance"] - t_steps[0]["distance"])
-        # A truth.json may leave its yaw out or null (bench.check_truth allows it): no error.
+        # A truth.json's yaw may be null (bench.check_truth allows it): no yaw error then.
+        # (One without a yaw key is compared as 0, the frame's x axis, as before.)
         if truth.get("yaw", 0.0) is not None and result.get("yaw", 0.0) is not None:
             yaw_err = abs(float(result.get("yaw", 0.0)) - float(truth.get("yaw", 0.0)))
     return SceneScore(has, det, count_right, rises, runs, first, yaw_err)

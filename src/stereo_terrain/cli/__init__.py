@@ -55,24 +55,41 @@ def build_parser() -> argparse.ArgumentParser:
 _INPUT_ARGS = ("left", "right", "calib", "rig", "config")
 
 
+#: Files a recording folder (``replay FOLDER``) is read from, besides its images.
+_RECORDING_FILES = ("pairs.csv", "calib.yaml", "rig.yaml", "approach.json")
+#: Files a ``bench`` scene folder is read from.
+_SCENE_FILES = ("left.png", "right.png", "calib.yaml", "rig.yaml", "truth.json")
+#: The images of a recording folder (its ``pairs.csv`` names them).
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".pnm", ".webp")
+
+
 def _input_files(args: argparse.Namespace) -> list[Path]:
     """The files the command's arguments name as inputs (for :data:`.outputs.INPUTS`): the
-    files named, those a folder argument holds (a recording's ``replay FOLDER``, every
-    file of it; ``bench``'s scenes, every file of every scene), those a glob names
-    (``calibrate --left 'left*.png'``) and a video file given as a camera (``run``,
+    files named; what a folder argument is read from (a recording's ``replay FOLDER``: its
+    index, calibration, rig, approach and images; ``bench``'s scenes: each scene's images,
+    calibration, rig and truth), or the file itself (a bag); what a glob matches
+    (``calibrate --left 'left*.png'``) and a video given as a camera (``run``,
     ``record``). No output may be one of them: it would be overwritten by what was made
-    from it."""
+    from it. A new file beside them (``--summary-json REC/summary.json``) may be written,
+    and written again. What cannot be listed is left to the command, which says so."""
     files: list[Any] = [getattr(args, name, None) for name in _INPUT_ARGS]
-    for name in ("folder", "scenes"):
-        folder = getattr(args, name, None)
-        if isinstance(folder, Path) and folder.is_dir():
-            files += [f for f in folder.iterdir() if f.is_file()]
-            if name == "scenes":  # a folder of scene folders
-                files += [f for d in folder.iterdir() if d.is_dir() for f in d.iterdir() if f.is_file()]
+    try:
+        folder = getattr(args, "folder", None)
+        if isinstance(folder, Path) and folder.is_file():
+            files.append(folder)  # a bag: replay BAG --mcap BAG wrote over it
+        elif isinstance(folder, Path) and folder.is_dir():
+            files += [folder / name for name in _RECORDING_FILES]
+            files += [f for f in folder.iterdir() if f.suffix.lower() in _IMAGE_SUFFIXES]
+        scenes = getattr(args, "scenes", None)
+        if isinstance(scenes, Path) and scenes.is_dir():
+            for d in [scenes, *(d for d in scenes.iterdir() if d.is_dir())]:
+                files += [d / name for name in _SCENE_FILES]
+    except OSError:
+        pass
     for name in ("left", "right"):
         value = getattr(args, name, None)
         if isinstance(value, str):  # a glob (calibrate) or a camera: index, device or video file
-            files += [Path(p) for p in glob.glob(value)]
+            files += [Path(value), *(Path(p) for p in glob.glob(value))]
     return [f for f in files if isinstance(f, Path)]
 
 

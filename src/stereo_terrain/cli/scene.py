@@ -180,8 +180,6 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 
     check_output_file(args.json, "--json")
     check_output_file(args.plot, "--plot")
-    if args.json is not None and args.plot is not None and args.json.resolve() == args.plot.resolve():
-        raise InputError(f"--json and --plot name the same file {args.json}")
     if args.plot is not None:
         require_viz("--plot")
     check_outputs(args)

@@ -48,12 +48,6 @@ def check_outputs(args: argparse.Namespace) -> None:
         require("rerun", "view", "--view" if args.view else "--view-save")
     if args.view:
         check_viewer_possible()
-    if (
-        args.mcap is not None
-        and args.view_save is not None
-        and args.mcap.resolve() == args.view_save.resolve()
-    ):
-        raise InputError(f"--mcap and --view-save name the same file {args.mcap}")
 
 
 #: Where a Rerun viewer listens (rerun-sdk's default); one already running there is used.

@@ -85,9 +85,10 @@ class PipelineConfig:
     rematch : bool
         With the ``opencv`` backend: when a frame finds no obstacle, or a staircase of one
         step, match its pair again with ``rematch_sgbm`` and run the later stages on that
-        disparity; its result is kept when it finds a staircase of two steps or more (the
-        terrain note says so; a lone step from the harder smoothing is as likely an
-        object's front). Default true (issue 11:
+        disparity; its result is kept when it finds a staircase of two steps or more, none
+        taller than ``terrain.max_rise_m`` (the terrain note says so; a lone step from the
+        harder smoothing is as likely an object's front; a taller step, two steps taken for
+        one: ``second_opinions.stair_rises``). Default true (issue 11:
         wooden stairs seen by webcams; docs/benchmarks.md, "Eleventh session"). A frame
         with nothing in view pays for both passes.
     rematch_sgbm : OpenCVSGBMConfig
@@ -99,8 +100,9 @@ class PipelineConfig:
         match the pair once more at half size (``rematch_sgbm`` with ``downsample: 2``),
         whose smoothness reaches twice as far across a texture-poor face. Its staircase
         is kept only when it is one: two steps or more whose measured rises agree (the
-        largest at most ``AGREEING_RISE_RATIO`` times the smallest) and whose runs are
-        at most ``terrain.continue_max_run_m``; the terrain note says so. Default true
+        largest at most ``AGREEING_RISE_RATIO`` times the smallest), none taller than
+        ``terrain.max_rise_m``, and whose runs are at most ``terrain.continue_max_run_m``;
+        the terrain note says so. Default true
         (issue 11; docs/benchmarks.md, "Thirteenth session"). A frame with nothing in view
         pays for a third pass (a half-size match and the later stages).
     rematch_focus : bool

@@ -35,9 +35,9 @@ class TrackingConfig:
     max_yaw_gate_deg : float
         but always one further than this.
     drift_fraction : float
-        Odometry drift per metre travelled (1-sigma, common to all risers).
+        Odometry drift per metre travelled (1-sigma, common to all risers); at most 1.
     yaw_drift_rad_per_m : float
-        Odometry heading drift per metre travelled.
+        Odometry heading drift per metre travelled; at most pi.
     decorrelation_m : float
         Frames taken within this travel of the last fused one count as a fraction of one
         (their errors are shared), at most ``max_inflation`` times weaker.
@@ -137,8 +137,8 @@ class TrackingConfig:
             )
         if self.max_inflation < 1:
             raise ConfigError(f"TrackingConfig.max_inflation must be >= 1, got {self.max_inflation}")
-        # Drift per metre travelled: a fraction of the distance, an angle per metre. Beyond
-        # these the filter's covariances overflow (a singular matrix, not a track).
+        # Drift per metre travelled: a fraction of the distance, an angle per metre; bounds of
+        # what can be meant (1e8 made the filter's covariance singular: an internal error).
         if self.drift_fraction > 1:
             raise ConfigError(
                 f"TrackingConfig.drift_fraction must be <= 1 (per metre), got {self.drift_fraction}"

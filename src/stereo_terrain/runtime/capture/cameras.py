@@ -22,6 +22,16 @@ def parse_device(text: str) -> int | str:
 
 
 def _open_capture(device: int | str, what: str) -> cv2.VideoCapture:
+    if isinstance(device, str):
+        try:
+            device.encode("utf-8")
+        except UnicodeEncodeError:
+            # OpenCV's VideoCapture crashes the process on such a name (Python hands it a str
+            # with surrogate escapes); its reader takes no bytes.
+            raise InputError(
+                f"{what} video {device!r}: its name is not UTF-8, which OpenCV's video reader "
+                "cannot open; rename the file"
+            ) from None
     if isinstance(device, str) and not device.startswith(("/dev/", "rtsp:", "http:", "https:")):
         if not Path(device).exists():
             raise InputError(f"{what} video not found: {device} (give a camera index, /dev/videoN or a file)")
