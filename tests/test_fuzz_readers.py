@@ -310,3 +310,23 @@ def test_values_that_read_as_something_else_are_refused(tmp_path):
     config.write_text("max_disparity_px: -1\n")
     with pytest.raises(ConfigError, match="config.yaml.*max_disparity_px must be positive"):
         PipelineConfig.from_yaml(config)
+
+
+def test_inputs_that_are_no_regular_file_are_named(tmp_path):
+    """A pipe (``<(...)``, a FIFO: one without a writer blocked the read for ever) and a
+    link round in a loop read as "not found"; each is now named for what it is."""
+    import os
+
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no FIFOs on this system")
+    fifo = tmp_path / "rig.yaml"
+    os.mkfifo(fifo)
+    loop = tmp_path / "loop.yaml"
+    loop.symlink_to(loop)
+    for reader in (load_rig, read_calibration, read_image, PipelineConfig.from_yaml):
+        with pytest.raises(InputError, match="not a regular file"):
+            reader(fifo)
+        with pytest.raises(InputError, match="leads to no file"):
+            reader(loop)
+        with pytest.raises(InputError, match="not found"):
+            reader(tmp_path / "missing.yaml")

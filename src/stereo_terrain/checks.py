@@ -28,12 +28,26 @@ MAX_TEXT_BYTES = 64 << 20
 MAX_NESTING = 32
 
 
-def read_text_file(path: str | Path, what: str, *, max_bytes: int = MAX_TEXT_BYTES) -> str:
-    """The whole file as UTF-8 text; :class:`InputError` naming ``what`` and the path when it
-    is missing, a folder, unreadable, too large or not UTF-8."""
-    path = Path(path)
+def check_input_file(path: Path, what: str) -> None:
+    """:class:`InputError` naming ``what`` and the path unless ``path`` is a regular file:
+    missing, a folder, a link that leads nowhere (or round in a loop), or a pipe, socket or
+    device (``<(...)``, a FIFO: one without a writer would block the read for ever)."""
     if path.is_dir():
         raise InputError(f"{what} {path} is a folder, not a file")
+    if path.is_file():
+        return
+    if path.exists():
+        raise InputError(f"{what} {path} is not a regular file (a pipe, socket or device); give a file")
+    if path.is_symlink():
+        raise InputError(f"{what} {path} is a link that leads to no file (broken, or a loop)")
+    raise InputError(f"{what} not found: {path}")
+
+
+def read_text_file(path: str | Path, what: str, *, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The whole file as UTF-8 text; :class:`InputError` naming ``what`` and the path when it
+    is missing, a folder, not a regular file, unreadable, too large or not UTF-8."""
+    path = Path(path)
+    check_input_file(path, what)
     try:
         with path.open("rb") as f:
             data = f.read(max_bytes + 1)

@@ -543,13 +543,11 @@ def read_image(path: str | Path) -> np.ndarray:
     one that libjpeg/libpng could only partly decode (truncated or corrupt) is refused;
     what those libraries print goes into the message, never to the terminal.
     """
+    from .checks import check_input_file
     from .native import captured_native_stderr
 
     path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{path} is a folder, not an image file")
-    if not path.is_file():
-        raise InputError(f"image not found: {path}")
+    check_input_file(path, "image")
     size = _header_size(path)
     if size is not None and size[0] * size[1] > MAX_IMAGE_PIXELS:
         raise InputError(
