@@ -214,3 +214,20 @@ def test_python_dash_m_runs_the_command_line():
     argv = [sys.executable, "-m", "stereo_terrain", "--version"]
     proc = subprocess.run(argv, capture_output=True, text=True)
     assert proc.returncode == 0 and __version__ in proc.stdout
+
+
+def test_demo_and_simulate_check_their_files_before_any_work(tmp_path, capsys):
+    """A folder named like one of their outputs failed the figure at the end, after the
+    scene (demo) or the summary (simulate) was written over."""
+    pytest.importorskip("matplotlib", reason="the figures need the viz extra")
+    demo = tmp_path / "demo"
+    (demo / "demo.png").mkdir(parents=True)
+    code, _, err = run_cli(["demo", "--out", demo], capsys)
+    assert code == 2 and "demo.png" in err and "folder" in err
+    assert sorted(p.name for p in demo.iterdir()) == ["demo.png"]
+    sim = tmp_path / "sim"
+    (sim / "approach.png").mkdir(parents=True)
+    (sim / "summary.json").write_text("{}\n")
+    code, _, err = run_cli(["simulate", "--out", sim, "--size", "96x72", "--fps", "5"], capsys)
+    assert code == 2 and "approach.png" in err
+    assert (sim / "summary.json").read_text() == "{}\n"

@@ -322,6 +322,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         publish = LcmPublisher(args.lcm_url, args.channel)
     make_dir(args.out, "--out")
+    # Its files, checked before any work (a folder named summary.json or approach.png
+    # failed the figure after the summary was written).
+    for name in ("summary.json",) + (() if args.no_plot else ("approach.png",)):
+        check_output_file(args.out / name, "--out")
 
     def frame_done(k: int, n: int) -> None:
         progress(k, n, "rendering and processing frames")

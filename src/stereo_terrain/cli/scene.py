@@ -134,6 +134,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if not args.no_plot:
         require_viz("the demo's figure", "--no-plot")
     make_dir(out, "--out")
+    # Its files, checked before any work (a folder named demo.png failed the figure's
+    # rename after the scene was written).
+    for name in ("result.json",) + (() if args.no_plot else ("demo.png",)):
+        check_output_file(out / name, "--out")
+    if (out / "scene").exists() and not (out / "scene").is_dir():
+        raise InputError(f"cannot write the scene into {out / 'scene'}: it is a file; give another --out")
     spec = default_scene_spec()
     scene = render_scene(spec)
     pipeline = Pipeline(scene.calibration, scene.rig)
