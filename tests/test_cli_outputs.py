@@ -231,3 +231,17 @@ def test_demo_and_simulate_check_their_files_before_any_work(tmp_path, capsys):
     code, _, err = run_cli(["simulate", "--out", sim, "--size", "96x72", "--fps", "5"], capsys)
     assert code == 2 and "approach.png" in err
     assert (sim / "summary.json").read_text() == "{}\n"
+
+
+def test_an_output_that_is_a_link_is_written_where_it_leads(scene_dir, tmp_path, capsys):
+    """As a shell's ``>`` does: the link stays, its file gets the result (it was replaced
+    by a regular file, the link lost)."""
+    real = tmp_path / "results" / "run.json"
+    real.parent.mkdir()
+    real.write_text("{}\n")
+    link = tmp_path / "latest.json"
+    link.symlink_to(real)
+    code, _, err = run_cli(_reconstruct_args(scene_dir, "--json", link), capsys)
+    assert code == 0, err
+    assert link.is_symlink() and link.resolve() == real.resolve()
+    assert '"obstacle"' in real.read_text()

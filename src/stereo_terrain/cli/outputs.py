@@ -110,7 +110,10 @@ def replace_from_temp(target: Path, write: Any) -> None:
     """``write(tmp_path)`` then rename onto ``target``: an existing file is replaced only by a
     whole new one, and a failed write leaves nothing behind. The new file has the mode of
     the one it replaces, or what the umask gives a new file (``mkstemp`` makes it 0600).
-    Inside :func:`all_or_none` the rename waits for the end of that block."""
+    Inside :func:`all_or_none` the rename waits for the end of that block. A target that is
+    a link is written where it leads (the link stays a link, as a shell's ``>`` keeps it)."""
+    if target.is_symlink():
+        target = Path(os.path.realpath(target))
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent or ".")
     except OSError as exc:
