@@ -589,14 +589,13 @@ def write_image(path: str | Path, image: np.ndarray) -> None:
     written by Python: OpenCV's own imwrite crashes the process on a file name that is not
     UTF-8."""
     path = Path(path)
+    ext = path.suffix or ".png"
     try:
-        ok, buf = cv2.imencode(path.suffix or ".png", np.ascontiguousarray(image))
+        ok, buf = cv2.imencode(ext, np.ascontiguousarray(image))
     except cv2.error:
         ok = False
     if not ok:
-        raise InputError(
-            f"cannot write {path}: OpenCV cannot encode a {path.suffix or 'png'} image of this type"
-        )
+        raise InputError(f"cannot write {path}: OpenCV cannot encode a {ext} image of this type")
     try:
         path.write_bytes(buf.tobytes())
     except OSError as exc:

@@ -13,6 +13,7 @@ from .options import nonneg_float, positive_float, positive_int, size_arg
 from .outputs import (
     check_output_dir,
     check_output_file,
+    check_output_files,
     is_terminal,
     make_dir,
     progress,
@@ -322,10 +323,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         publish = LcmPublisher(args.lcm_url, args.channel)
     make_dir(args.out, "--out")
-    # Its files, checked before any work (a folder named summary.json or approach.png
-    # failed the figure after the summary was written).
-    for name in ("summary.json",) + (() if args.no_plot else ("approach.png",)):
-        check_output_file(args.out / name, "--out")
+    check_output_files(args.out, ("summary.json",) + (() if args.no_plot else ("approach.png",)), "--out")
 
     def frame_done(k: int, n: int) -> None:
         progress(k, n, "rendering and processing frames")

@@ -61,6 +61,14 @@ def check_output_file(path: Path | None, option: str) -> None:
         raise InputError(f"{option} {path} is also {OUTPUTS[key]}'s file; give each output its own file")
 
 
+def check_output_files(folder: Path, names: tuple[str, ...], option: str) -> None:
+    """:func:`check_output_file` of each of the files a command writes into ``folder``
+    (named ``option``) under fixed names, before any work: a folder of one of those names
+    failed a command at its end, after its other files were written."""
+    for name in names:
+        check_output_file(folder / name, option)
+
+
 def check_output_dir(path: Path, option: str) -> None:
     """Refuse, before any work, an output folder that cannot be created or written."""
     if path.exists() and not path.is_dir():

@@ -14,6 +14,7 @@ from .outputs import (
     all_or_none,
     check_output_dir,
     check_output_file,
+    check_output_files,
     make_dir,
     progress,
     replace_from_temp,
@@ -134,10 +135,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if not args.no_plot:
         require_viz("the demo's figure", "--no-plot")
     make_dir(out, "--out")
-    # Its files, checked before any work (a folder named demo.png failed the figure's
-    # rename after the scene was written).
-    for name in ("result.json",) + (() if args.no_plot else ("demo.png",)):
-        check_output_file(out / name, "--out")
+    check_output_files(out, ("result.json",) + (() if args.no_plot else ("demo.png",)), "--out")
     if (out / "scene").exists() and not (out / "scene").is_dir():
         raise InputError(f"cannot write the scene into {out / 'scene'}: it is a file; give another --out")
     spec = default_scene_spec()
