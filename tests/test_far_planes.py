@@ -19,9 +19,11 @@ from stereo_terrain.terrain import TerrainConfig
 
 #: The far planes' own tests run with the band fill off: with it the rematch finds these
 #: lab-like stairs before the far planes run (tests/test_bands.py tests the band fill);
-#: likewise the risers moved to where both images put them (tests/test_photometric.py).
+#: likewise the risers moved to where both images put them (tests/test_photometric.py),
+#: and the denoised opinions, which run after the far planes and find some of these stairs
+#: where the far planes are off (tests/test_denoise.py).
 NO_BANDS = PipelineConfig(
-    bands=BandFillConfig(enabled=False), terrain=TerrainConfig(photometric_risers=False)
+    bands=BandFillConfig(enabled=False), terrain=TerrainConfig(photometric_risers=False), rematch_denoised=0.0
 )
 
 
@@ -170,13 +172,16 @@ def test_the_wider_level_runs_only_where_the_first_keeps_nothing(monkeypatch):
 
     monkeypatch.setattr(second_opinions, "extract_planes_orientation", extract)
     empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
-    Pipeline(empty.calibration, empty.rig, warm_up=False).run(empty.left, empty.right)
+    # (the denoised opinions off: their passes' far planes run after all of these, in the
+    # same order, tests/test_denoise.py)
+    no_denoised = PipelineConfig(rematch_denoised=0.0)
+    Pipeline(empty.calibration, empty.rig, no_denoised, warm_up=False).run(empty.left, empty.right)
     assert calls and {c[0] for c in calls} == {1.1, 1.6}
     first = [c for c in calls if c[0] == 1.1]
     assert calls[: len(first)] == first  # every pass at 1.1 before any at 1.6
     assert {c[1] for c in calls if c[0] == 1.6} == {40.0} and {c[1] for c in first} == {35.0}
     calls.clear()
-    off = PipelineConfig(far_planes_wider_sigmas=0.0)
+    off = PipelineConfig(far_planes_wider_sigmas=0.0, rematch_denoised=0.0)
     Pipeline(empty.calibration, empty.rig, off, warm_up=False).run(empty.left, empty.right)
     assert calls and {c[0] for c in calls} == {1.1}
 

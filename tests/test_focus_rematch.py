@@ -26,8 +26,9 @@ def lab_scene():
 
 
 #: The focus rematch's own tests run with the band fill off: with it the rematch finds
-#: these stairs (tests/test_bands.py tests the band fill).
-NO_BANDS = PipelineConfig(bands=BandFillConfig(enabled=False))
+#: these stairs (tests/test_bands.py tests the band fill); and with the denoised opinions
+#: off, which run after it and find them too (tests/test_denoise.py).
+NO_BANDS = PipelineConfig(bands=BandFillConfig(enabled=False), rematch_denoised=0.0)
 
 #: The focus rematch's rises on that scene are 23.6 cm for 20 (measured): a find, not a
 #: precise one.
@@ -75,10 +76,12 @@ def test_the_pass_runs_only_for_cameras_focused_apart(monkeypatch):
     calib = _calib(640, 480)  # two identical cameras side by side: rectification resamples nothing
     image = cv2.resize(_texture(9), (640, 480))  # a textured wall at infinity: nothing to find
     blurrier = cv2.GaussianBlur(image, (0, 0), 1.2)
-    pipeline = Pipeline(calib, None, PipelineConfig(rematch_focus=True), warm_up=False)
+    # (the denoised opinions off: they add two passes after it, tests/test_denoise.py)
+    focus = PipelineConfig(rematch_focus=True, rematch_denoised=0.0)
+    pipeline = Pipeline(calib, None, focus, warm_up=False)
     assert _passes(monkeypatch, pipeline, image, image) == 3  # first, rematch, coarse
     assert _passes(monkeypatch, pipeline, image, blurrier) == 4  # and the focus rematch
-    off = Pipeline(calib, None, warm_up=False)  # the default
+    off = Pipeline(calib, None, PipelineConfig(rematch_denoised=0.0), warm_up=False)  # the default
     assert _passes(monkeypatch, off, image, blurrier) == 3
     no_second = Pipeline(calib, None, PipelineConfig(rematch=False, rematch_focus=True), warm_up=False)
     assert _passes(monkeypatch, no_second, image, blurrier) == 1

@@ -33,6 +33,10 @@ REMATCH_SGBM = OpenCVSGBMConfig(match_exposure=True, p1_per_px=24, p2_per_px=96,
 #: staircase must agree (``PipelineConfig.rematch_coarse``), and one that does not is
 #: matched again (``rematch_disagreeing``).
 
+#: The strongest denoising ``PipelineConfig.rematch_denoised`` takes (grey levels): a webcam's
+#: noise is a few; 50 flattens any texture.
+MAX_DENOISE_GREY = 50.0
+
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")
 
@@ -120,6 +124,25 @@ class PipelineConfig:
         frame with nothing in view and cameras focused apart pays for that pass (empty
         realistic views 1.45x, docs/benchmarks.md, "Fifteenth session"). For webcams
         whose images look differently sharp.
+    rematch_denoised : float
+        With ``rematch``: when every opinion before it (the passes, the far planes, the
+        lone step, the box, the redrawn planes and the focus rematch) still leaves the frame
+        wanting one (nothing, a lone step, or steps that disagree), both rectified images
+        are denoised by non-local means of this strength (grey levels, about the noise's
+        standard deviation; :func:`stereo_terrain.stereo.denoise.denoise_pair`) and
+        matched again by the rematch and the coarse rematch, each kept as the coarse
+        rematch's is (steps that agree); then, on those two passes only, the far planes,
+        the lone step they agree on, with a rig a box one sees whole (without one, the
+        ground beyond a "box" can be a table's top), and the redrawn planes, as for the
+        passes before. Last, so that it changes nothing the others found; the terrain
+        note says "found by the denoised rematch" or "... coarse rematch". A webcam's
+        noise, blotchy after its own smoothing and JPEG, is most of what the matcher sees
+        on near-uniform paint and plain walls. Default 3 (issue 11; docs/benchmarks.md,
+        "Thirtieth session": realistic detection +3 to +6 points with a rig, boxes +13;
+        a control pass on a noisier pair gives about two thirds of the realistic gain,
+        a second chance at the margin, and less on boxes). A frame with nothing in view
+        pays for it (about 100 ms for the denoising of a 640x480 pair and two passes:
+        empty realistic renders 2.3x, the OAK-D rooms 2x); 0 turns it off. At most 50.
     rematch_disagreeing : bool
         With ``rematch``: a staircase whose steps disagree (its largest measured rise more
         than ``AGREEING_RISE_RATIO`` times its smallest, or a run longer than
@@ -220,6 +243,7 @@ class PipelineConfig:
     rematch_coarse: bool = True  # issue 11
     rematch_focus: bool = False  # issue 11
     rematch_disagreeing: bool = True  # issue 11
+    rematch_denoised: float = 3.0  # issue 11
     far_planes_sigmas: float = 1.1  # issue 11
     far_planes_wider_sigmas: float = 1.6  # issue 11
     far_planes_wider_max_deg: float = 40.0  # issue 11
@@ -236,7 +260,14 @@ class PipelineConfig:
         if mdp is not None and mdp <= 0:
             # (the backend checks the rest, against the image: a multiple of 16 below its width)
             raise ConfigError(f"max_disparity_px must be positive (or null: from the calibration), got {mdp}")
-        check_min(self, 0, "far_planes_sigmas", "far_planes_wider_sigmas", "redraw_planes")
+        check_min(
+            self, 0, "far_planes_sigmas", "far_planes_wider_sigmas", "redraw_planes", "rematch_denoised"
+        )
+        if self.rematch_denoised > MAX_DENOISE_GREY:
+            raise ConfigError(
+                f"rematch_denoised must be at most {MAX_DENOISE_GREY:g} grey levels (about the noise's "
+                f"standard deviation; 0 turns it off), got {self.rematch_denoised}"
+            )
         if self.far_planes_wider_sigmas > 0 and not (
             self.orientation.normal_agreement_deg <= self.far_planes_wider_max_deg < 45
         ):

@@ -35,6 +35,7 @@ from ..rectify import Rectification, RectifiedPair, compute_rectification, recti
 from ..stereo import DisparityBackend, check_max_disparity, default_max_disparity, make_backend
 from ..stereo.bands import BandFillConfig, BandPlanes, sweep_bands
 from ..stereo.blur import match_blur
+from ..stereo.denoise import denoise_pair
 from ..stereo.fill import FlatRegions, find_flat_regions
 from ..stereo.vertical import VerticalOffset, align_vertical
 from ..swing import plan_swing
@@ -53,6 +54,8 @@ from .gravity_steps import (
 from .result import TerrainResult
 from .second_opinions import (
     COARSE_NOTE,
+    DENOISED_COARSE_NOTE,
+    DENOISED_NOTE,
     FOCUS_NOTE,
     REMATCH_NOTE,
     Passes,
@@ -235,7 +238,44 @@ class Pipeline:
                     result = far_planes(tried[before:], result, self.config)
                 if wants_rematch(result.terrain, self.config) and self._redraw_on:
                     result = redrawn_planes(tried[before:], result, self.config)
+        if second and self.config.rematch_denoised > 0 and wants_rematch(result.terrain, self.config):
+            # Still wanting: the pair with the sensor's noise taken out, matched again by the
+            # rematch and the coarse rematch, then those passes' own far planes, lone step,
+            # box (with a rig) and redrawn planes (issue 11; PipelineConfig.rematch_denoised).
+            # Last, so that it changes nothing the others found.
+            result = self._denoised_opinions(pair, image_jobs, result, tried)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
+        return result
+
+    def _denoised_opinions(
+        self, pair: RectifiedPair, jobs: _ImageJobs, result: TerrainResult, tried: Passes
+    ) -> TerrainResult:
+        """``result`` or what the second opinions make of ``pair`` denoised
+        (``PipelineConfig.rematch_denoised``): the rematch's and the coarse rematch's passes
+        (kept as :meth:`_rematched` keeps theirs), then, on those two passes only, the far
+        planes, the lone step they agree on, with a rig a box one of them sees whole, and
+        the redrawn planes, each where the frame still wants it as after the first passes.
+        Without a rig the "ground" beyond a box is the floor the scene's own gravity chose,
+        in a room as likely a table's top: there a denoised pass's box made the real
+        Middlebury ``Playroom`` a false one (docs/benchmarks.md, "Thirtieth session").
+        ``timing_ms["denoise"]``: the time the denoising took."""
+        t0 = time.perf_counter()
+        quiet = denoise_pair(pair, self.config.rematch_denoised)
+        denoise_ms = (time.perf_counter() - t0) * 1000.0
+        before = len(tried)
+        passes = [(self._rematcher, DENOISED_NOTE), (self._coarse_rematcher, DENOISED_COARSE_NOTE)]
+        result = self._rematched(quiet, jobs, result, tried, passes)
+        new = tried[before:]
+        if result.terrain.obstacle == NONE and self._far_planes_on:
+            result = far_planes(new, result, self.config)
+        # (the lone step and the box look at the passes after the first of the list given)
+        if result.terrain.obstacle == NONE and self.config.agreed_lone_step:
+            result = agreed_lone_step(tried[:1] + new, result, self.config)
+        if result.terrain.obstacle == NONE and self.config.whole_box and self.T_yaw_camera_rect is not None:
+            result = whole_box(tried[:1] + new, result, self.config)
+        if wants_rematch(result.terrain, self.config) and self._redraw_on and new:
+            result = redrawn_planes(new, result, self.config)
+        result.timing_ms["denoise"] = denoise_ms
         return result
 
     def _rematched(

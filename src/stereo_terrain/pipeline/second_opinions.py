@@ -306,6 +306,14 @@ REMATCH_NOTE = (
 )
 COARSE_NOTE = ("coarse rematch", "the pair matched at half size with the rematch's settings")
 FOCUS_NOTE = ("focus rematch", "matched with the rematch's settings")
+DENOISED_NOTE = (
+    "denoised rematch",
+    "the pair denoised, matched with the rematch's settings: rematch_denoised",
+)
+DENOISED_COARSE_NOTE = (
+    "denoised coarse rematch",
+    "the pair denoised, matched at half size: rematch_denoised",
+)
 
 
 #: Two passes' ups corroborate each other within this many of their combined sigmas (the
