@@ -138,11 +138,11 @@ class PipelineConfig:
         note says "found by the denoised rematch" or "... coarse rematch". A webcam's
         noise, blotchy after its own smoothing and JPEG, is most of what the matcher sees
         on near-uniform paint and plain walls. Default 3 (issue 11; docs/benchmarks.md,
-        "Thirtieth session": realistic detection +3 to +6 points with a rig, boxes +13;
+        "Thirtieth session": realistic detection +4 to +6 points with a rig, boxes +13;
         a control pass on a noisier pair gives about two thirds of the realistic gain,
         a second chance at the margin, and less on boxes). A frame with nothing in view
         pays for it (about 100 ms for the denoising of a 640x480 pair and two passes:
-        empty realistic renders 2.3x, the OAK-D rooms 2x); 0 turns it off. At most 50.
+        empty realistic renders 2.3x, the OAK-D rooms 1.5-2.6x); 0 turns it off. At most 50.
     rematch_disagreeing : bool
         With ``rematch``: a staircase whose steps disagree (its largest measured rise more
         than ``AGREEING_RISE_RATIO`` times its smallest, or a run longer than

@@ -43,16 +43,17 @@ class TerrainResult:
         Why the planes are those of ``planes.method`` (``auto`` explains its pick).
     method_requested : str
     rematched : bool
-        The result is a second opinion's: the rematch's, the coarse rematch's or the focus
-        rematch's (``PipelineConfig.rematch``: the first matcher found nothing convincing;
-        ``rematch_focus``), or the far planes' (``far_planes_sigmas`` and
-        ``far_planes_wider_sigmas``: no pass found an obstacle), the lone step two
-        second opinions agree on or the box one sees whole (``agreed_lone_step``,
-        ``whole_box``: nor did the far planes), or the redrawn planes'
-        (``redraw_planes``: nor did the far planes, or every pass found only a lone
-        step or steps that disagree); ``timing_ms["rematch"]`` is there whenever the rematch ran,
-        ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]`` whenever those did (each
-        the sum over the frame's passes).
+        The result is a second opinion's: the rematch's, the coarse rematch's, the focus
+        rematch's or the denoised ones' (``PipelineConfig.rematch``: the first matcher
+        found nothing convincing; ``rematch_focus``, ``rematch_denoised``), or the far
+        planes' (``far_planes_sigmas`` and ``far_planes_wider_sigmas``: no pass found an
+        obstacle), the lone step two second opinions agree on or the box one sees whole
+        (``agreed_lone_step``, ``whole_box``: nor did the far planes), or the redrawn
+        planes' (``redraw_planes``: nor did the far planes, or every pass found only a
+        lone step or steps that disagree); ``timing_ms["rematch"]`` is there whenever the
+        rematch ran, ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]`` whenever
+        those did (each the sum over the frame's passes), ``timing_ms["denoise"]``
+        whenever the pair was denoised.
     floor_known, image_lines
         What the terrain stage was given besides the planes (the frame's origin is on the
         floor; the image's line segments), so that it can run again on other planes

@@ -2,8 +2,9 @@
 another, and the opinions that need no new matching.
 
 :class:`~.core.Pipeline` runs a frame's passes (the first matcher; the rematch, the coarse
-and focus rematches where :func:`wants_rematch` asks for them) and hands their results
-here:
+and focus rematches where :func:`wants_rematch` asks for them; last, the rematch and the
+coarse rematch again on the pair denoised, ``PipelineConfig.rematch_denoised``) and hands
+their results here:
 
 - :func:`far_planes`: the passes' samples with the plane stage's normal tests widened by
   the far samples' noise, where no pass found an obstacle;
