@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import cv2
 import numpy as np
 import pytest
@@ -235,8 +237,8 @@ def test_the_band_fill_finds_wooden_lab_stairs():
     )
     missed = Pipeline(scene.calibration, scene.rig, without, warm_up=False).run(scene.left, scene.right)
     assert missed.terrain.obstacle == "none"
-    pipe = Pipeline(scene.calibration, scene.rig, PipelineConfig(), warm_up=False)
-    found = pipe.run(scene.left, scene.right)
+    with_bands = dataclasses.replace(without, bands=BandFillConfig())
+    found = Pipeline(scene.calibration, scene.rig, with_bands, warm_up=False).run(scene.left, scene.right)
     score = score_result(found.to_json_dict(), scene.truth)
     assert score.detected and score.count_right, found.terrain.note
     assert max(score.rise_errors_m) <= RISE_TOL_M

@@ -10,11 +10,12 @@ import cv2
 import numpy as np
 import pytest
 
-from stereo_terrain.errors import ConfigError
+from stereo_terrain.errors import ConfigError, InputError
 from stereo_terrain.evaluation import score_result
-from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.pipeline import Pipeline, PipelineConfig, core
+from stereo_terrain.rectify import compute_rectification, rectify
 from stereo_terrain.stereo.denoise import denoise_image, denoise_pair
-from stereo_terrain.synthetic import random_scene_spec, render_scene
+from stereo_terrain.synthetic import default_scene_spec, random_scene_spec, render_scene
 
 from .test_bad_input_corpus import _calib
 from .test_blur import _texture
@@ -44,8 +45,6 @@ def test_it_takes_the_noise_out_and_keeps_an_edge():
 
 def test_both_images_of_a_pair_alike():
     calib = _calib(160, 120)
-    from stereo_terrain.rectify import compute_rectification, rectify
-
     image = np.clip(128 + _noisy((120, 160), 2), 0, 255).astype(np.uint8)
     pair = rectify(image, image, compute_rectification(calib))
     quiet = denoise_pair(pair, NOISE_GREY)
@@ -55,9 +54,9 @@ def test_both_images_of_a_pair_alike():
 
 
 def test_it_refuses_what_it_cannot_take():
-    with pytest.raises(ValueError, match="uint8"):
+    with pytest.raises(InputError, match="uint8"):
         denoise_image(np.zeros((10, 10), np.float32), 3.0)
-    with pytest.raises(ValueError, match="uint8"):
+    with pytest.raises(InputError, match="uint8"):
         denoise_image(np.zeros((10, 10, 3), np.uint8), 3.0)
 
 
@@ -103,9 +102,59 @@ def test_they_run_only_where_every_other_opinion_leaves_the_frame_wanting(monkey
     assert _passes(monkeypatch, no_second, image, image) == 1
 
 
+def test_stairs_the_first_pass_finds_are_not_denoised():
+    scene = render_scene(default_scene_spec())
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert result.terrain.obstacle == "stairs" and not result.rematched
+    assert "denoise" not in result.timing_ms
+
+
+def _recorder(given: dict[str, list[list[str]]], name: str, real):
+    def record(tried, kept, cfg):
+        given.setdefault(name, []).append([n for n, _ in tried])
+        return real(tried, kept, cfg)
+
+    return record
+
+
+def _opinions_given(monkeypatch, scene, rig, **config) -> dict[str, list[list[str]]]:
+    """The pass names each later opinion is given on ``scene`` (with ``rig`` or None)."""
+    given: dict[str, list[list[str]]] = {}
+    for name in ("far_planes", "agreed_lone_step", "whole_box", "redrawn_planes"):
+        monkeypatch.setattr(core, name, _recorder(given, name, getattr(core, name)))
+    Pipeline(scene.calibration, rig, PipelineConfig(**config), warm_up=False).run(scene.left, scene.right)
+    return given
+
+
+def test_the_denoised_passes_get_their_own_later_opinions(monkeypatch):
+    empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
+    denoised = ["denoised rematch", "denoised coarse rematch"]
+    given = _opinions_given(monkeypatch, empty, empty.rig)
+    assert given["far_planes"][-1] == denoised
+    assert given["agreed_lone_step"][-1] == ["first matcher", *denoised]  # it skips the first
+    assert given["whole_box"][-1] == ["first matcher", *denoised]
+    assert given["redrawn_planes"][-1] == denoised  # (the last of them is redrawn)
+    # without the coarse rematch, the denoised rematch alone
+    given = _opinions_given(monkeypatch, empty, empty.rig, rematch_coarse=False)
+    assert given["far_planes"][-1] == ["denoised rematch"]
+    assert given["redrawn_planes"][-1] == ["denoised rematch"]
+
+
+def test_without_a_rig_no_box_from_a_denoised_pass_alone(monkeypatch):
+    """Without a rig the ground beyond a "box" is the floor the scene chose, in a room
+    as likely a table's top (the real Middlebury Playroom, tests/test_terrain_clutter.py)."""
+    empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
+    given = _opinions_given(monkeypatch, empty, None)
+    assert not any("denoised rematch" in names for names in given["whole_box"])
+    assert any("denoised rematch" in names for names in given["agreed_lone_step"])
+
+
 def test_the_config_reads_it():
     assert PipelineConfig().rematch_denoised == 3.0
     assert PipelineConfig.from_dict({"rematch_denoised": 4.5}).rematch_denoised == 4.5
+    assert PipelineConfig.from_dict({"rematch_denoised": 3}).rematch_denoised == 3  # an int, as YAML gives
+    for edge in (0, 50):
+        assert PipelineConfig.from_dict({"rematch_denoised": edge}).rematch_denoised == edge
     assert dataclasses.replace(PipelineConfig(), rematch_denoised=0).rematch_denoised == 0
     for bad in (-1.0, 51.0):
         with pytest.raises(ConfigError, match="rematch_denoised"):

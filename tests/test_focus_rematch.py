@@ -81,7 +81,7 @@ def test_the_pass_runs_only_for_cameras_focused_apart(monkeypatch):
     pipeline = Pipeline(calib, None, focus, warm_up=False)
     assert _passes(monkeypatch, pipeline, image, image) == 3  # first, rematch, coarse
     assert _passes(monkeypatch, pipeline, image, blurrier) == 4  # and the focus rematch
-    off = Pipeline(calib, None, PipelineConfig(rematch_denoised=0.0), warm_up=False)  # the default
+    off = Pipeline(calib, None, PipelineConfig(rematch_denoised=0.0), warm_up=False)  # focus off
     assert _passes(monkeypatch, off, image, blurrier) == 3
     no_second = Pipeline(calib, None, PipelineConfig(rematch=False, rematch_focus=True), warm_up=False)
     assert _passes(monkeypatch, no_second, image, blurrier) == 1

@@ -36,11 +36,11 @@ from .rectify import read_image
 #: Files every scene folder must hold.
 SCENE_FILES = ("left.png", "right.png", "calib.yaml")
 #: Stages of ``timing_ms`` reported per stage (the pipeline's laps and its total; and the
-#: second opinions, ``PipelineConfig.rematch``, ``far_planes_sigmas`` and ``redraw_planes``,
-#: each a median over the frames that ran it).
+#: second opinions, ``PipelineConfig.rematch``, ``far_planes_sigmas``, ``redraw_planes`` and
+#: the denoising of ``rematch_denoised``, each a median over the frames that ran it).
 STAGES = (
     "rectify", "disparity", "cloud", "gravity", "planes", "polytope",
-    "rematch", "far_planes", "redraw", "total",
+    "rematch", "far_planes", "redraw", "denoise", "total",
 )  # fmt: skip
 _OBSTACLES = ("stairs", "box", "none")
 

@@ -17,6 +17,7 @@ from ..planes.contour import ContourConfig
 from ..planes.orientation import OrientationConfig
 from ..rectify import RECTIFY_FOVS
 from ..stereo.bands import BandFillConfig
+from ..stereo.denoise import MAX_STRENGTH_GREY
 from ..stereo.fill import PlanarFillConfig
 from ..stereo.opencv import OpenCVSGBMConfig
 from ..stereo.sgm import SGMConfig
@@ -32,10 +33,6 @@ REMATCH_SGBM = OpenCVSGBMConfig(match_exposure=True, p1_per_px=24, p2_per_px=96,
 #: ``AGREEING_RISE_RATIO`` (:mod:`stereo_terrain.terrain.model`): the coarse rematch's
 #: staircase must agree (``PipelineConfig.rematch_coarse``), and one that does not is
 #: matched again (``rematch_disagreeing``).
-
-#: The strongest denoising ``PipelineConfig.rematch_denoised`` takes (grey levels): a webcam's
-#: noise is a few; 50 flattens any texture.
-MAX_DENOISE_GREY = 50.0
 
 #: Plane extraction methods (``PipelineConfig.method``, ``reconstruct --method``).
 PLANE_METHODS = ("orientation", "contour", "auto")
@@ -116,8 +113,9 @@ class PipelineConfig:
         or more (two webcams focus apart), the sharper image is blurred to the other's
         focus and the pair matched once more with ``rematch_sgbm``
         (:func:`stereo_terrain.stereo.blur.match_blur`), then its own far planes. Its
-        staircase is kept as the coarse rematch's is (steps that agree). Last, so that it
-        changes nothing the others found (blurring in the rematch itself found more
+        staircase is kept as the coarse rematch's is (steps that agree). After the
+        others (but the denoised opinions), so that it changes nothing they found
+        (blurring in the rematch itself found more
         staircases and lost others). Default false (issue 11): on the realistic renders
         it adds 0-9 points of detection, but a control pass that blurs the wrong image
         adds nearly as much, so the gain is mostly a fourth pass's second chance, and a
@@ -134,15 +132,17 @@ class PipelineConfig:
         rematch's is (steps that agree); then, on those two passes only, the far planes,
         the lone step they agree on, with a rig a box one sees whole (without one, the
         ground beyond a "box" can be a table's top), and the redrawn planes, as for the
-        passes before. Last, so that it changes nothing the others found; the terrain
-        note says "found by the denoised rematch" or "... coarse rematch". A webcam's
-        noise, blotchy after its own smoothing and JPEG, is most of what the matcher sees
-        on near-uniform paint and plain walls. Default 3 (issue 11; docs/benchmarks.md,
+        passes before. Last, so that it changes nothing the others found (but a lone step
+        or steps that disagree, which its staircase may replace); the terrain note says
+        "found by the denoised rematch" or "... coarse rematch". A webcam's noise,
+        blotchy after its own smoothing and JPEG, is most of what the matcher sees on
+        near-uniform paint and plain walls. Default 3 (issue 11; docs/benchmarks.md,
         "Thirtieth session": realistic detection +4 to +6 points with a rig, boxes +13;
         a control pass on a noisier pair gives about two thirds of the realistic gain,
         a second chance at the margin, and less on boxes). A frame with nothing in view
-        pays for it (about 100 ms for the denoising of a 640x480 pair and two passes:
-        empty realistic renders 2.3x, the OAK-D rooms 1.5-2.6x); 0 turns it off. At most 50.
+        pays for it (about 150 ms here, the denoising of a 640x480 pair 100 ms of it:
+        empty realistic renders 2.3x, the OAK-D rooms 1.5-2.6x); 0 turns it off. At most
+        :data:`stereo_terrain.stereo.denoise.MAX_STRENGTH_GREY` (50).
     rematch_disagreeing : bool
         With ``rematch``: a staircase whose steps disagree (its largest measured rise more
         than ``AGREEING_RISE_RATIO`` times its smallest, or a run longer than
@@ -263,10 +263,10 @@ class PipelineConfig:
         check_min(
             self, 0, "far_planes_sigmas", "far_planes_wider_sigmas", "redraw_planes", "rematch_denoised"
         )
-        if self.rematch_denoised > MAX_DENOISE_GREY:
+        if self.rematch_denoised > MAX_STRENGTH_GREY:
             raise ConfigError(
-                f"rematch_denoised must be at most {MAX_DENOISE_GREY:g} grey levels (about the noise's "
-                f"standard deviation; 0 turns it off), got {self.rematch_denoised}"
+                f"PipelineConfig.rematch_denoised must be at most {MAX_STRENGTH_GREY:g} grey levels "
+                f"(about the noise's standard deviation; 0 turns it off), got {self.rematch_denoised}"
             )
         if self.far_planes_wider_sigmas > 0 and not (
             self.orientation.normal_agreement_deg <= self.far_planes_wider_max_deg < 45

@@ -171,8 +171,9 @@ class Pipeline:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
         ``rematch``: False skips the second opinions for this frame (the rematch, the
-        coarse and focus rematches, the far planes and the redrawn planes,
-        ``PipelineConfig.rematch``, ``far_planes_sigmas`` and ``redraw_planes``: the live
+        coarse, focus and denoised rematches, the far planes and the redrawn planes,
+        ``PipelineConfig.rematch``, ``far_planes_sigmas``, ``redraw_planes`` and
+        ``rematch_denoised``: the live
         loop runs them on every other pair while they keep nothing). On the main thread
         the process's BLAS is held to one thread while the frame runs (see
         :func:`~.threads.one_blas_thread`); the caller's setting is back afterwards."""
@@ -222,8 +223,8 @@ class Pipeline:
         if second and self.config.rematch_focus and wants_rematch(result.terrain, self.config):
             # Every opinion so far leaves the frame wanting: where one camera's image is
             # blurrier, the pair once more with the two focused alike, and its own far
-            # planes (issue 11; PipelineConfig.rematch_focus). Last, so that it changes
-            # nothing the others found.
+            # planes (issue 11; PipelineConfig.rematch_focus). After the others, so that it
+            # changes nothing they found.
             left, right, sigma = match_blur(
                 pair.left, pair.right, pair.rectification.valid_left, pair.rectification.valid_right
             )
@@ -242,7 +243,8 @@ class Pipeline:
             # Still wanting: the pair with the sensor's noise taken out, matched again by the
             # rematch and the coarse rematch, then those passes' own far planes, lone step,
             # box (with a rig) and redrawn planes (issue 11; PipelineConfig.rematch_denoised).
-            # Last, so that it changes nothing the others found.
+            # Last, so that it changes nothing the others found (but a lone step or steps
+            # that disagree, which a staircase of its own may replace).
             result = self._denoised_opinions(pair, image_jobs, result, tried)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
@@ -257,8 +259,12 @@ class Pipeline:
         the redrawn planes, each where the frame still wants it as after the first passes.
         Without a rig the "ground" beyond a box is the floor the scene's own gravity chose,
         in a room as likely a table's top: there a denoised pass's box made the real
-        Middlebury ``Playroom`` a false one (docs/benchmarks.md, "Thirtieth session").
-        ``timing_ms["denoise"]``: the time the denoising took."""
+        Middlebury ``Playroom`` a false one (docs/benchmarks.md, "Thirtieth session"). A
+        lone step that both denoised passes find alike is kept without a rig too: two
+        passes agreeing is the stronger evidence, and none did so on the real rooms.
+        ``timing_ms["denoise"]``: the time the denoising took. A result kept from a
+        denoised pass carries the denoised pair as its ``rectified`` (as the focus
+        rematch's carries its blurred one)."""
         t0 = time.perf_counter()
         quiet = denoise_pair(pair, self.config.rematch_denoised)
         denoise_ms = (time.perf_counter() - t0) * 1000.0
@@ -268,12 +274,13 @@ class Pipeline:
         new = tried[before:]
         if result.terrain.obstacle == NONE and self._far_planes_on:
             result = far_planes(new, result, self.config)
-        # (the lone step and the box look at the passes after the first of the list given)
+        # (the lone step and the box look at the second opinions of a frame's passes, those
+        # after its first: the first pass heads the list so that they see these two alone)
         if result.terrain.obstacle == NONE and self.config.agreed_lone_step:
             result = agreed_lone_step(tried[:1] + new, result, self.config)
         if result.terrain.obstacle == NONE and self.config.whole_box and self.T_yaw_camera_rect is not None:
             result = whole_box(tried[:1] + new, result, self.config)
-        if wants_rematch(result.terrain, self.config) and self._redraw_on and new:
+        if wants_rematch(result.terrain, self.config) and self._redraw_on:
             result = redrawn_planes(new, result, self.config)
         result.timing_ms["denoise"] = denoise_ms
         return result
@@ -288,7 +295,8 @@ class Pipeline:
     ) -> TerrainResult:
         """``first`` or what the second opinions ``passes`` (matcher, and the name and how
         of the note) make of ``pair``: the rematch, then (with ``rematch_coarse``) the
-        coarse rematch at half size; or the focus rematch alone. Each runs while the
+        coarse rematch at half size; or the focus rematch alone; or the rematch and the
+        coarse rematch of the denoised pair. Each runs while the
         result kept so far still wants one (:func:`~.second_opinions.wants_rematch`); each
         pass's name and own result are appended to ``tried``. A pass's staircase replaces
         the one kept as :func:`~.second_opinions.rematch_kept` decides.
@@ -313,7 +321,8 @@ class Pipeline:
                     timing_ms=timing,
                     rematched=True,
                 )
-        # added to what earlier second opinions of the frame took (the focus rematch)
+        # added to what earlier second opinions of the frame took (the focus and denoised
+        # rematches)
         took = (time.perf_counter() - t0) * 1000.0
         result.timing_ms["rematch"] = first.timing_ms.get("rematch", 0.0) + took
         return result

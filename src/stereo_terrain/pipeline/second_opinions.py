@@ -37,7 +37,8 @@ from .config import AGREEING_RISE_RATIO, PipelineConfig
 from .result import TerrainResult
 
 #: The passes a frame ran, in order: each one's name and own result (the first matcher's,
-#: the rematch's, the coarse rematch's), for the far planes.
+#: the rematch's, the coarse rematch's, then the focus and denoised rematches'), for the
+#: far planes.
 Passes = list[tuple[str, TerrainResult]]
 
 
@@ -90,7 +91,8 @@ def far_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> Te
     whose first riser's foot is seen (its rise measured from the ground: the weakest
     evidence of the pipeline's, it must not stand on an inferred step; a real room's
     chair did). ``timing_ms["far_planes"]``: the time it took, added to the far planes'
-    earlier in the frame (those of the focus rematch come after the others')."""
+    earlier in the frame (those of the focus and denoised rematches come after the
+    others')."""
     t0 = time.perf_counter()
     first = (config.far_planes_sigmas, config.orientation.max_noise_tolerance_deg, "far_planes_sigmas")
     wider = (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg, "far_planes_wider_sigmas")

@@ -391,10 +391,10 @@ class LiveLoop:
             self._rpy = rpy
         try:
             # While the pipeline's second opinions (the rematch and the coarse rematch, for
-            # frames whose first pass finds nothing convincing or steps that disagree, and
-            # the far planes where no pass finds anything) keep nothing, they run on every
-            # other pair: a flat floor costs 2 passes a pair, not 3, and stairs are seen one
-            # pair later at most (issue 11).
+            # frames whose first pass finds nothing convincing or steps that disagree, the
+            # far planes where no pass finds anything, the same two rematches on the pair
+            # denoised) keep nothing, they run on every other pair: a flat floor costs 3
+            # passes a pair, not 5, and stairs are seen one pair later at most (issue 11).
             if self._rematched_nothing:
                 result = self.pipeline.run(frame.left, frame.right, rematch=False)
             else:
