@@ -253,8 +253,9 @@ class Pipeline:
         self, pair: RectifiedPair, jobs: _ImageJobs, result: TerrainResult, tried: Passes
     ) -> TerrainResult:
         """``result`` or what the second opinions make of ``pair`` denoised
-        (``PipelineConfig.rematch_denoised``): the rematch's and the coarse rematch's passes
-        (kept as :meth:`_rematched` keeps theirs), then, on those two passes only, the far
+        (``PipelineConfig.rematch_denoised``): the rematch's and the coarse rematch's passes,
+        each kept as the coarse rematch's is (steps that agree:
+        :func:`~.second_opinions.rematch_kept`), then, on those two passes only, the far
         planes, the lone step they agree on, with a rig a box one of them sees whole, and
         the redrawn planes, each where the frame still wants it as after the first passes.
         Without a rig the "ground" beyond a box is the floor the scene's own gravity chose,
