@@ -225,6 +225,14 @@ def test_demo_and_simulate_check_their_files_before_any_work(tmp_path, capsys):
     code, _, err = run_cli(["demo", "--out", demo], capsys)
     assert code == 2 and "demo.png" in err and "folder" in err
     assert sorted(p.name for p in demo.iterdir()) == ["demo.png"]
+    scene_file = tmp_path / "demo2" / "scene"  # the scene's folder, taken by a file
+    scene_file.parent.mkdir()
+    scene_file.write_text("mine\n")
+    code, _, err = run_cli(["demo", "--out", scene_file.parent, "--no-plot"], capsys)
+    assert code == 2 and "scene" in err and "not a folder" in err
+    assert scene_file.read_text() == "mine\n" and sorted(p.name for p in scene_file.parent.iterdir()) == [
+        "scene"
+    ]
     sim = tmp_path / "sim"
     (sim / "approach.png").mkdir(parents=True)
     (sim / "summary.json").write_text("{}\n")

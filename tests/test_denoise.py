@@ -126,8 +126,14 @@ def _opinions_given(monkeypatch, scene, rig, **config) -> dict[str, list[list[st
     return given
 
 
-def test_the_denoised_passes_get_their_own_later_opinions(monkeypatch):
-    empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
+@pytest.fixture(scope="module")
+def empty_view():
+    """A realistic view with nothing in it: every opinion runs and keeps nothing."""
+    return render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
+
+
+def test_the_denoised_passes_get_their_own_later_opinions(monkeypatch, empty_view):
+    empty = empty_view
     denoised = ["denoised rematch", "denoised coarse rematch"]
     given = _opinions_given(monkeypatch, empty, empty.rig)
     assert given["far_planes"][-1] == denoised
@@ -140,11 +146,10 @@ def test_the_denoised_passes_get_their_own_later_opinions(monkeypatch):
     assert given["redrawn_planes"][-1] == ["denoised rematch"]
 
 
-def test_without_a_rig_no_box_from_a_denoised_pass_alone(monkeypatch):
+def test_without_a_rig_no_box_from_a_denoised_pass_alone(monkeypatch, empty_view):
     """Without a rig the ground beyond a "box" is the floor the scene chose, in a room
     as likely a table's top (the real Middlebury Playroom, tests/test_terrain_clutter.py)."""
-    empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
-    given = _opinions_given(monkeypatch, empty, None)
+    given = _opinions_given(monkeypatch, empty_view, None)
     assert not any("denoised rematch" in names for names in given["whole_box"])
     assert any("denoised rematch" in names for names in given["agreed_lone_step"])
 

@@ -136,8 +136,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         require_viz("the demo's figure", "--no-plot")
     make_dir(out, "--out")
     check_output_files(out, ("result.json",) + (() if args.no_plot else ("demo.png",)), "--out")
-    if (out / "scene").exists() and not (out / "scene").is_dir():
-        raise InputError(f"cannot write the scene into {out / 'scene'}: it is a file; give another --out")
+    check_output_dir(out / "scene", "--out")
     spec = default_scene_spec()
     scene = render_scene(spec)
     pipeline = Pipeline(scene.calibration, scene.rig)
