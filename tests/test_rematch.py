@@ -107,40 +107,72 @@ def test_rematch_config():
     assert Pipeline(scene.calibration, scene.rig, backend=_Blind())._rematcher is None
 
 
-def test_the_live_loop_rematches_every_other_pair_while_nothing_is_in_view(monkeypatch):
+def _spied_loop(monkeypatch, frames, kept_at=()):
+    """A live loop over ``frames`` pairs of an empty view, its pipeline's ``run`` spied on:
+    what each pair was asked for, ``(rematch, denoised)``; the pairs of ``kept_at`` are made
+    to report a second opinion's find (``rematched``)."""
     from stereo_terrain.runtime.capture import END, FRAME, Capture, CaptureEvent, StereoFrame
     from stereo_terrain.runtime.loop import LiveLoop, LoopConfig
     from stereo_terrain.synthetic import default_scene_spec
 
     empty = render_scene(dataclasses.replace(default_scene_spec(), obstacle=None))
     pipeline = Pipeline(empty.calibration, empty.rig)
-    asked: list[bool] = []
+    asked: list[tuple[bool, bool]] = []
     run = pipeline.run
 
-    def spy(left, right, *, rematch=True):
-        asked.append(rematch)
-        return run(left, right, rematch=rematch)
+    def spy(left, right, *, rematch=True, denoised=True):
+        asked.append((rematch, denoised))
+        result = run(left, right, rematch=rematch, denoised=denoised)
+        if len(asked) - 1 in kept_at:
+            result = dataclasses.replace(result, rematched=True)
+        return result
 
     monkeypatch.setattr(pipeline, "run", spy)
 
     class Camera:
         def __init__(self):
-            self.left = 5
+            self.left = frames
 
         def read(self):
             if not self.left:
                 return CaptureEvent(END)
             self.left -= 1
-            t = float(5 - self.left)
-            return CaptureEvent(FRAME, StereoFrame(empty.left, empty.right, t, t, 5 - self.left))
+            t = float(frames - self.left)
+            return CaptureEvent(FRAME, StereoFrame(empty.left, empty.right, t, t, frames - self.left))
 
         def close(self):
             pass
 
     loop = LiveLoop(Capture(Camera()), pipeline, lambda msg: None, config=LoopConfig(poll_s=0.0))
     summary = loop.run()
-    assert summary.processed == 5
-    assert asked == [True, False, True, False, True]
+    assert summary.processed == frames
+    return asked
+
+
+def test_the_live_loop_rematches_every_other_pair_while_nothing_is_in_view(monkeypatch):
+    """The second opinions on every other pair, the denoised ones on every other of those
+    (LoopConfig.denoised_every, 2)."""
+    asked = _spied_loop(monkeypatch, 9)
+    assert [rematch for rematch, _ in asked] == [True, False] * 4 + [True]
+    assert [denoised for rematch, denoised in asked if rematch] == [True, False, True, False, True]
+
+
+def test_the_live_loop_runs_every_opinion_again_once_one_keeps_something(monkeypatch):
+    """A pair whose second opinion keeps something (here pair 2, made so) is followed by a
+    pair that runs them all, the denoised ones too, as are the pairs after it while they
+    keep finding; then the schedule starts again."""
+    asked = _spied_loop(monkeypatch, 7, kept_at=(2,))
+    full, light = (True, True), (False, True)
+    assert asked == [full, light, (True, False), full, light, (True, False), light]
+
+
+def test_the_denoised_opinions_schedule_is_checked():
+    from stereo_terrain.runtime.loop import LoopConfig
+
+    assert LoopConfig().denoised_every == 2
+    assert LoopConfig(denoised_every=1).denoised_every == 1
+    with pytest.raises(ConfigError, match="denoised_every must be >= 1"):
+        LoopConfig(denoised_every=0)
 
 
 def test_what_the_rematch_is_run_for():

@@ -190,11 +190,11 @@ def test_interrupted_loop_leaves_a_complete_file(rec, tmp_path, capsys, monkeypa
     real_run = Pipeline.run
     calls = []
 
-    def run_then_interrupt(self, left, right):
+    def run_then_interrupt(self, left, right, **options):
         calls.append(1)
         if len(calls) == 3:  # warm-up, pair 0, then Ctrl-C during pair 1
             raise KeyboardInterrupt
-        return real_run(self, left, right)
+        return real_run(self, left, right, **options)
 
     monkeypatch.setattr(Pipeline, "run", run_then_interrupt)
     out = tmp_path / "stopped.mcap"

@@ -126,11 +126,11 @@ def test_pipeline_errors_are_counted_and_the_loop_goes_on(scene, pipeline, monke
     real_run = pipeline.run
     calls = {"n": 0}
 
-    def flaky(left, right):
+    def flaky(left, right, **options):
         calls["n"] += 1
         if calls["n"] == 2:
             raise RuntimeError("boom")
-        return real_run(left, right)
+        return real_run(left, right, **options)
 
     monkeypatch.setattr(pipeline, "run", flaky)
     msgs = []
@@ -509,12 +509,12 @@ def test_a_stop_that_surfaces_as_an_error_stops_the_loop(scene, pipeline, monkey
     real_run = pipeline.run
     calls = {"n": 0}
 
-    def interrupted(left, right):
+    def interrupted(left, right, **options):
         calls["n"] += 1
         if calls["n"] == 2:
             request_stop()
             raise SystemError("error return without exception set")
-        return real_run(left, right)
+        return real_run(left, right, **options)
 
     monkeypatch.setattr(pipeline, "run", interrupted)
     frames = [_frame(scene, float(i), i) for i in range(4)]

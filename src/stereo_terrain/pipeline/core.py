@@ -167,20 +167,26 @@ class Pipeline:
         self.rig = rig
         self.T_yaw_camera_rect = None if rig is None else rig.T_yaw_camera @ self.rectification.T_camera_rect
 
-    def run(self, left: np.ndarray, right: np.ndarray, *, rematch: bool = True) -> TerrainResult:
+    def run(
+        self, left: np.ndarray, right: np.ndarray, *, rematch: bool = True, denoised: bool = True
+    ) -> TerrainResult:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
         ``rematch``: False skips the second opinions for this frame (the rematch, the
         coarse, focus and denoised rematches, the far planes and the redrawn planes,
         ``PipelineConfig.rematch``, ``far_planes_sigmas``, ``redraw_planes`` and
-        ``rematch_denoised``: the live
-        loop runs them on every other pair while they keep nothing). On the main thread
-        the process's BLAS is held to one thread while the frame runs (see
-        :func:`~.threads.one_blas_thread`); the caller's setting is back afterwards."""
+        ``rematch_denoised``: the live loop runs them on every other pair while they keep
+        nothing). ``denoised``: False skips only the denoised opinions (the dearest; the
+        live loop runs them on every ``LoopConfig.denoised_every``-th pair that runs the
+        others while nothing is kept). On the main thread the process's BLAS is held to
+        one thread while the frame runs (see :func:`~.threads.one_blas_thread`); the
+        caller's setting is back afterwards."""
         with one_blas_thread():
-            return self._run(left, right, rematch)
+            return self._run(left, right, rematch, denoised)
 
-    def _run(self, left: np.ndarray, right: np.ndarray, rematch: bool = True) -> TerrainResult:
+    def _run(
+        self, left: np.ndarray, right: np.ndarray, rematch: bool = True, denoised: bool = True
+    ) -> TerrainResult:
         t0 = time.perf_counter()
         pair = rectify(left, right, self.rectification)
         if self.rectifier is not None:
@@ -239,7 +245,8 @@ class Pipeline:
                     result = far_planes(tried[before:], result, self.config)
                 if wants_rematch(result.terrain, self.config) and self._redraw_on:
                     result = redrawn_planes(tried[before:], result, self.config)
-        if second and self.config.rematch_denoised > 0 and wants_rematch(result.terrain, self.config):
+        denoise = second and denoised and self.config.rematch_denoised > 0
+        if denoise and wants_rematch(result.terrain, self.config):
             # Still wanting: the pair with the sensor's noise taken out, matched again by the
             # rematch and the coarse rematch, then those passes' own far planes, lone step,
             # box (with a rig) and redrawn planes (issue 11; PipelineConfig.rematch_denoised).

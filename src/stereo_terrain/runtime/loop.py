@@ -83,6 +83,12 @@ class LoopConfig:
         before the first usable one after which the loop stops with an :class:`InputError`
         naming the reason (wrong calibration size, wrong sources); later runs of unusable
         pairs are warned about every ``max_unusable_start`` pairs and the loop goes on.
+    denoised_every : int
+        While the pipeline's second opinions keep nothing they run on every other pair;
+        the denoised ones (``PipelineConfig.rematch_denoised``, the dearest: about 150 ms
+        of a 640x480 pair here) run on every ``denoised_every``-th of those: with 2, on
+        every fourth pair. 1: whenever the others run. Once any second opinion keeps
+        something, every pair runs them all again.
     """
 
     max_skew_s: float = 0.015
@@ -94,11 +100,14 @@ class LoopConfig:
     max_duration_s: float = 0.0
     max_unusable_start: int = 10
     pose_jumps: PoseJumpConfig = field(default_factory=PoseJumpConfig)
+    denoised_every: int = 2
 
     def __post_init__(self) -> None:
         check_fields(self)
         if self.max_unusable_start < 1:
             raise ConfigError(f"LoopConfig.max_unusable_start must be >= 1, got {self.max_unusable_start}")
+        if self.denoised_every < 1:
+            raise ConfigError(f"LoopConfig.denoised_every must be >= 1, got {self.denoised_every}")
         for name in ("max_skew_s", "stall_timeout_s", "heartbeat_s", "status_interval_s", "poll_s"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"LoopConfig.{name} must be >= 0 seconds, got {getattr(self, name)}")
@@ -288,6 +297,7 @@ class LiveLoop:
         self._unusable_detail = ""
         self._last_failure: Exception | None = None
         self._rematched_nothing = False  # the last pair ran second opinions, which kept nothing
+        self._idle_opinions = 0  # pairs since one kept something (or none was needed) that ran them
 
     def warm_up(self) -> None:
         """Run the pipeline once on a blank pair of the calibration's size so that the first
@@ -395,8 +405,11 @@ class LiveLoop:
             # far planes where no pass finds anything, the same two rematches on the pair
             # denoised) keep nothing, they run on every other pair: a flat floor costs 3
             # passes a pair, not 5, and stairs are seen one pair later at most (issue 11).
+            # The denoised ones, the dearest, run on every denoised_every-th of those.
             if self._rematched_nothing:
                 result = self.pipeline.run(frame.left, frame.right, rematch=False)
+            elif self._idle_opinions % self.config.denoised_every:
+                result = self.pipeline.run(frame.left, frame.right, denoised=False)
             else:
                 result = self.pipeline.run(frame.left, frame.right)
         except StereoTerrainError as exc:
@@ -411,7 +424,9 @@ class LiveLoop:
             self._last_failure = exc
             self._unusable(f"pair {frame.index}: internal error {type(exc).__name__}: {exc}")
             return
-        ran = any(k in result.timing_ms for k in ("rematch", "far_planes", "redraw"))
+        ran = any(k in result.timing_ms for k in ("rematch", "far_planes", "redraw", "denoise"))
+        if not self._rematched_nothing:  # this pair could run them
+            self._idle_opinions = self._idle_opinions + 1 if ran and not result.rematched else 0
         self._rematched_nothing = ran and not result.rematched
         model, track_state, trig = track_and_trigger(
             self.tracker,
