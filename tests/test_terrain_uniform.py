@@ -236,3 +236,84 @@ def test_a_chain_above_the_ground_gets_its_first_step_inferred():
     assert model.steps[0].distance_m == pytest.approx(1.3, abs=0.02)
     assert [s.top_z_m for s in model.steps] == pytest.approx([0.19, 0.38, 0.57, 0.76], abs=0.02)
     assert "below the lowest riser plane" in model.note
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    rise=st.floats(0.12, 0.21),
+    noise=st.lists(st.floats(-0.005, 0.005), min_size=3, max_size=6),
+    at=st.integers(0, 4),
+    shift=st.floats(0.04, 0.09),
+    down=st.booleans(),
+)
+def test_one_misplaced_top_between_two_steps_takes_the_common_rise(rise, noise, at, shift, down):
+    """The top between steps ``j`` and ``j + 1`` measured ``shift`` too high or too low makes
+    one rise longer by as much as the next is shorter: both report the staircase's rise,
+    and keep their own as the measured one."""
+    j = at % (len(noise) - 1)
+    shift = -shift if down else shift
+    true = [rise + e for e in noise]
+    measured = list(true)
+    measured[j] += shift
+    measured[j + 1] -= shift
+    if min(measured) <= 0:
+        return
+    steps, n = common_rise(_steps(measured), 0.0)
+    assert n == len(measured)
+    assert all(abs(s.rise_m - rise) < 0.008 for s in steps)
+    assert [s.measured_rise_m for s in steps] == pytest.approx(measured, abs=1e-12)
+    assert steps[-1].top_z_m == pytest.approx(len(measured) * steps[0].rise_m, abs=1e-9)
+
+
+def test_an_odd_rise_or_two_tall_neighbours_are_no_misplaced_top():
+    """A single odd rise keeps its own (a landing, a first step on a thicker floor), so do
+    two neighbours both too tall (a double step each) and a pair whose mean is not the
+    staircase's rise."""
+    odd = [0.17, 0.17, 0.17, 0.23]
+    steps, n = common_rise(_steps(odd), 0.0)
+    assert n == 3 and steps[3].rise_m == pytest.approx(0.23)
+    tall = [0.17, 0.17, 0.34, 0.34, 0.17]
+    steps, n = common_rise(_steps(tall), 0.0)
+    assert n == 3 and [s.rise_m for s in steps[2:4]] == pytest.approx([0.34, 0.34])
+    skewed = [0.17, 0.17, 0.10, 0.30, 0.17]  # the pair's mean 20 cm: not one top moved
+    steps, n = common_rise(_steps(skewed), 0.0)
+    assert n == 3 and [s.rise_m for s in steps[2:4]] == pytest.approx([0.10, 0.30])
+    # Not across an inferred step: those two rises share no top.
+    apart = _steps([0.17, 0.10, 0.17, 0.24, 0.17], inferred={2})
+    steps, n = common_rise(apart, 0.0)
+    assert steps[1].rise_m == pytest.approx(0.10) and steps[3].rise_m == pytest.approx(0.24)
+
+
+@pytest.mark.parametrize("shift", [0.06, -0.06])
+def test_the_note_names_a_misplaced_top(shift):
+    """The second step's top (its tread, and the third riser's foot) measured 6 cm high or
+    low, its riser stretched to it and the third riser shrunk: the second and third rises
+    differ by 12 cm, their mean the others'. All four report the common rise; the
+    measured ones stay; the note names the two."""
+    import dataclasses
+
+    from stereo_terrain.terrain.uniform import pooled_across_a_top
+
+    planes = _stairs(n_steps=4, rise=0.17, run=0.29)
+    segs = list(planes.segments)
+    points = planes.samples.points.copy()
+    for i, g in enumerate(segs):
+        z = points[g.indices, 2]
+        if g.kind == "horizontal" and g.plane.offset == pytest.approx(-0.34):
+            points[g.indices, 2] += shift
+            segs[i] = dataclasses.replace(g, plane=Plane(np.array([0.0, 0.0, 1.0]), -0.34 - shift))
+        elif g.kind == "vertical" and 0.17 < np.median(z) < 0.34:
+            points[g.indices, 2] = 0.17 + (z - 0.17) * (0.17 + shift) / 0.17
+        elif g.kind == "vertical" and 0.34 < np.median(z) < 0.51:
+            points[g.indices, 2] = 0.34 + shift + (z - 0.34) * (0.17 - shift) / 0.17
+    samples = dataclasses.replace(planes.samples, points=points)
+    model = build_terrain(dataclasses.replace(planes, segments=tuple(segs), samples=samples))
+    assert model.obstacle == STAIRS and len(model.steps) == 4, model.note
+    measured = [s.measured_rise_m for s in model.steps[1:3]]
+    assert measured == pytest.approx([0.17 + shift, 0.17 - shift], abs=0.005)
+    assert all(s.rise_m == pytest.approx(0.17, abs=0.005) for s in model.steps)
+    assert "2 measured rises agree" in model.note
+    assert "steps 2 and 3 measured" in model.note and "the top between them misplaced" in model.note
+    assert pooled_across_a_top(list(model.steps), CONFIG) == 1
+    plain = build_terrain(planes)
+    assert pooled_across_a_top(list(plain.steps), CONFIG) is None and "misplaced" not in plain.note

@@ -29,7 +29,7 @@ from .risers import (
     edge_bias,
     riser_distance,
 )
-from .uniform import common_steps, rise_from_nosings, takers_of_rise
+from .uniform import common_steps, pooled_across_a_top, rise_from_nosings, takers_of_rise
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
 #: orientation method's tolerance) was two different faces.
@@ -527,6 +527,7 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             f"; {from_lines} more beyond, where the image's line segments show their nosings"
             " (at the median rise and run)"
         )
+    across = pooled_across_a_top(steps, config) if pooled_rises else None
     if nosings_taken and len(steps) == 1:
         note += (
             "; its rise is its nosing's height above the ground as the image's line segments"
@@ -538,7 +539,15 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             " image's line segments show at their heights: those steps report it"
         )
     elif pooled_rises:
-        note += f"; {pooled_rises} measured rises agree: those steps report their median"
+        agreeing = pooled_rises - (2 if across is not None else 0)
+        note += f"; {agreeing} measured rises agree: those steps report their median"
+    if across is not None:
+        a, b = steps[across], steps[across + 1]
+        note += (
+            f"; steps {across + 1} and {across + 2} measured {100.0 * (a.measured_rise_m or 0.0):.1f} and"
+            f" {100.0 * (b.measured_rise_m or 0.0):.1f} cm, their mean the others': the top between"
+            " them misplaced, they report the common rise too"
+        )
     if pooled_runs:
         note += f"; {pooled_runs} measured runs agree: those steps report their median"
     if refined:

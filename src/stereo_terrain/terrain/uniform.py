@@ -127,6 +127,63 @@ def rise_from_nosings(
     return rise, [i for i, x in enumerate(heights) if x is not None]
 
 
+def misplaced_top(
+    measured: dict[int, float], rises: list[int], rise: float, config: TerrainConfig
+) -> tuple[list[int], float, int] | None:
+    """Two adjacent steps whose measured rises are left out of the common one because the
+    top between them (the first's tread, the second's foot: one height) was measured
+    too high or too low: one rise is then longer by as much as the next is shorter.
+    Where every other measured rise agrees (``rises``, reporting ``rise``; or, where no
+    majority agreed, all but the pair within ``common_rise_tolerance_m`` of the median
+    with the pair counted at its mean, ``common_min_steps`` or more), and the pair's
+    rises lie on either side of the common one, each further than the tolerance, their
+    mean within half of it: every measured step, and the common rise (all steps' keys,
+    the rise, the pair's first index). Else None. A single odd rise (a first step on a
+    thicker floor, a landing) is not such a pair, and keeps its own, as do two
+    neighbours that are both too tall (a double step).
+
+    Parameters
+    ----------
+    measured : the measured rises by step index
+    rises, rise : the steps that report the common rise and that rise (none, 0.0: no
+        majority agreed)
+    config : TerrainConfig (``common_rise_tolerance_m``, ``common_min_steps``)
+    """
+    tol = config.common_rise_tolerance_m
+    left = sorted(set(measured) - set(rises))
+    if tol <= 0 or len(measured) < config.common_min_steps or (rises and len(left) != 2):
+        return None
+    for j in left if rises else sorted(measured):
+        if j + 1 not in measured or (rises and left != [j, j + 1]):
+            continue
+        mean = 0.5 * (measured[j] + measured[j + 1])
+        common = rise
+        if not rises:
+            merged = {**measured, j: mean, j + 1: mean}
+            common = float(median(np.array(list(merged.values()))))
+            if any(abs(x - common) > tol for x in merged.values()):
+                continue
+        low, high = sorted((measured[j] - common, measured[j + 1] - common))
+        if low < -tol and high > tol and abs(mean - common) <= 0.5 * tol:
+            return sorted(measured), common, j
+    return None
+
+
+def pooled_across_a_top(steps: list[Step], config: TerrainConfig) -> int | None:
+    """The index of the first of two adjacent steps of ``steps`` (as :func:`common_steps`
+    returns them) that report the common rise by :func:`misplaced_top` (their measured
+    rises further than ``common_rise_tolerance_m`` from it, which the median's rule never
+    pools), or None: for the terrain note."""
+    tol = config.common_rise_tolerance_m
+    for j in range(len(steps) - 1):
+        a, b = steps[j].measured_rise_m, steps[j + 1].measured_rise_m
+        if a is None or b is None:
+            continue
+        if min(abs(a - steps[j].rise_m), abs(b - steps[j + 1].rise_m)) > tol:
+            return j
+    return None
+
+
 def takers_of_rise(
     steps: list[Step], rise_m: float, config: TerrainConfig, *, fits: Collection[int] = ()
 ) -> list[int]:
@@ -171,6 +228,9 @@ def common_steps(
         rise = rise_m
     if not rises:
         rises, rise = _agreeing(measured, config.common_rise_tolerance_m, config.common_min_steps)
+    pair = misplaced_top(measured, rises, rise, config)
+    if pair is not None:
+        rises, rise, _ = pair
     runs, run = _agreeing_runs({i: s.run_m for i, s in enumerate(steps) if s.run_m is not None}, config)
     if not rises and not runs:
         return steps, 0, 0
