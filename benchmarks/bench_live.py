@@ -23,6 +23,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import select
@@ -146,13 +147,15 @@ def _loop(
     loop: bool,
     calib=None,
     rig=None,
-    denoised_every: int = 2,
+    denoised_every: int | None = None,
 ) -> LiveLoop:
     calib = read_calibration(calib or folder / "calib.yaml")
     rig_path = rig or folder / "rig.yaml"
     pipeline = Pipeline(calib, load_rig(rig_path) if rig_path.is_file() else None)
     src = Paced(FolderPairs(folder, loop=loop), realtime=realtime)
-    config = LoopConfig(max_duration_s=duration, denoised_every=denoised_every)
+    config = LoopConfig(max_duration_s=duration)
+    if denoised_every is not None:
+        config = dataclasses.replace(config, denoised_every=denoised_every)
     lp = LiveLoop(Capture(src), pipeline, lambda m: m.encode(), config=config)
     lp.warm_up()
     return lp

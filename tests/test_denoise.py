@@ -102,6 +102,28 @@ def test_they_run_only_where_every_other_opinion_leaves_the_frame_wanting(monkey
     assert _passes(monkeypatch, no_second, image, image) == 1
 
 
+def test_a_frame_may_skip_them_alone(monkeypatch):
+    """``Pipeline.run(denoised=False)`` (the live loop's pairs between two that run them,
+    ``LoopConfig.denoised_every``) runs the other second opinions and not these."""
+    calib = _calib(640, 480)
+    image = cv2.resize(_texture(9), (640, 480))
+    pipeline = Pipeline(calib, None, warm_up=False)
+    seen: list[dict[str, float]] = []
+    original = pipeline.run
+
+    def run(left, right, **options):
+        result = original(left, right, **options)
+        seen.append(result.timing_ms)
+        return result
+
+    monkeypatch.setattr(pipeline, "run", run)
+    assert _passes(monkeypatch, pipeline, image, image) == 5
+    assert "denoise" in seen[-1] and "rematch" in seen[-1]
+    monkeypatch.setattr(pipeline, "run", lambda left, right: run(left, right, denoised=False))
+    assert _passes(monkeypatch, pipeline, image, image) == 3
+    assert "denoise" not in seen[-1] and "rematch" in seen[-1]
+
+
 def test_stairs_the_first_pass_finds_are_not_denoised():
     scene = render_scene(default_scene_spec())
     result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)

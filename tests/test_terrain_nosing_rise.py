@@ -72,21 +72,21 @@ def test_the_rise_is_as_near_as_the_heights(rise, ground, noise, missing, known_
 
 def test_the_measured_rises_near_the_nosings_rise_report_it():
     steps = _steps([0.21, 0.16, 0.19, 0.35])  # the last a double step
-    out, n_rises, _ = common_steps(steps, 0.0, CONFIG, rise_m=0.18)
+    out, n_rises, _, _ = common_steps(steps, 0.0, CONFIG, rise_m=0.18)
     assert n_rises == 3
     assert [s.rise_m for s in out] == [0.18, 0.18, 0.18, 0.35]
     assert [s.measured_rise_m for s in out[:3]] == [0.21, 0.16, 0.19]
     assert out[-1].measured_rise_m is None
     assert [s.top_z_m for s in out] == pytest.approx([0.18, 0.36, 0.54, 0.89])
     # None near it: the median's rule (three or more within the tolerance of their median).
-    out, n_rises, _ = common_steps(_steps([0.17, 0.17, 0.18]), 0.0, CONFIG, rise_m=0.25)
+    out, n_rises, _, _ = common_steps(_steps([0.17, 0.17, 0.18]), 0.0, CONFIG, rise_m=0.25)
     assert n_rises == 3 and out[0].rise_m == pytest.approx(0.17)
     # A step whose nosing it fits takes it, whatever its measured rise (two steps' nosings
     # at 36 and 54 cm: the 27 cm measured is the disparity's, not the step's).
-    out, n_rises, _ = common_steps(_steps([0.17, 0.27, 0.10]), 0.0, CONFIG, rise_m=0.18, fits=[1])
+    out, n_rises, _, _ = common_steps(_steps([0.17, 0.27, 0.10]), 0.0, CONFIG, rise_m=0.18, fits=[1])
     assert [s.rise_m for s in out] == [0.18, 0.18, 0.10] and n_rises == 2
     # Steps whose rise was inferred take it too.
-    out, n_rises, _ = common_steps(_steps([0.21, 0.21], inferred=(1,)), 0.0, CONFIG, rise_m=0.20)
+    out, n_rises, _, _ = common_steps(_steps([0.21, 0.21], inferred=(1,)), 0.0, CONFIG, rise_m=0.20)
     assert n_rises == 1 and [s.rise_m for s in out] == [0.20, 0.20]
 
 

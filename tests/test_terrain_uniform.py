@@ -22,7 +22,7 @@ RISES_ONLY = TerrainConfig(common_run_tolerance_m=0.0)
 
 def common_rise(steps, ground, config=RISES_ONLY):
     """:func:`common_steps` on the rises alone: (steps, rises replaced)."""
-    out, n_rises, n_runs = common_steps(steps, ground, config)
+    out, n_rises, n_runs, _ = common_steps(steps, ground, config)
     assert n_runs == 0
     return out, n_rises
 
@@ -76,7 +76,7 @@ def test_two_steps_or_no_agreeing_majority_are_left_alone():
     assert common_rise(scattered, 0.0) == (scattered, 0)
     off = TerrainConfig(common_rise_tolerance_m=0.0, common_run_tolerance_m=0.0)
     steps = _steps([0.17, 0.18, 0.16])
-    assert common_steps(steps, 0.0, off) == (steps, 0, 0)
+    assert common_steps(steps, 0.0, off) == (steps, 0, 0, None)
 
 
 def test_an_inferred_rise_takes_the_common_rise_and_is_no_measurement():
@@ -138,7 +138,7 @@ def test_a_riser_too_near_the_one_before_is_not_the_next_step():
 def test_agreeing_runs_report_their_median_and_the_risers_stay(run, noise):
     runs = [run + e for e in noise] + [None]
     given_steps = _steps([0.17] * len(runs), runs=runs)
-    steps, n_rises, n_runs = common_steps(given_steps, 0.0, CONFIG)
+    steps, n_rises, n_runs, _ = common_steps(given_steps, 0.0, CONFIG)
     assert n_runs == len(noise) and n_rises == len(runs)
     common = float(np.median(runs[:-1]))
     assert [s.run_m for s in steps[:-1]] == pytest.approx([common] * len(noise), abs=1e-12)
@@ -151,7 +151,7 @@ def test_agreeing_runs_report_their_median_and_the_risers_stay(run, noise):
 
 def test_a_run_that_does_not_agree_keeps_its_own():
     # the second run is two treads (a riser not found): 10 cm or more off is not averaged
-    steps, _, n_runs = common_steps(_steps([0.17] * 5, runs=[0.28, 0.57, 0.29, 0.27, None]), 0.0, CONFIG)
+    steps, _, n_runs, _ = common_steps(_steps([0.17] * 5, runs=[0.28, 0.57, 0.29, 0.27, None]), 0.0, CONFIG)
     assert n_runs == 3
     assert [s.run_m for s in steps] == pytest.approx([0.285, 0.57, 0.285, 0.285, None])
     assert steps[1].measured_run_m is None
@@ -162,7 +162,7 @@ def test_two_runs_of_a_three_step_staircase_report_their_mean():
     # share the middle riser's error with opposite signs; their mean is half the span from
     # the first riser to the third.
     given_steps = _steps([0.20] * 3, runs=[0.27, 0.35, None])
-    steps, _, n_runs = common_steps(given_steps, 0.0, CONFIG)
+    steps, _, n_runs, _ = common_steps(given_steps, 0.0, CONFIG)
     assert n_runs == 2
     assert [s.run_m for s in steps] == pytest.approx([0.31, 0.31, None])
     assert [s.measured_run_m for s in steps] == pytest.approx([0.27, 0.35, None])
@@ -192,7 +192,7 @@ def test_the_swing_clears_the_larger_of_a_steps_common_and_measured_rise():
     from stereo_terrain.swing import plan_swing
     from stereo_terrain.terrain import STAIRS, Polytope, StairModel
 
-    steps, n, _ = common_steps(_steps([0.20, 0.17, 0.17, 0.17]), 0.0, CONFIG)
+    steps, n, _, _ = common_steps(_steps([0.20, 0.17, 0.17, 0.17]), 0.0, CONFIG)
     assert n == 4 and steps[0].rise_m == pytest.approx(0.17)
     model = StairModel(STAIRS, tuple(steps), 0.0, 0.0, Polytope(np.zeros((0, 3))), "yaw", "")
     assert plan_swing(model).step_height_m == pytest.approx(0.20)
@@ -241,47 +241,61 @@ def test_a_chain_above_the_ground_gets_its_first_step_inferred():
 @settings(max_examples=40, deadline=None)
 @given(
     rise=st.floats(0.12, 0.21),
-    noise=st.lists(st.floats(-0.005, 0.005), min_size=3, max_size=6),
-    at=st.integers(0, 4),
+    noise=st.lists(st.floats(-0.005, 0.005), min_size=4, max_size=7),
+    at=st.integers(0, 5),
     shift=st.floats(0.04, 0.09),
     down=st.booleans(),
 )
 def test_one_misplaced_top_between_two_steps_takes_the_common_rise(rise, noise, at, shift, down):
     """The top between steps ``j`` and ``j + 1`` measured ``shift`` too high or too low makes
-    one rise longer by as much as the next is shorter: both report the staircase's rise,
-    and keep their own as the measured one."""
+    one rise longer by as much as the next is shorter: both report the staircase's rise
+    (the others' median), keep their own as the measured one, and are named."""
     j = at % (len(noise) - 1)
     shift = -shift if down else shift
-    true = [rise + e for e in noise]
-    measured = list(true)
+    measured = [rise + e for e in noise]
     measured[j] += shift
     measured[j + 1] -= shift
-    if min(measured) <= 0:
-        return
-    steps, n = common_rise(_steps(measured), 0.0)
-    assert n == len(measured)
-    assert all(abs(s.rise_m - rise) < 0.008 for s in steps)
+    steps, n, _, pair = common_steps(_steps(measured), 0.0, RISES_ONLY)
+    assert n == len(measured) and pair == j
+    others = [x for i, x in enumerate(measured) if i not in (j, j + 1)]
+    assert all(s.rise_m == pytest.approx(float(np.median(others)), abs=1e-12) for s in steps)
+    assert all(abs(s.rise_m - rise) < 0.006 for s in steps)
     assert [s.measured_rise_m for s in steps] == pytest.approx(measured, abs=1e-12)
     assert steps[-1].top_z_m == pytest.approx(len(measured) * steps[0].rise_m, abs=1e-9)
 
 
-def test_an_odd_rise_or_two_tall_neighbours_are_no_misplaced_top():
+def test_what_is_no_misplaced_top():
     """A single odd rise keeps its own (a landing, a first step on a thicker floor), so do
-    two neighbours both too tall (a double step each) and a pair whose mean is not the
-    staircase's rise."""
-    odd = [0.17, 0.17, 0.17, 0.23]
-    steps, n = common_rise(_steps(odd), 0.0)
-    assert n == 3 and steps[3].rise_m == pytest.approx(0.23)
-    tall = [0.17, 0.17, 0.34, 0.34, 0.17]
-    steps, n = common_rise(_steps(tall), 0.0)
-    assert n == 3 and [s.rise_m for s in steps[2:4]] == pytest.approx([0.34, 0.34])
-    skewed = [0.17, 0.17, 0.10, 0.30, 0.17]  # the pair's mean 20 cm: not one top moved
-    steps, n = common_rise(_steps(skewed), 0.0)
-    assert n == 3 and [s.rise_m for s in steps[2:4]] == pytest.approx([0.10, 0.30])
-    # Not across an inferred step: those two rises share no top.
-    apart = _steps([0.17, 0.10, 0.17, 0.24, 0.17], inferred={2})
-    steps, n = common_rise(apart, 0.0)
-    assert steps[1].rise_m == pytest.approx(0.10) and steps[3].rise_m == pytest.approx(0.24)
+    two neighbours both too tall (a double step each), a pair whose mean is not the
+    staircase's rise, a pair beside a single other rise (nothing tells which is wrong), two
+    rises with an inferred step between them (they share no top), and a pair the nosings'
+    rise already took."""
+
+    def pair_of(rises, config=RISES_ONLY, inferred=(), **kw):
+        steps, _, _, pair = common_steps(_steps(rises, inferred=inferred), 0.0, config, **kw)
+        return steps, pair
+
+    steps, pair = pair_of([0.17, 0.17, 0.17, 0.23])
+    assert pair is None and steps[3].rise_m == pytest.approx(0.23)
+    steps, pair = pair_of([0.17, 0.17, 0.34, 0.34, 0.17])
+    assert pair is None and [s.rise_m for s in steps[2:4]] == pytest.approx([0.34, 0.34])
+    steps, pair = pair_of([0.17, 0.17, 0.10, 0.30, 0.17])  # the pair's mean 20 cm
+    assert pair is None and [s.rise_m for s in steps[2:4]] == pytest.approx([0.10, 0.30])
+    for three in ([0.16, 0.10, 0.22], [0.184, 0.139, 0.19], [0.16, 0.14, 0.205]):
+        steps, pair = pair_of(three)
+        assert pair is None and [s.rise_m for s in steps] == pytest.approx(three)
+    two = TerrainConfig(common_min_steps=2, common_run_tolerance_m=0.0)
+    steps, pair = pair_of([0.12, 0.22], two)
+    assert pair is None and [s.rise_m for s in steps] == pytest.approx([0.12, 0.22])
+    steps, pair = pair_of([0.17, 0.10, 0.17, 0.24, 0.17, 0.17], inferred={2})
+    assert pair is None and steps[1].rise_m == pytest.approx(0.10) and steps[3].rise_m == pytest.approx(0.24)
+    steps, pair = pair_of([0.17, 0.22, 0.22, 0.17], rise_m=0.17, fits=[0, 1, 2, 3])
+    assert pair is None and all(s.rise_m == pytest.approx(0.17) for s in steps)
+    # Beside a majority that already agreed, and with the nosings' rise: the pair joins it.
+    steps, pair = pair_of([0.17, 0.17, 0.11, 0.23, 0.17])
+    assert pair == 2 and all(s.rise_m == pytest.approx(0.17) for s in steps)
+    steps, pair = pair_of([0.17, 0.11, 0.23, 0.17, 0.17], rise_m=0.172)
+    assert pair == 1 and all(s.rise_m == pytest.approx(0.172) for s in steps)
 
 
 @pytest.mark.parametrize("shift", [0.06, -0.06])
@@ -289,10 +303,8 @@ def test_the_note_names_a_misplaced_top(shift):
     """The second step's top (its tread, and the third riser's foot) measured 6 cm high or
     low, its riser stretched to it and the third riser shrunk: the second and third rises
     differ by 12 cm, their mean the others'. All four report the common rise; the
-    measured ones stay; the note names the two."""
+    measured ones stay; the note names the two and counts the two others as agreeing."""
     import dataclasses
-
-    from stereo_terrain.terrain.uniform import pooled_across_a_top
 
     planes = _stairs(n_steps=4, rise=0.17, run=0.29)
     segs = list(planes.segments)
@@ -312,8 +324,6 @@ def test_the_note_names_a_misplaced_top(shift):
     measured = [s.measured_rise_m for s in model.steps[1:3]]
     assert measured == pytest.approx([0.17 + shift, 0.17 - shift], abs=0.005)
     assert all(s.rise_m == pytest.approx(0.17, abs=0.005) for s in model.steps)
-    assert "2 measured rises agree" in model.note
+    assert "; 2 measured rises agree: those steps report their median" in model.note
     assert "steps 2 and 3 measured" in model.note and "the top between them misplaced" in model.note
-    assert pooled_across_a_top(list(model.steps), CONFIG) == 1
-    plain = build_terrain(planes)
-    assert pooled_across_a_top(list(plain.steps), CONFIG) is None and "misplaced" not in plain.note
+    assert "misplaced" not in build_terrain(planes).note

@@ -29,7 +29,7 @@ from .risers import (
     edge_bias,
     riser_distance,
 )
-from .uniform import common_steps, pooled_across_a_top, rise_from_nosings, takers_of_rise
+from .uniform import common_steps, rise_from_nosings, takers_of_rise
 
 #: A merged riser whose refit normal has a larger vertical component (sin of ~6 deg, the
 #: orientation method's tolerance) was two different faces.
@@ -494,7 +494,7 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     nosing_rise, fits = fit if fit is not None else (None, [])
     # whether the steps report the nosings' rise (else the median's rule, or their own)
     nosings_taken = nosing_rise is not None and bool(takers_of_rise(steps, nosing_rise, config, fits=fits))
-    steps, pooled_rises, pooled_runs = common_steps(
+    steps, pooled_rises, pooled_runs, across = common_steps(
         steps, chain.ground_z, config, rise_m=nosing_rise, fits=fits
     )
 
@@ -527,7 +527,8 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             f"; {from_lines} more beyond, where the image's line segments show their nosings"
             " (at the median rise and run)"
         )
-    across = pooled_across_a_top(steps, config) if pooled_rises else None
+    # the measured rises that agree (those of two neighbours across a misplaced top apart)
+    agreeing = pooled_rises - (2 if across is not None else 0)
     if nosings_taken and len(steps) == 1:
         note += (
             "; its rise is its nosing's height above the ground as the image's line segments"
@@ -535,11 +536,10 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
         )
     elif nosings_taken:
         note += (
-            f"; {pooled_rises} measured rise(s) agree with the rise that puts the nosings the"
+            f"; {agreeing} measured rise(s) agree with the rise that puts the nosings the"
             " image's line segments show at their heights: those steps report it"
         )
     elif pooled_rises:
-        agreeing = pooled_rises - (2 if across is not None else 0)
         note += f"; {agreeing} measured rises agree: those steps report their median"
     if across is not None:
         a, b = steps[across], steps[across + 1]

@@ -177,7 +177,9 @@ class TerrainConfig:
         ``Step.measured_rise_m`` (``measured_run_m``), and the swing plan clears the larger
         of the two. A step further off keeps its own (a different step, or a measurement
         gone wrong: either way not averaged away; those pooled may differ by up to twice
-        this between them). The run tolerance is wider: a riser's position is less sure
+        this between them), but for two neighbours on either side of the common rise
+        whose mean it is, the top between them misplaced (:func:`.uniform.misplaced_top`).
+        The run tolerance is wider: a riser's position is less sure
         than a height (0.05 until the twenty-eighth session, docs/benchmarks.md). 0 = off.
         See :mod:`.uniform`.
     common_min_steps : int
@@ -194,7 +196,7 @@ class TerrainConfig:
         common rise is the one that puts them at their heights (a least-squares fit from
         the ground, each within ``common_rise_tolerance_m``), not the median of the
         measured rises; the measured rises within ``common_rise_tolerance_m`` of it report
-        it. See :mod:`.uniform`.
+        it (and two neighbours across a misplaced top). See :mod:`.uniform`.
     max_edge_bias_m : float
         A riser's top edge, found from the samples nearest it, lies low, and its bottom
         edge high, by about the same amount. In a staircase whose every top is its riser's

@@ -14,14 +14,20 @@ are enough: the mean of two runs is half the span from the first riser to the th
 which leaves out the middle riser's error; two runs must lie within the tolerance of each
 other). A step further off keeps its
 own: it is either a different step (a first step on a thicker floor, a landing) or a
-measurement gone wrong, and averaging would hide either from the swing plan. Steps whose
+measurement gone wrong, and averaging would hide either from the swing plan. One wrong
+measurement is told apart (:func:`misplaced_top`): two neighbours on either side of the
+common rise, each further than the tolerance and their mean within half of it, beside
+``common_min_steps - 1`` or more others that agree. The top between them is one height,
+the first's tread and the second's foot; measured too high or too low, it makes one rise
+longer by as much as the next is shorter, and both report the common rise. Steps whose
 rise was inferred (:mod:`.continuation`, a first step whose foot is out of view) take the
 common rise too. The tread heights follow the rises (each tread stands its rise above the
 one before it, the first above the ground), so that the model's heights agree with its
 rises (a step without a tread plane takes its polytope top from that height); the riser
 positions and distances and the planes stay as measured. Pooled values may differ by up
-to twice the tolerance between them, so the swing plan clears the larger of a step's
-common and measured rise (:func:`stereo_terrain.swing.plan_swing`).
+to twice the tolerance between them (the two across a misplaced top by more), so the
+swing plan clears the larger of a step's common and measured rise
+(:func:`stereo_terrain.swing.plan_swing`).
 
 Measured on the plane sets of 280 rendered staircases per profile (docs/benchmarks.md,
 "Eighth session"): rise and run errors fall on both profiles (the default profile's rise
@@ -129,58 +135,50 @@ def rise_from_nosings(
 
 def misplaced_top(
     measured: dict[int, float], rises: list[int], rise: float, config: TerrainConfig
-) -> tuple[list[int], float, int] | None:
-    """Two adjacent steps whose measured rises are left out of the common one because the
-    top between them (the first's tread, the second's foot: one height) was measured
-    too high or too low: one rise is then longer by as much as the next is shorter.
-    Where every other measured rise agrees (``rises``, reporting ``rise``; or, where no
-    majority agreed, all but the pair within ``common_rise_tolerance_m`` of the median
-    with the pair counted at its mean, ``common_min_steps`` or more), and the pair's
-    rises lie on either side of the common one, each further than the tolerance, their
-    mean within half of it: every measured step, and the common rise (all steps' keys,
-    the rise, the pair's first index). Else None. A single odd rise (a first step on a
-    thicker floor, a landing) is not such a pair, and keeps its own, as do two
-    neighbours that are both too tall (a double step).
+) -> tuple[float, int] | None:
+    """Two neighbouring steps left out of the common rise because the top between them
+    (the first's tread, the second's foot: one height) was measured too high or too low:
+    one rise is then longer by as much as the next is shorter, and their mean is a rise
+    measured as well as any.
+
+    Where every other measured rise agrees (``common_min_steps - 1`` or more of them:
+    with the pair's mean, as many as the median's rule asks) and the two lie on either
+    side of the common rise, each further than ``common_rise_tolerance_m``, their mean
+    within half of it: the common rise and the first of the two's index. The common rise
+    is ``rise`` where the others are exactly ``rises`` (a majority already agreed without
+    the pair, or the nosings' rise took them), else the others' median, all of them within
+    the tolerance of it. Else None. A single odd rise (a first step on a thicker floor, a
+    landing) is no such pair and keeps its own, as do two neighbours both too tall (double
+    steps) and a pair beside fewer than ``common_min_steps - 1`` others (two rises alone
+    cannot tell which is wrong).
 
     Parameters
     ----------
-    measured : the measured rises by step index
+    measured : the measured rises by step index (inferred steps left out: two steps with
+        an inferred one between them share no top)
     rises, rise : the steps that report the common rise and that rise (none, 0.0: no
         majority agreed)
     config : TerrainConfig (``common_rise_tolerance_m``, ``common_min_steps``)
     """
     tol = config.common_rise_tolerance_m
-    left = sorted(set(measured) - set(rises))
-    if tol <= 0 or len(measured) < config.common_min_steps or (rises and len(left) != 2):
+    if tol <= 0 or len(measured) < config.common_min_steps + 1:
         return None
-    for j in left if rises else sorted(measured):
-        if j + 1 not in measured or (rises and left != [j, j + 1]):
+    for j in sorted(measured):
+        if j + 1 not in measured:
             continue
-        mean = 0.5 * (measured[j] + measured[j + 1])
-        common = rise
-        if not rises:
-            merged = {**measured, j: mean, j + 1: mean}
-            common = float(median(np.array(list(merged.values()))))
-            if any(abs(x - common) > tol for x in merged.values()):
+        others = {i: x for i, x in measured.items() if i not in (j, j + 1)}
+        if rises:
+            if set(rises) != set(others):
                 continue
+            common = rise
+        else:
+            common = float(median(np.array(list(others.values()))))
+            if any(abs(x - common) > tol for x in others.values()):
+                continue
+        mean = 0.5 * (measured[j] + measured[j + 1])
         low, high = sorted((measured[j] - common, measured[j + 1] - common))
         if low < -tol and high > tol and abs(mean - common) <= 0.5 * tol:
-            return sorted(measured), common, j
-    return None
-
-
-def pooled_across_a_top(steps: list[Step], config: TerrainConfig) -> int | None:
-    """The index of the first of two adjacent steps of ``steps`` (as :func:`common_steps`
-    returns them) that report the common rise by :func:`misplaced_top` (their measured
-    rises further than ``common_rise_tolerance_m`` from it, which the median's rule never
-    pools), or None: for the terrain note."""
-    tol = config.common_rise_tolerance_m
-    for j in range(len(steps) - 1):
-        a, b = steps[j].measured_rise_m, steps[j + 1].measured_rise_m
-        if a is None or b is None:
-            continue
-        if min(abs(a - steps[j].rise_m), abs(b - steps[j + 1].rise_m)) > tol:
-            return j
+            return common, j
     return None
 
 
@@ -203,10 +201,11 @@ def common_steps(
     *,
     rise_m: float | None = None,
     fits: Collection[int] = (),
-) -> tuple[list[Step], int, int]:
+) -> tuple[list[Step], int, int, int | None]:
     """``steps`` with the staircase's common rise and run where their measured ones agree
-    (module docstring), and how many measured rises and runs they replaced (0, 0:
-    unchanged).
+    (module docstring), how many measured rises and runs they replaced (0, 0:
+    unchanged), and the first of two neighbours that report the common rise across a
+    misplaced top (:func:`misplaced_top`), or None.
 
     Parameters
     ----------
@@ -228,12 +227,14 @@ def common_steps(
         rise = rise_m
     if not rises:
         rises, rise = _agreeing(measured, config.common_rise_tolerance_m, config.common_min_steps)
-    pair = misplaced_top(measured, rises, rise, config)
-    if pair is not None:
-        rises, rise, _ = pair
+    pair = None
+    across = misplaced_top(measured, rises, rise, config)
+    if across is not None:
+        rise, pair = across
+        rises = sorted(measured)
     runs, run = _agreeing_runs({i: s.run_m for i, s in enumerate(steps) if s.run_m is not None}, config)
     if not rises and not runs:
-        return steps, 0, 0
+        return steps, 0, 0, None
     out: list[Step] = []
     level = ground_z
     for i, s in enumerate(steps):
@@ -245,4 +246,4 @@ def common_steps(
             s = dataclasses.replace(s, run_m=run, measured_run_m=s.run_m)
         level += s.rise_m
         out.append(dataclasses.replace(s, top_z_m=level) if rises else s)
-    return out, len(rises), len(runs)
+    return out, len(rises), len(runs), pair
