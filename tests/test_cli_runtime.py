@@ -62,6 +62,7 @@ def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
         (["simulate", "--out", "{tmp}/sim", "--fps", "0"], "--fps must be > 0"),
         (["record", "--left", "98", "--right", "99", "--out", "{tmp}/r"], "cannot open left camera/video 98"),
         (["replay", "{rec}", "--max-skew-ms", "-3"], "expected a finite number >= 0"),
+        (["replay", "{rec}", "--no-lcm", "--denoised-every", "0"], "--denoised-every"),
     ],
 )  # fmt: skip
 def test_mistakes_are_one_line_exit_2(recording, tmp_path, capsys, argv, match):
@@ -69,6 +70,24 @@ def test_mistakes_are_one_line_exit_2(recording, tmp_path, capsys, argv, match):
     code, out, err = run_cli(argv, capsys)
     assert code == 2
     assert match.format(tmp=tmp_path) in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_replay_takes_the_denoised_opinions_schedule(recording, capsys, monkeypatch):
+    """``--denoised-every N`` reaches the loop's config; without it, the config's default."""
+    import stereo_terrain.runtime.loop as loop
+
+    given = []
+    real = loop.LiveLoop.__init__
+
+    def init(self, *args, **kwargs):
+        given.append(kwargs["config"].denoised_every)
+        real(self, *args, **kwargs)
+
+    monkeypatch.setattr(loop.LiveLoop, "__init__", init)
+    for extra in ([], ["--denoised-every", "1"]):
+        code, _, _ = run_cli(["replay", recording, "--no-lcm", "--as-fast", "--frames", "1", *extra], capsys)
+        assert code == 0
+    assert given == [loop.LoopConfig().denoised_every, 1]
 
 
 def test_replay_of_a_recording_without_calib_yaml_asks_for_calib(recording, tmp_path, capsys):

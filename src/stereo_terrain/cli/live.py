@@ -39,6 +39,12 @@ def add_parsers(sub: Any) -> None:
         q.add_argument(
             "--stall-timeout", type=nonneg_float, default=0.5, help="seconds without a pair = stall"
         )
+        q.add_argument(
+            "--denoised-every",
+            type=positive_int,
+            help="while nothing is found, the denoised opinions run on every Nth pair that runs the"
+            " second opinions (default 2; 1: each such pair)",
+        )
         q.add_argument("--frames", type=positive_int, help="stop after this many processed pairs")
         q.add_argument("--duration", type=nonneg_float, help="stop after this many seconds")
         q.add_argument("--quiet", action="store_true", help="no live status line")
@@ -167,6 +173,8 @@ def _run_loop(args: argparse.Namespace, source, pipeline, pose=None) -> int:
         max_frames=args.frames or 0,
         max_duration_s=args.duration or 0.0,
     )
+    if args.denoised_every is not None:
+        config = dataclasses.replace(config, denoised_every=args.denoised_every)
     try:
         with stop_on_sigterm(), open_sinks(args, pipeline, pose=pose) as sinks:
             loop = LiveLoop(
