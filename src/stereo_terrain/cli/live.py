@@ -42,8 +42,9 @@ def add_parsers(sub: Any) -> None:
         q.add_argument(
             "--denoised-every",
             type=positive_int,
-            help="while nothing is found, the denoised opinions run on every Nth pair that runs the"
-            " second opinions (default 2; 1: each such pair)",
+            metavar="N",
+            help="while the second opinions keep nothing, the denoised ones run on every Nth pair"
+            " that runs them (default 2; 1: each such pair)",
         )
         q.add_argument("--frames", type=positive_int, help="stop after this many processed pairs")
         q.add_argument("--duration", type=nonneg_float, help="stop after this many seconds")

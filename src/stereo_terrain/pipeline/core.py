@@ -173,9 +173,10 @@ class Pipeline:
         """Process one raw stereo pair (grey or BGR uint8, the calibration's size).
 
         ``rematch``: False skips the second opinions for this frame (the rematch, the
-        coarse, focus and denoised rematches, the far planes and the redrawn planes,
-        ``PipelineConfig.rematch``, ``far_planes_sigmas``, ``redraw_planes`` and
-        ``rematch_denoised``: the live loop runs them on every other pair while they keep
+        coarse, focus and denoised rematches, the far planes, the agreed lone step, the
+        whole box and the redrawn planes: ``PipelineConfig.rematch``,
+        ``far_planes_sigmas``, ``agreed_lone_step``, ``whole_box``, ``redraw_planes`` and
+        ``rematch_denoised``; the live loop runs them on every other pair while they keep
         nothing). ``denoised``: False skips only the denoised opinions (the dearest; the
         live loop runs them on every ``LoopConfig.denoised_every``-th pair that runs the
         others while nothing is kept). On the main thread the process's BLAS is held to

@@ -405,7 +405,8 @@ class LiveLoop:
             # far planes where no pass finds anything, the same two rematches on the pair
             # denoised) keep nothing, they run on every other pair: a flat floor costs 3
             # passes a pair, not 5, and stairs are seen one pair later at most (issue 11).
-            # The denoised ones, the dearest, run on every denoised_every-th of those.
+            # The denoised ones, the dearest, run on every denoised_every-th of those
+            # (stairs only they find: three pairs later at most with 2).
             if self._rematched_nothing:
                 result = self.pipeline.run(frame.left, frame.right, rematch=False)
             elif self._idle_opinions % self.config.denoised_every:

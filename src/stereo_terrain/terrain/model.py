@@ -177,8 +177,9 @@ class TerrainConfig:
         ``Step.measured_rise_m`` (``measured_run_m``), and the swing plan clears the larger
         of the two. A step further off keeps its own (a different step, or a measurement
         gone wrong: either way not averaged away; those pooled may differ by up to twice
-        this between them), but for two neighbours on either side of the common rise
-        whose mean it is, the top between them misplaced (:func:`.uniform.misplaced_top`).
+        this between them), but for two neighbours on either side of the common rise,
+        their mean within half of this of it, beside ``common_min_steps - 1`` or more
+        others that agree: the top between them misplaced (:func:`.uniform.misplaced_top`).
         The run tolerance is wider: a riser's position is less sure
         than a height (0.05 until the twenty-eighth session, docs/benchmarks.md). 0 = off.
         See :mod:`.uniform`.
