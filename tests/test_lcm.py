@@ -7,7 +7,6 @@ port so parallel runs on one machine do not hear each other.
 
 import json
 import os
-import select
 import shutil
 import signal
 import subprocess
@@ -38,27 +37,21 @@ def _url(offset):
 
 
 class Subscriber:
-    """Collects decoded messages of one channel on a background thread."""
+    """Collects decoded messages of one channel. Subscribed when made, so that the
+    messages published after it wait in its socket; read when asked (:meth:`wait_for`), on
+    the caller's thread: no thread of its own (a test once hung starting one)."""
 
     def __init__(self, url, channel="STEREO_TERRAIN", kind=terrain_t):
         self.lc = lcm.LCM(url)
         self.got = []
         self.lc.subscribe(channel, lambda ch, data: self.got.append(kind.decode(data)))
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self):
-        while not self.stop.is_set():
-            if select.select([self.lc.fileno()], [], [], 0.02)[0]:
-                self.lc.handle()
 
     def wait_for(self, n, timeout=5.0):
         end = time.monotonic() + timeout
         while len(self.got) < n and time.monotonic() < end:
-            time.sleep(0.01)
-        self.stop.set()
-        self.thread.join(1.0)
+            self.lc.handle_timeout(20)
+        while self.lc.handle_timeout(0) > 0:  # and whatever else has arrived
+            pass
         return self.got
 
 
