@@ -228,10 +228,10 @@ def common_steps(
         rise = rise_m
     if not rises:
         rises, rise = _agreeing(measured, config.common_rise_tolerance_m, config.common_min_steps)
-    pair = None
-    across = misplaced_top(measured, rises, rise, config)
-    if across is not None:
-        rise, pair = across
+    pair = None  # the first of two neighbours across a misplaced top
+    found = misplaced_top(measured, rises, rise, config)
+    if found is not None:
+        rise, pair = found
         rises = sorted(measured)
     runs, run = _agreeing_runs({i: s.run_m for i, s in enumerate(steps) if s.run_m is not None}, config)
     if not rises and not runs:
