@@ -17,11 +17,21 @@ error over the frames of an approach, median over approaches), the sigma coverag
 confirmed; also a swing height changing by more than 2 cm or the trigger point by more
 than 5 cm between two frames).
 
+``--profile realistic`` walks the same way toward stairs dressed as the realistic
+profile's scenes (issue 11: side walls, handrails, wood or paint, a webcam's lens, noise
+and JPEG; ``ApproachConfig.profile``) with a mostly level camera, from 2.0 m to 0.45 m,
+on approaches drawn from ``--seed`` (rise 0.12-0.22 m, run 0.22-0.35 m, 3-6 steps, width
+0.8-1.6 m, stair yaw +-30 deg, camera 0.3-0.6 m high pitched down 0-10 deg); it adds the
+step count: the fraction of frames whose published staircase has the true number of
+steps, over all frames and over those with the first riser 0.8 m or more ahead (the
+single-frame realistic benchmark's range), and at the last frame.
+
 ``--noise`` measures the matching noise the step sigmas assume
 (``TerrainConfig.disparity_sigma_px``, ``disparity_bias_px``) on the same frames.
 
 Run: ``PYTHONPATH=src python benchmarks/bench_tracking.py`` (10 approaches, 6 fps, 27
-frames each, about 4 min on 2 shared cores); ``--fps 10`` for more frames per approach.
+frames each, about 4 min on 2 shared cores); ``--fps 10`` for more frames per approach;
+``--profile realistic --count 12`` (19 frames each, about 1 min per approach).
 """
 
 from __future__ import annotations
@@ -60,9 +70,40 @@ APPROACHES = [
 ]
 
 
+#: The single-frame realistic benchmark's range of first-riser distances starts here.
+NEAR_M = 0.8
+
+
+def realistic_approaches(count: int, seed: int, fps: float) -> list[ApproachConfig]:
+    """``count`` realistic approaches drawn from ``seed`` (ranges in the module's doc)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        out.append(
+            ApproachConfig(
+                profile="realistic",
+                seed=int(rng.integers(0, 2**31 - 1)),
+                fps=fps,
+                supersample=2,
+                rise_m=float(rng.uniform(0.12, 0.22)),
+                run_m=float(rng.uniform(0.22, 0.35)),
+                n_steps=int(rng.integers(3, 7)),
+                width_m=float(rng.uniform(0.8, 1.6)),
+                stair_yaw_rad=math.radians(float(rng.uniform(-30.0, 30.0))),
+                camera_height_m=float(rng.uniform(0.3, 0.6)),
+                pitch_down_rad=math.radians(float(rng.uniform(0.0, 10.0))),
+                odometry_drift=float(rng.uniform(-0.02, 0.02)),
+                start_distance_m=2.0,
+                end_distance_m=0.45,
+            )  # fmt: skip
+        )
+    return out
+
+
 def run_approach(cfg: ApproachConfig, noise: list | None = None) -> dict[str, list]:
     """Per mode (``single``, ``tracked``): per frame (rise error, rise sigma, distance
-    error, distance sigma, raise_swing, track state)."""
+    error, distance sigma, raise_swing, track state, swing height, trigger point, steps
+    published, true first-riser distance)."""
     first = render_scene(approach_spec(cfg, 0.0, 0.0))
     rig = dataclasses.replace(first.rig, body_rpy=(0.0, 0.0, 0.0))
     pipeline = Pipeline(first.calibration, rig)
@@ -90,7 +131,8 @@ def run_approach(cfg: ApproachConfig, noise: list | None = None) -> dict[str, li
             at = math.nan
             if trig.trigger_distance_m is not None:
                 at = trig.p0_m[0] + trig.trigger_distance_m * math.cos(trig.heading_rad)
-            rows[name].append((*row, trig.raise_swing, state, trig.swing_height_m, at))
+            decision = (trig.raise_swing, state, trig.swing_height_m, at)
+            rows[name].append((*row, *decision, len(model.steps), d_true))
     return rows
 
 
@@ -143,7 +185,7 @@ def flips(rows: list, tracked: bool) -> int:
     return n
 
 
-def summarize(per_approach: list[dict[str, list]]) -> dict[str, dict[str, float]]:
+def summarize(per_approach: list[dict[str, list]], n_true: list[int]) -> dict[str, dict[str, float]]:
     out = {}
     for mode in ("single", "tracked"):
         a = np.array([r[:4] for rows in per_approach for r in rows[mode]], dtype=float)
@@ -173,14 +215,30 @@ def summarize(per_approach: list[dict[str, list]]) -> dict[str, dict[str, float]
             "dist_cov": float(np.mean(np.abs(a[:, 2]) <= 2 * a[:, 3])),
             "flips": int(sum(flips(rows[mode], mode == "tracked") for rows in per_approach)),
             "raised": int(sum(any(r[4] for r in rows[mode]) for rows in per_approach)),
+            **count_rates(per_approach, n_true, mode),
         }
     return out
+
+
+def count_rates(per_approach: list[dict[str, list]], n_true: list[int], mode: str) -> dict[str, float]:
+    """Fractions of frames whose published staircase has the true number of steps: all
+    frames, those with the first riser NEAR_M or more ahead, and the approaches' last
+    frames."""
+    every, far, last = [], [], []
+    for rows, n in zip(per_approach, n_true, strict=True):
+        right = [r[8] == n for r in rows[mode]]
+        every += right
+        far += [ok for ok, r in zip(right, rows[mode], strict=True) if r[9] >= NEAR_M]
+        last.append(right[-1] if right else False)
+    rate = lambda v: float(np.mean(v)) if v else math.nan  # noqa: E731
+    return {"count_all": rate(every), "count_far": rate(far), "count_last": rate(last)}
 
 
 def _brief(m: dict[str, float]) -> str:
     return (
         f"[rise err {m['rise_med_cm']:.2f} jit {m['rise_f2f_cm']:.2f} cov {m['rise_cov']:.0%}; "
-        f"dist err {m['dist_med_cm']:.2f} jit {m['dist_f2f_cm']:.2f} cov {m['dist_cov']:.0%}]"
+        f"dist err {m['dist_med_cm']:.2f} jit {m['dist_f2f_cm']:.2f} cov {m['dist_cov']:.0%}; "
+        f"count {m['count_far']:.0%} far, {m['count_all']:.0%} all]"
     )
 
 
@@ -189,27 +247,47 @@ def main() -> None:
     ap.add_argument("--fps", type=float, default=6.0, help="camera rate of the approaches (default 6)")
     ap.add_argument("--count", type=int, default=len(APPROACHES), help="first N approaches")
     ap.add_argument("--noise", action="store_true", help="also measure the matching noise")
+    ap.add_argument(
+        "--profile", choices=("default", "realistic"), default="default",
+        help="the approaches' look (default: the fixed list of textured staircases)",
+    )  # fmt: skip
+    ap.add_argument("--seed", type=int, default=11, help="draws the realistic approaches (default 11)")
     args = ap.parse_args()
     t0 = time.time()
-    per, noise = [], [] if args.noise else None
-    for rise, yaw_deg, drift, size, seed in APPROACHES[: args.count]:
-        cfg = ApproachConfig(
-            rise_m=rise, stair_yaw_rad=math.radians(yaw_deg), odometry_drift=drift, image_size=size,
-            seed=seed, fps=args.fps, supersample=2 if size[0] <= 320 else 1, end_distance_m=0.01,
-        )  # fmt: skip
+    per, noise, n_true = [], [] if args.noise else None, []
+    if args.profile == "realistic":
+        configs = realistic_approaches(args.count, args.seed, args.fps)
+    else:
+        configs = [
+            ApproachConfig(
+                rise_m=rise,
+                stair_yaw_rad=math.radians(yaw_deg),
+                odometry_drift=drift,
+                image_size=size,
+                seed=seed,
+                fps=args.fps,
+                supersample=2 if size[0] <= 320 else 1,
+                end_distance_m=0.01,
+            )  # fmt: skip
+            for rise, yaw_deg, drift, size, seed in APPROACHES[: args.count]
+        ]
+    for cfg in configs:
         rows = run_approach(cfg, noise)
         per.append(rows)
-        one = summarize([rows])
+        n_true.append(cfg.n_steps)
+        one = summarize([rows], [cfg.n_steps])
+        size, drift = cfg.image_size, cfg.odometry_drift
         print(
-            f"rise {rise:.2f} yaw {yaw_deg:4.1f} drift {100 * drift:+.0f}% {size[0]}x{size[1]}: "
+            f"rise {cfg.rise_m:.2f} yaw {math.degrees(cfg.stair_yaw_rad):5.1f} {cfg.n_steps} steps "
+            f"drift {100 * drift:+.0f}% {size[0]}x{size[1]}: "
             f"{len(rows['single'])} frames; single -> tracked: "
             + _brief(one["single"])
             + " -> "
             + _brief(one["tracked"]),
             flush=True,
         )
-    s = summarize(per)
-    print(f"\n{len(per)} approaches at {args.fps:g} fps, {time.time() - t0:.0f} s\n")
+    s = summarize(per, n_true)
+    print(f"\n{len(per)} {args.profile} approaches at {args.fps:g} fps, {time.time() - t0:.0f} s\n")
     keys = [
         ("frames", "frames with a step", "{:d}"),
         ("rise_med_cm", "rise error median (cm)", "{:.2f}"),
@@ -224,6 +302,9 @@ def main() -> None:
         ("dist_cov", "distance coverage, abs(error) <= 2 sigma", "{:.0%}"),
         ("flips", "swing-decision flips", "{:d}"),
         ("raised", "approaches whose swing was raised", "{:d}"),
+        ("count_far", f"step count right, frames with the first riser >= {NEAR_M} m ahead", "{:.0%}"),
+        ("count_all", "step count right, all frames", "{:.0%}"),
+        ("count_last", "step count right at the last frame", "{:.0%}"),
     ]
     print("| | single frames | tracked |\n| --- | --- | --- |")
     for key, label, fmt in keys:

@@ -188,3 +188,16 @@ def test_record_of_unusable_sources_is_an_error_and_leaves_nothing(tmp_path, cap
         capsys,
     )
     assert code == 0 and "recorded 3 pairs" in out
+
+
+def test_simulate_takes_the_realistic_profile(tmp_path, capsys):
+    out = tmp_path / "sim"
+    argv = ["simulate", "--out", out, "--size", "160x120", "--start", "1.0", "--fps", "4", "--no-plot"]
+    code, _, err = run_cli([*argv, "--profile", "realistic", "--seed", "3", "--record", out / "seq"], capsys)
+    assert code == 0, err
+    data = json.loads((out / "summary.json").read_text())
+    assert data["frames"] == 5 and set(data["edge_clearance_blind_m"]) == {"FL", "FR", "RL", "RR"}
+    saved = json.loads((out / "seq" / "approach.json").read_text())["approach"]
+    assert saved["profile"] == "realistic" and saved["seed"] == 3
+    code, _, err = run_cli([*argv, "--profile", "photoreal"], capsys)
+    assert code == 2 and "--profile" in err and err.count("\n") == 1

@@ -1,12 +1,16 @@
-"""The kinematic foot model and the controller side of the simulated approach (no rendering)."""
+"""The kinematic foot model, the controller side and the scenes of the simulated approach
+(no rendering)."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.runtime.simulate import (
     ApproachConfig,
     SwingCommand,
+    approach_spec,
     commanded_swing,
     simulate_feet,
     step_profile,
@@ -71,3 +75,41 @@ def test_approach_config_is_checked():
     for kw in ({"start_distance_m": 1e308}, {"fps": 1e308}, {"speed_mps": 1e-300, "fps": 1e300}):
         with pytest.raises(ConfigError):
             ApproachConfig(**kw)
+
+
+def test_an_unknown_approach_profile_is_refused():
+    with pytest.raises(ConfigError, match="profile must be one of default, realistic"):
+        ApproachConfig(profile="photoreal")
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    yaw_deg=st.floats(-30.0, 30.0),
+    x=st.floats(0.0, 1.5),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_a_realistic_approach_moves_the_walls_with_the_stairs(yaw_deg, x, seed):
+    """Seen from x m further on, the stairs are x m closer along the path and the back and
+    side walls keep their places beside and behind them (the scene is one rigid world)."""
+    cfg = ApproachConfig(
+        profile="realistic", seed=seed, image_size=(160, 120), stair_yaw_rad=np.radians(yaw_deg),
+        start_distance_m=2.0, supersample=1,
+    )  # fmt: skip
+    a, b = approach_spec(cfg, 0.0, 0.0), approach_spec(cfg, x, 0.01)
+    assert a.profile == b.profile == "realistic" and a.jpeg_quality is not None
+    assert (a.obstacle.rise_m, a.obstacle.run_m, a.obstacle.n_steps) == (cfg.rise_m, cfg.run_m, cfg.n_steps)
+    assert b.obstacle.distance_m == pytest.approx(cfg.start_distance_m - x)
+    assert b.body_rpy == (0.0, 0.01, 0.0) and b.side_wall_start_m is None
+    c, s = np.cos(cfg.stair_yaw_rad), np.sin(cfg.stair_yaw_rad)
+
+    def place(spec):  # the first riser's centre: along the stair axis, and across it
+        ob = spec.obstacle
+        return ob.distance_m * c, -ob.distance_m * s + ob.lateral_m
+
+    (ua, va), (ub, vb) = place(a), place(b)
+    assert b.back_wall_m - ub == pytest.approx(a.back_wall_m - ua)
+    for side in ("left_wall_m", "right_wall_m"):
+        wa, wb = getattr(a, side), getattr(b, side)
+        assert (wa is None) == (wb is None)
+        if wa is not None:
+            assert wb - vb == pytest.approx(wa - va)

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import EXIT_OK, InputError
-from .options import nonneg_float, positive_float, positive_int, size_arg
+from .options import nonneg_float, positive_float, positive_int, seed_arg, size_arg
 from .outputs import (
     check_output_dir,
     check_output_file,
@@ -95,6 +95,12 @@ def add_parsers(sub: Any) -> None:
     si.add_argument("--speed", type=nonneg_float, default=0.5, help="walking speed, m/s")
     si.add_argument("--fps", type=nonneg_float, default=30.0, help="camera frame rate")
     si.add_argument("--size", type=size_arg, default=(640, 480), help="WIDTHxHEIGHT (default 640x480)")
+    si.add_argument(
+        "--profile", choices=("default", "realistic"), default="default",
+        help="the scene's look: the textured default, or the realistic profile's walls, materials, "
+        "lens and sensor drawn from --seed (issue 11)",
+    )  # fmt: skip
+    si.add_argument("--seed", type=seed_arg, default=7, help="seeds the textures and noise (default 7)")
     si.add_argument("--record", type=Path, help="also write the rendered frames here for 'replay'")
     si.add_argument("--lcm-url", default=None, help="also publish the messages on this LCM URL")
     si.add_argument("--channel", default="STEREO_TERRAIN")
@@ -311,7 +317,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         cfg = ApproachConfig(
             rise_m=args.rise, run_m=args.run_m, start_distance_m=args.start, speed_mps=args.speed,
-            fps=args.fps, image_size=args.size,
+            fps=args.fps, image_size=args.size, profile=args.profile, seed=args.seed,
         )  # fmt: skip
         approach_spec(cfg, 0.0, 0.0)  # the stairs' own checks, before any work
     except InputError as exc:

@@ -8,6 +8,13 @@ profile with the swing heights the messages command. The same walk with the blin
 nominal swing shows what the perception buys: with the paper's numbers a 0.15 m swing
 hits the edge of a 0.21 m step, the raised one clears it.
 
+Two looks (``ApproachConfig.profile``): ``"default"``, the textured staircase of the
+default profile before a back wall, and ``"realistic"``, the same stairs and rig dressed
+as the realistic profile's scenes (issue 11): side walls, handrails, wood or paint, a
+webcam's lens, noise and JPEG, drawn from ``seed``. The walls move with the stairs; the
+floor's texture stays with the camera (it is drawn in the frame's coordinates), which
+does not change what a single pair shows.
+
 Foot model (sagittal plane, point feet, body at constant speed ``v``): trot, diagonal
 pairs half a period apart; a swing lasts ``T/2``, lifts off where the foot stood and
 touches down ``v T / 4`` ahead of its hip (Raibert's heuristic, as on the Cheetah). Along
@@ -20,6 +27,7 @@ touchdown height. The swing height is chosen at lift-off, as a controller does.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -32,11 +40,14 @@ from ..checks import check_fields
 from ..errors import ConfigError
 from ..odometry import Odometry
 from ..swing import SwingConfig
-from ..synthetic import SceneSpec, StairSpec, SurfaceSpec, SyntheticScene, render_scene
+from ..synthetic import SceneSpec, StairSpec, SurfaceSpec, SyntheticScene, random_scene_spec, render_scene
 from .capture import END, FRAME, CaptureEvent, StereoFrame
 from .messages import terrain_t
 
 MAX_FRAMES = 20_000  # about 11 minutes of a 30 fps camera
+
+#: The looks of an approach (:attr:`ApproachConfig.profile`).
+APPROACH_PROFILES = ("default", "realistic")
 
 # Plausible ranges of the approach's values (a number outside is a typo or a unit mistake,
 # and 1e308 would overflow the frame count).
@@ -87,6 +98,11 @@ class ApproachConfig:
         Scale error of the odometry the robot reports (the frames' ``odometry``):
         ``x_reported = (1 + drift) x``; 0.02 is 2 % drift (issue 14). The foot model and
         the truth use the true position.
+    profile : {"default", "realistic"}
+        The look of the scene (:data:`APPROACH_PROFILES`). ``"realistic"`` keeps the
+        stairs and the rig above and draws the rest from ``seed`` as
+        ``random_scene_spec(profile="realistic")`` does: walls (beginning at the first
+        riser), handrails, materials, lens distortion, sensor noise, JPEG.
     """
 
     rise_m: float = 0.21
@@ -109,8 +125,13 @@ class ApproachConfig:
     lift_fraction: float = 0.1
     stair_yaw_rad: float = 0.0
     odometry_drift: float = 0.0
+    profile: str = "default"
 
     def __post_init__(self) -> None:
+        if self.profile not in APPROACH_PROFILES:
+            raise ConfigError(
+                f"ApproachConfig.profile must be one of {', '.join(APPROACH_PROFILES)}, got {self.profile!r}"
+            )
         check_fields(self)
         if not 0 < self.end_distance_m < self.start_distance_m:
             raise ConfigError(
@@ -171,6 +192,8 @@ class ApproachConfig:
 
 def approach_spec(cfg: ApproachConfig, x_m: float, pitch_rad: float) -> SceneSpec:
     """The scene seen from body position ``x_m`` (world) with body pitch ``pitch_rad``."""
+    if cfg.profile == "realistic":
+        return _moved(_realistic_start(cfg), x_m, pitch_rad)
     d = cfg.start_distance_m - x_m
     stairs = StairSpec(
         n_steps=cfg.n_steps,
@@ -192,6 +215,43 @@ def approach_spec(cfg: ApproachConfig, x_m: float, pitch_rad: float) -> SceneSpe
         tread=SurfaceSpec("wood", 0.9, 0.62, 0.2),
         riser=SurfaceSpec("speckle", 0.7, 0.75, 0.18),
         supersample=cfg.supersample,
+    )
+
+
+@functools.lru_cache(maxsize=4)
+def _realistic_start(cfg: ApproachConfig) -> SceneSpec:
+    """The realistic scene at the first frame: ``cfg``'s stairs and rig, the rest drawn
+    from ``cfg.seed``; the side walls begin at the first riser (walls reaching back past
+    the cameras would have to stay on either side of them all along the walk)."""
+    spec = random_scene_spec(
+        np.random.default_rng(cfg.seed), image_size=cfg.image_size, kind="stairs", profile="realistic",
+        n_steps=cfg.n_steps, rise_m=cfg.rise_m, run_m=cfg.run_m, width_m=cfg.width_m,
+        distance_m=cfg.start_distance_m, yaw_rad=cfg.stair_yaw_rad, lateral_m=0.0,
+        camera_height_m=cfg.camera_height_m, pitch_down_rad=cfg.pitch_down_rad,
+        body_rpy=(0.0, 0.0, 0.0), supersample=cfg.supersample,
+    )  # fmt: skip
+    return dataclasses.replace(spec, side_wall_start_m=None)
+
+
+def _moved(start: SceneSpec, x_m: float, pitch_rad: float) -> SceneSpec:
+    """``start`` seen from ``x_m`` further along the frame's x axis, with body pitch
+    ``pitch_rad``: the stairs ``x_m`` closer along x (the first riser still meets the
+    path at ``distance_m``), the back wall ``x_m cos(yaw)`` closer along the stair axis,
+    the side walls ``x_m sin(yaw)`` over along the lateral axis ``v = (-sin, cos, 0)``."""
+    ob = start.obstacle
+    assert isinstance(ob, StairSpec)
+    c, s = math.cos(ob.yaw_rad), math.sin(ob.yaw_rad)
+
+    def shifted(b: float | None, by: float) -> float | None:
+        return None if b is None else b + by
+
+    return dataclasses.replace(
+        start,
+        obstacle=dataclasses.replace(ob, distance_m=ob.distance_m - x_m),
+        back_wall_m=shifted(start.back_wall_m, -x_m * c),
+        left_wall_m=shifted(start.left_wall_m, x_m * s),
+        right_wall_m=shifted(start.right_wall_m, x_m * s),
+        body_rpy=(0.0, pitch_rad, 0.0),
     )
 
 
