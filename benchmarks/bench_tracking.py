@@ -5,8 +5,10 @@ walks from 2.2 m to 0.01 m before a staircase, so that the first riser leaves th
 and the swing is raised (0.1 m before it); rises 0.12-0.22 m, stair yaw 0-30 deg, odometry drift 0-2 %,
 640x480 and 320x240) is rendered once and every frame runs the pipeline once; the frame's
 model then goes (a) to the swing trigger alone, as with ``tracking: {enabled: false}``,
-and (b) through the tracker, as ``run``/``replay`` do by default
-(:func:`stereo_terrain.runtime.loop.track_and_trigger` in both). The odometry given to the
+(b) through the tracker without its check of uniform runs (``tracking: {uniform_runs:
+false}``, the tracker before the thirty-second session) and (c) through the tracker, as
+``run``/``replay`` do by default (:func:`stereo_terrain.runtime.loop.track_and_trigger`
+in all three). The odometry given to the
 tracker and the trigger is the drifted one; the errors are against the truth.
 
 Per mode, over all frames that report a step (published ``rise_m[0]``, ``distance_m[0]``):
@@ -48,7 +50,7 @@ from stereo_terrain.runtime.loop import track_and_trigger
 from stereo_terrain.runtime.simulate import ApproachConfig, approach_spec, render_approach, true_x
 from stereo_terrain.swing import SwingTrigger
 from stereo_terrain.synthetic import render_scene
-from stereo_terrain.tracking import TRACK_CONFIRMED, StairTracker
+from stereo_terrain.tracking import TRACK_CONFIRMED, StairTracker, TrackingConfig
 
 #: The floor the simulated robot stands on, in its body (yaw) frame: the approach's rig has
 #: its body origin on the ground (a rig off a robot, docs/conventions.md). Single frames
@@ -69,6 +71,10 @@ APPROACHES = [
     (0.13, 0.0, 0.01, (640, 480), 10),
 ]
 
+
+#: Single frames; the tracker without and with its check of uniform runs
+#: (``TrackingConfig.uniform_runs``, the default).
+MODES = ("single", "tracked, any runs", "tracked")
 
 #: The single-frame realistic benchmark's range of first-riser distances starts here.
 NEAR_M = 0.8
@@ -101,13 +107,17 @@ def realistic_approaches(count: int, seed: int, fps: float) -> list[ApproachConf
 
 
 def run_approach(cfg: ApproachConfig, noise: list | None = None) -> dict[str, list]:
-    """Per mode (``single``, ``tracked``): per frame (rise error, rise sigma, distance
+    """Per mode (:data:`MODES`): per frame (rise error, rise sigma, distance
     error, distance sigma, raise_swing, track state, swing height, trigger point, steps
     published, true first-riser distance)."""
     first = render_scene(approach_spec(cfg, 0.0, 0.0))
     rig = dataclasses.replace(first.rig, body_rpy=(0.0, 0.0, 0.0))
     pipeline = Pipeline(first.calibration, rig)
-    modes = {"single": (None, SwingTrigger()), "tracked": (StairTracker(), SwingTrigger())}
+    modes = {
+        "single": (None, SwingTrigger()),
+        "tracked, any runs": (StairTracker(TrackingConfig(uniform_runs=False)), SwingTrigger()),
+        "tracked": (StairTracker(), SwingTrigger()),
+    }
     rows: dict[str, list] = {k: [] for k in modes}
     for frame, _scene in render_approach(cfg):
         pipeline.set_rig(dataclasses.replace(rig, body_rpy=frame.body_rpy))
@@ -187,7 +197,7 @@ def flips(rows: list, tracked: bool) -> int:
 
 def summarize(per_approach: list[dict[str, list]], n_true: list[int]) -> dict[str, dict[str, float]]:
     out = {}
-    for mode in ("single", "tracked"):
+    for mode in MODES:
         a = np.array([r[:4] for rows in per_approach for r in rows[mode]], dtype=float)
         ok = np.isfinite(a[:, 0])
         a = a[ok]
@@ -213,7 +223,7 @@ def summarize(per_approach: list[dict[str, list]], n_true: list[int]) -> dict[st
             "dist_f2f_cm": 100 * float(np.median(f2f_d)),
             "rise_cov": float(np.mean(np.abs(a[:, 0]) <= 2 * a[:, 1])),
             "dist_cov": float(np.mean(np.abs(a[:, 2]) <= 2 * a[:, 3])),
-            "flips": int(sum(flips(rows[mode], mode == "tracked") for rows in per_approach)),
+            "flips": int(sum(flips(rows[mode], mode != "single") for rows in per_approach)),
             "raised": int(sum(any(r[4] for r in rows[mode]) for rows in per_approach)),
             **count_rates(per_approach, n_true, mode),
         }
@@ -280,10 +290,8 @@ def main() -> None:
         print(
             f"rise {cfg.rise_m:.2f} yaw {math.degrees(cfg.stair_yaw_rad):5.1f} {cfg.n_steps} steps "
             f"drift {100 * drift:+.0f}% {size[0]}x{size[1]}: "
-            f"{len(rows['single'])} frames; single -> tracked: "
-            + _brief(one["single"])
-            + " -> "
-            + _brief(one["tracked"]),
+            f"{len(rows['single'])} frames; single -> tracked (any runs) -> tracked: "
+            + " -> ".join(_brief(one[mode]) for mode in MODES),
             flush=True,
         )
     s = summarize(per, n_true)
@@ -306,9 +314,9 @@ def main() -> None:
         ("count_all", "step count right, all frames", "{:.0%}"),
         ("count_last", "step count right at the last frame", "{:.0%}"),
     ]
-    print("| | single frames | tracked |\n| --- | --- | --- |")
+    print("| | single frames | tracked, runs not checked | tracked |\n| --- | --- | --- | --- |")
     for key, label, fmt in keys:
-        print(f"| {label} | {fmt.format(s['single'][key])} | {fmt.format(s['tracked'][key])} |")
+        print(f"| {label} | " + " | ".join(fmt.format(s[mode][key]) for mode in MODES) + " |")
     for key in ("rise_jitter_cm", "dist_jitter_cm", "rise_f2f_cm", "dist_f2f_cm"):
         ratio = s["single"][key] / max(s["tracked"][key], 1e-9)
         print(f"{key}: single / tracked = {ratio:.1f}x")

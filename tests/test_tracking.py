@@ -427,3 +427,72 @@ def test_a_frame_without_a_pose_publishes_the_frame_coasting_not_the_confirmed_t
     # and a long outage drops the track, as one without support always did
     far = tracker.update(frame, None, 0.6 + tracker.config.drop_after_s + 1.0)
     assert far.state == "none"
+
+
+def _walk(tracker, rng, frames, *, start=2.0, step_m=0.08, t0=0):
+    """Normal frames of the 3-step staircase, walking toward it; returns the last state."""
+    last = None
+    for k in range(frames):
+        x = step_m * (t0 + k)
+        last = tracker.update(frame_model(rng, start - x), Odometry((x, 0.0, 0.0), 0.0), (t0 + k) / 6.0)
+    return last
+
+
+def test_a_frame_with_its_runs_measured_long_adds_no_step_past_the_top():
+    """One frame that measured the runs 35 % long sees a fourth riser past the third: a run
+    and a half beyond it, it is not a step of this staircase."""
+    rng = np.random.default_rng(3)
+    tracker = StairTracker()
+    _walk(tracker, rng, 5)
+    x = 0.08 * 5
+    bad = frame_model(rng, 2.0 - x, n=4, run=1.35 * RUN)
+    tracker.update(bad, Odometry((x, 0.0, 0.0), 0.0), 5 / 6.0)
+    last = _walk(tracker, rng, 5, t0=6)
+    assert len(last.steps) == 3
+    runs = [s.run_m for s in last.steps[:-1]]
+    assert all(abs(r - RUN) < 0.03 for r in runs)
+
+
+def test_a_made_up_riser_far_before_the_first_is_not_added():
+    """A bad frame's riser 0.9 m before the first (near the robot, where a riser that left
+    the view cannot be told from one never there) would stay the first riser for good."""
+    rng = np.random.default_rng(4)
+    tracker = StairTracker()
+    _walk(tracker, rng, 6, start=1.6)
+    x = 0.08 * 6
+    good = frame_model(rng, 1.6 - x)
+    junk = frame_model(rng, 1.6 - x - 0.9, n=1, rise=0.06)
+    bad = StairModel("stairs", junk.steps + good.steps, 0.0, -CAM_Z, good.polytope, "yaw", "", 0.01)
+    tracker.update(bad, Odometry((x, 0.0, 0.0), 0.0), 6 / 6.0)
+    last = _walk(tracker, rng, 3, start=1.6, t0=7)
+    assert len(last.steps) == 3
+    assert abs(last.model.steps[0].distance_m - (1.6 - 0.08 * 9)) < TOL_D
+
+
+def test_two_risers_closer_than_a_run_become_one():
+    """A first frame that saw one riser twice, 5 cm apart: the next frame's update keeps
+    the one more frames saw, and the runs are the staircase's again."""
+    rng = np.random.default_rng(5)
+    tracker = StairTracker()
+    good = frame_model(rng, 2.0)
+    twice = dataclasses.replace(good.steps[1], distance_m=good.steps[1].distance_m + 0.05)
+    steps = (good.steps[0], good.steps[1], twice, good.steps[2])
+    tracker.update(dataclasses.replace(good, steps=steps), Odometry((0.0, 0.0, 0.0), 0.0), 0.0)
+    last = _walk(tracker, rng, 1, t0=1)
+    assert len(last.steps) == 3
+    assert all(abs(s.run_m - RUN) < 0.04 for s in last.steps[:-1])
+
+
+def test_run_tolerance_is_checked_and_the_run_check_can_be_off():
+    for bad in (0.0, 0.95, -0.1, math.nan, True, "0.4"):
+        with pytest.raises(ConfigError, match="run_tolerance"):
+            TrackingConfig(run_tolerance=bad)
+    with pytest.raises(ConfigError, match="uniform_runs"):
+        TrackingConfig(uniform_runs=1)
+    assert not PipelineConfig.from_dict({"tracking": {"uniform_runs": False}}).tracking.uniform_runs
+    rng = np.random.default_rng(3)
+    tracker = StairTracker(TrackingConfig(uniform_runs=False))
+    _walk(tracker, rng, 5)
+    bad = frame_model(rng, 2.0 - 0.4, n=4, run=1.35 * RUN)
+    tracker.update(bad, Odometry((0.4, 0.0, 0.0), 0.0), 5 / 6.0)
+    assert len(_walk(tracker, rng, 5, t0=6).steps) == 4  # the made-up fourth step stays

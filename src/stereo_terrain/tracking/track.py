@@ -216,24 +216,54 @@ class Track:
             self.ground, self.ground_var = fuse(
                 self.ground, self.ground_var, m.ground_z, m.ground_sigma**2 * inflation
             )
-        # Steps the track does not have yet: after its last, or before its first.
-        # (in order along the axis, a run apart at least)
+        # Steps the track does not have yet: after its last, or before its first, in
+        # order along the axis, each a run from its neighbour (run_gap_ok).
         for j in range(len(m.s)):
             k = j + offset
-            if k == len(self.s) < cfg.max_steps and m.s[j] + shift > self.s[-1] + cfg.min_run_m:
+            if k == len(self.s) < cfg.max_steps and self._run_gap_ok(m.s[j] + shift - self.s[-1], cfg):
                 self._insert(len(self.s), m, j, shift)
         added = 0
         for j in range(len(m.s) - 1, -1, -1):
-            if j + offset < 0 and len(self.s) < cfg.max_steps and m.s[j] + shift < self.s[0] - cfg.min_run_m:
+            if (
+                j + offset < 0
+                and len(self.s) < cfg.max_steps
+                and self._run_gap_ok(self.s[0] - m.s[j] - shift, cfg)
+            ):
                 self._insert(0, m, j, shift)
                 added += 1
         self._count_step_misses([k + added for k in ks], xy, cfg)
+        self._merge_close_risers(cfg)
         if offset < 0:  # a nearer riser than the track's first: the frame's ground is before it
             self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
         self.hits += 1
         self.misses = 0
         self.last_support_s = t_s
         self.fused_xy = xy.copy()
+
+    def _median_run(self) -> float | None:
+        """The track's median run (along the axis), None with fewer than two risers."""
+        return float(np.median(np.diff(self.s))) if len(self.s) >= 2 else None
+
+    def _run_gap_ok(self, gap: float, cfg: TrackingConfig) -> bool:
+        """May a riser ``gap`` beyond the track's end riser (along the axis, away from it)
+        be added? Always at least ``min_run_m``; with a median run and ``uniform_runs``,
+        within ``run_tolerance`` of it (TrackingConfig)."""
+        run = self._median_run()
+        if gap <= cfg.min_run_m:
+            return False
+        return run is None or not cfg.uniform_runs or abs(gap - run) <= cfg.run_tolerance * run
+
+    def _merge_close_risers(self, cfg: TrackingConfig) -> None:
+        """Of two neighbouring risers closer than ``(1 - run_tolerance)`` times the median
+        run, keep the one more frames saw (the nearer one on a tie), while three or more
+        are left: with two, the median is their own gap. Nothing without
+        ``uniform_runs``."""
+        while cfg.uniform_runs and len(self.s) >= 3:
+            gaps = np.diff(self.s)
+            i = int(np.argmin(gaps))
+            if gaps[i] >= (1.0 - cfg.run_tolerance) * float(np.median(gaps)):
+                return
+            self._remove(i if self.counts[i] < self.counts[i + 1] else i + 1)
 
     def _count_step_misses(self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig) -> None:
         """A tracked riser that a frame should have seen and did not (between two it
