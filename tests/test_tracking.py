@@ -453,9 +453,10 @@ def test_a_frame_with_its_runs_measured_long_adds_no_step_past_the_top():
     assert all(abs(r - RUN) < 0.03 for r in runs)
 
 
-def test_a_made_up_riser_far_before_the_first_is_not_added():
+def test_a_made_up_riser_before_the_first_goes_once_frames_see_floor_there():
     """A bad frame's riser 0.9 m before the first (near the robot, where a riser that left
-    the view cannot be told from one never there) would stay the first riser for good."""
+    the view cannot be told from one never there) would stay the first riser for good;
+    the next frames see the first riser with the floor before it, which misses it."""
     rng = np.random.default_rng(4)
     tracker = StairTracker()
     _walk(tracker, rng, 6, start=1.6)
@@ -496,3 +497,53 @@ def test_run_tolerance_is_checked_and_the_run_check_can_be_off():
     bad = frame_model(rng, 2.0 - 0.4, n=4, run=1.35 * RUN)
     tracker.update(bad, Odometry((0.4, 0.0, 0.0), 0.0), 5 / 6.0)
     assert len(_walk(tracker, rng, 5, t0=6).steps) == 4  # the made-up fourth step stays
+
+
+@pytest.mark.parametrize("factor", [0.6, 0.7, 1.3, 1.45, 1.6])
+def test_a_two_riser_start_with_a_wrong_run_is_corrected(factor):
+    """A track begun from a frame that saw two risers with the run 0.6-1.6 times too long:
+    its one run is no run to check the next frames against, and they correct it."""
+    rng = np.random.default_rng(1)
+    tracker = StairTracker()
+    tracker.update(frame_model(rng, 2.0, n=2, run=factor * RUN), Odometry((0.0, 0.0, 0.0), 0.0), 0.0)
+    last = None
+    for k in range(1, 15):
+        x = 0.08 * k
+        last = tracker.update(frame_model(rng, 2.0 - x, n=4), Odometry((x, 0.0, 0.0), 0.0), k / 6.0)
+    assert len(last.steps) == 4
+    assert all(abs(st.run_m - RUN) < 0.03 for st in last.steps[:-1])
+
+
+@pytest.mark.parametrize("first_run", [1.6 * RUN, 2.0 * RUN])
+def test_a_deeper_first_tread_does_not_keep_the_first_riser_out(first_run):
+    """Stairs whose first tread is deeper than the others, the first riser unseen by the
+    frame that began the track: the frames after it add the first riser (a first riser
+    refused for its run would leave the swing to be raised late)."""
+    rng = np.random.default_rng(0)
+    tracker = StairTracker()
+    pos = np.concatenate([[0.0], np.cumsum([first_run, RUN, RUN])])
+    last = d0 = None
+    for k in range(10):
+        x, d0 = 0.08 * k, 2.0 - 0.08 * k
+        m = frame_model(rng, d0, n=4)
+        steps = [dataclasses.replace(st, distance_m=d0 + pos[i]) for i, st in enumerate(m.steps)]
+        skip = 1 if k == 0 else 0  # the first frame does not see the first riser
+        m = dataclasses.replace(m, steps=tuple(steps[skip:]), ground_z_m=m.ground_z_m + skip * RISE)
+        last = tracker.update(m, Odometry((x, 0.0, 0.0), 0.0), k / 6.0)
+    assert len(last.steps) == 4
+    assert abs(last.model.steps[0].distance_m - d0) < TOL_D
+    assert abs(last.model.ground_z_m - (-CAM_Z)) < 0.02
+
+
+def test_a_persistent_edge_just_before_the_first_riser_never_moves_it_away():
+    """An edge 0.45 runs before the first riser in every frame: of the two, the tracker
+    never drops the first for the second (the first riser it publishes is never late)."""
+    rng = np.random.default_rng(2)
+    tracker = StairTracker()
+    for k in range(8):
+        x, d0 = 0.08 * k, 2.0 - 0.08 * k
+        good = frame_model(rng, d0, n=4)
+        edge = frame_model(rng, d0 - 0.45 * RUN, n=1, rise=0.04)
+        m = StairModel("stairs", edge.steps + good.steps, 0.0, -CAM_Z, good.polytope, "yaw", "", 0.01)
+        st = tracker.update(m, Odometry((x, 0.0, 0.0), 0.0), k / 6.0)
+        assert st.model.steps[0].distance_m < d0 + TOL_D

@@ -157,6 +157,7 @@ class ApproachConfig:
             ) from None
         if not (32 <= w <= 4096 and 32 <= h <= 4096):
             raise ConfigError(f"ApproachConfig.image_size must be within 32x32 .. 4096x4096, got {w}x{h}")
+        object.__setattr__(self, "image_size", (w, h))  # a tuple: the config is hashed (cached scenes)
         if not self.rear_hip_m < self.front_hip_m:
             raise ConfigError("ApproachConfig.rear_hip_m must lie behind front_hip_m")
         if not 0 <= self.lift_fraction < 0.5:

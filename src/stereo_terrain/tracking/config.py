@@ -63,16 +63,18 @@ class TrackingConfig:
     min_run_m : float
         A step is added to the track only this far beyond its last (or before its first).
     uniform_runs : bool
-        The runs of one staircase are equal (building codes allow about 1 cm): once the
-        track has two risers or more, a step is added beyond its last (before its first)
-        only ``(1 +- run_tolerance)`` times the track's median run from it, and of two
-        neighbouring risers closer than ``(1 - run_tolerance)`` times that run the one
-        fewer frames saw is removed (one riser, seen twice by frames that measured the
-        runs wrong). On the realistic simulated approaches (``bench_tracking.py
-        --profile realistic``) frames with a run measured 30 % wrong are common, and one
-        of them made up steps past the top or before the first riser that no later frame
-        could take back. False: no such check (as before the thirty-second session; for
-        stairs with a landing between flights, whose runs differ).
+        The runs of one staircase are equal (building codes allow about 1 cm). Where a
+        track's three or more risers are regular (every run within ``run_tolerance`` of
+        their median), a frame's riser past the last is added only that close to one
+        run from it; and of two neighbouring risers closer than ``(1 - run_tolerance)``
+        runs, the one fewer frames matched is removed (one riser seen twice; of the first
+        two, always the second), and neither on a tie. A riser before the first is never
+        refused for its run: a first riser kept too far would raise the swing late. On
+        the realistic simulated approaches (``bench_tracking.py --profile realistic``)
+        frames with runs measured 30 % wrong are common, and one of them added steps past
+        the top that no later frame could take back (a riser past the frames' reach is
+        never counted as missed). False: no such check (as before the thirty-second
+        session; for stairs with a landing between flights, whose runs differ).
     run_tolerance : float
         In (0, 0.9]; 0.4 by default.
     min_visible_m : float

@@ -17,6 +17,10 @@ from .config import TrackingConfig
 from .models import finite_or, pose_of, tracked_model
 from .state import TrackedStaircase, TrackedStep
 
+#: Risers a track needs before its runs are checked (three runs: with two, their median
+#: is their mean and a wrong one passes).
+MIN_RISERS = 3
+
 
 @dataclass
 class Measured:
@@ -216,67 +220,86 @@ class Track:
             self.ground, self.ground_var = fuse(
                 self.ground, self.ground_var, m.ground_z, m.ground_sigma**2 * inflation
             )
-        # Steps the track does not have yet: after its last, or before its first, in
-        # order along the axis, each a run from its neighbour (run_gap_ok).
+        # A frame whose first riser is the track's riser k > 0 and whose ground (the
+        # surface before that riser) is the track's ground, not k rises above it, saw
+        # floor where the track has risers 0..k-1: they count as missed even near the
+        # robot (a made-up riser there would stay the first for good).
+        floor_seen = False
+        if offset > 0 and 0 in js:
+            before = self.ground + float(np.sum(self.rise[:offset]))
+            floor_seen = abs(m.ground_z - self.ground) < abs(m.ground_z - before)
+        # Steps the track does not have yet, in order along the axis: past its last
+        # (one run from it where the track's runs agree: _top_gap_ok), or before its
+        # first (never refused for its run: a first riser kept too far raises the swing
+        # late, while a made-up one before it raises it early).
         for j in range(len(m.s)):
             k = j + offset
-            if k == len(self.s) < cfg.max_steps and self._run_gap_ok(m.s[j] + shift - self.s[-1], cfg):
+            if k == len(self.s) < cfg.max_steps and self._top_gap_ok(m.s[j] + shift - self.s[-1], cfg):
                 self._insert(len(self.s), m, j, shift)
         added = 0
         for j in range(len(m.s) - 1, -1, -1):
-            if (
-                j + offset < 0
-                and len(self.s) < cfg.max_steps
-                and self._run_gap_ok(self.s[0] - m.s[j] - shift, cfg)
-            ):
+            if j + offset < 0 and len(self.s) < cfg.max_steps and m.s[j] + shift < self.s[0] - cfg.min_run_m:
                 self._insert(0, m, j, shift)
                 added += 1
-        self._count_step_misses([k + added for k in ks], xy, cfg)
-        self._merge_close_risers(cfg)
-        if offset < 0:  # a nearer riser than the track's first: the frame's ground is before it
+        self._count_step_misses([k + added for k in ks], xy, cfg, floor_seen)
+        if added:  # a nearer riser than the track's first: the frame's ground is before it
             self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
+        self._merge_close_risers(cfg)
         self.hits += 1
         self.misses = 0
         self.last_support_s = t_s
         self.fused_xy = xy.copy()
 
-    def _median_run(self) -> float | None:
-        """The track's median run (along the axis), None with fewer than two risers."""
-        return float(np.median(np.diff(self.s))) if len(self.s) >= 2 else None
+    def _regular_run(self, cfg: TrackingConfig) -> float | None:
+        """The track's median run where its risers are regular: three or more, every run
+        within ``run_tolerance`` of the median (TrackingConfig.uniform_runs); else None
+        (too few runs, or runs that disagree: one of them came from a frame that measured
+        them wrong, and the next frames must be free to correct it)."""
+        if not cfg.uniform_runs or len(self.s) < MIN_RISERS:
+            return None
+        gaps = np.diff(self.s)
+        run = float(np.median(gaps))
+        return run if np.all(np.abs(gaps - run) <= cfg.run_tolerance * run) else None
 
-    def _run_gap_ok(self, gap: float, cfg: TrackingConfig) -> bool:
-        """May a riser ``gap`` beyond the track's end riser (along the axis, away from it)
-        be added? Always at least ``min_run_m``; with a median run and ``uniform_runs``,
-        within ``run_tolerance`` of it (TrackingConfig)."""
-        run = self._median_run()
-        if gap <= cfg.min_run_m:
-            return False
-        return run is None or not cfg.uniform_runs or abs(gap - run) <= cfg.run_tolerance * run
+    def _top_gap_ok(self, gap: float, cfg: TrackingConfig) -> bool:
+        """May a riser ``gap`` past the track's last riser be added? At least
+        ``min_run_m``, and within ``run_tolerance`` of the track's run where it is
+        regular (:meth:`_regular_run`)."""
+        run = self._regular_run(cfg)
+        return gap > cfg.min_run_m and (run is None or abs(gap - run) <= cfg.run_tolerance * run)
 
     def _merge_close_risers(self, cfg: TrackingConfig) -> None:
-        """Of two neighbouring risers closer than ``(1 - run_tolerance)`` times the median
-        run, keep the one more frames saw (the nearer one on a tie), while three or more
-        are left: with two, the median is their own gap. Nothing without
-        ``uniform_runs``."""
-        while cfg.uniform_runs and len(self.s) >= 3:
+        """Two neighbouring risers closer than ``(1 - run_tolerance)`` times the median
+        run (three risers or more, ``uniform_runs``) are one riser seen twice: the one
+        fewer frames matched with an agreeing rise (``counts``) is removed, but never the
+        first riser for the second (kept too far, it would raise the swing late; a
+        made-up first riser raises it early and later frames miss it). Where both have
+        the same count nothing says which is the riser, and both stay."""
+        while cfg.uniform_runs and len(self.s) >= MIN_RISERS:
             gaps = np.diff(self.s)
             i = int(np.argmin(gaps))
-            if gaps[i] >= (1.0 - cfg.run_tolerance) * float(np.median(gaps)):
+            if (
+                gaps[i] >= (1.0 - cfg.run_tolerance) * float(np.median(gaps))
+                or self.counts[i] == self.counts[i + 1]
+            ):
                 return
-            self._remove(i if self.counts[i] < self.counts[i + 1] else i + 1)
+            self._remove(i if i > 0 and self.counts[i] < self.counts[i + 1] else i + 1)
 
-    def _count_step_misses(self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig) -> None:
+    def _count_step_misses(
+        self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig, floor_seen: bool = False
+    ) -> None:
         """A tracked riser that a frame should have seen and did not (between two it
-        matched, or nearer than those and still far enough to be in view) is missed; one
-        missed ``step_misses`` frames in a row, and more often than frames saw it, was
-        never there (a bad frame made it up) and is removed."""
+        matched, or nearer than those and still far enough to be in view, or nearer than
+        those where the frame saw the floor: ``floor_seen``) is missed; one missed
+        ``step_misses`` frames in a row, and more often than frames saw it, was never
+        there (a bad frame made it up) and is removed."""
         lo, hi = min(ks), max(ks)
         u = np.array([math.cos(self.yaw), math.sin(self.yaw)])
         here = float(u @ (xy - self.anchor))
         for k in range(len(self.s)):
             if k in ks:
                 self.step_misses[k] = 0
-            elif lo < k < hi or (k < lo and self.s[k] - here > cfg.min_visible_m):
+            elif lo < k < hi or (k < lo and (floor_seen or self.s[k] - here > cfg.min_visible_m)):
                 self.step_misses[k] += 1
         gone = [
             k for k in range(len(self.s)) if self.step_misses[k] >= max(cfg.step_misses, self.counts[k] + 1)
