@@ -453,21 +453,21 @@ def test_a_frame_with_its_runs_measured_long_adds_no_step_past_the_top():
     assert all(abs(r - RUN) < 0.03 for r in runs)
 
 
-def test_a_made_up_riser_before_the_first_goes_once_frames_see_floor_there():
-    """A bad frame's riser 0.9 m before the first (near the robot, where a riser that left
-    the view cannot be told from one never there) would stay the first riser for good;
-    the next frames see the first riser with the floor before it, which misses it."""
-    rng = np.random.default_rng(4)
-    tracker = StairTracker()
-    _walk(tracker, rng, 6, start=1.6)
-    x = 0.08 * 6
-    good = frame_model(rng, 1.6 - x)
-    junk = frame_model(rng, 1.6 - x - 0.9, n=1, rise=0.06)
-    bad = StairModel("stairs", junk.steps + good.steps, 0.0, -CAM_Z, good.polytope, "yaw", "", 0.01)
-    tracker.update(bad, Odometry((x, 0.0, 0.0), 0.0), 6 / 6.0)
-    last = _walk(tracker, rng, 3, start=1.6, t0=7)
-    assert len(last.steps) == 3
-    assert abs(last.model.steps[0].distance_m - (1.6 - 0.08 * 9)) < TOL_D
+def test_an_edge_before_the_first_riser_in_some_frames_never_makes_it_late():
+    """An edge half a run before the first riser (a shadow, a mat's edge) in a random half
+    of the frames: it may be published as the first riser (early), but the true first
+    riser is never dropped for the second (a run late, the swing raised late)."""
+    for seed in range(6):
+        rng = np.random.default_rng(seed)
+        tracker = StairTracker()
+        for k in range(20):
+            x, d0 = 0.08 * k, 2.4 - 0.08 * k
+            good = frame_model(rng, d0, n=4)
+            if rng.random() < 0.5:
+                edge = frame_model(rng, d0 - 0.5 * RUN, n=1)
+                good = dataclasses.replace(good, steps=edge.steps + good.steps)
+            st = tracker.update(good, Odometry((x, 0.0, 0.0), 0.0), k / 6.0)
+            assert st.model.steps[0].distance_m < d0 + 0.05, (seed, k)
 
 
 def test_two_risers_closer_than_a_run_become_one():

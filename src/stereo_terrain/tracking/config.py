@@ -67,8 +67,9 @@ class TrackingConfig:
         track's three or more risers are regular (every run within ``run_tolerance`` of
         their median), a frame's riser past the last is added only that close to one
         run from it; and of two neighbouring risers closer than ``(1 - run_tolerance)``
-        runs, the one fewer frames matched is removed (one riser seen twice; of the first
-        two, always the second), and neither on a tie. A riser before the first is never
+        runs, the one fewer frames matched is removed (one riser seen twice); the first
+        riser never is (of the first two, only a second fewer frames matched), and
+        neither on a tie. A riser before the first is never
         refused for its run: a first riser kept too far would raise the swing late. On
         the realistic simulated approaches (``bench_tracking.py --profile realistic``)
         frames with runs measured 30 % wrong are common, and one of them added steps past

@@ -220,14 +220,6 @@ class Track:
             self.ground, self.ground_var = fuse(
                 self.ground, self.ground_var, m.ground_z, m.ground_sigma**2 * inflation
             )
-        # A frame whose first riser is the track's riser k > 0 and whose ground (the
-        # surface before that riser) is the track's ground, not k rises above it, saw
-        # floor where the track has risers 0..k-1: they count as missed even near the
-        # robot (a made-up riser there would stay the first for good).
-        floor_seen = False
-        if offset > 0 and 0 in js:
-            before = self.ground + float(np.sum(self.rise[:offset]))
-            floor_seen = abs(m.ground_z - self.ground) < abs(m.ground_z - before)
         # Steps the track does not have yet, in order along the axis: past its last
         # (one run from it where the track's runs agree: _top_gap_ok), or before its
         # first (never refused for its run: a first riser kept too far raises the swing
@@ -241,7 +233,7 @@ class Track:
             if j + offset < 0 and len(self.s) < cfg.max_steps and m.s[j] + shift < self.s[0] - cfg.min_run_m:
                 self._insert(0, m, j, shift)
                 added += 1
-        self._count_step_misses([k + added for k in ks], xy, cfg, floor_seen)
+        self._count_step_misses([k + added for k in ks], xy, cfg)
         if added:  # a nearer riser than the track's first: the frame's ground is before it
             self.ground, self.ground_var = m.ground_z, m.ground_sigma**2
         self._merge_close_risers(cfg)
@@ -271,9 +263,10 @@ class Track:
     def _merge_close_risers(self, cfg: TrackingConfig) -> None:
         """Two neighbouring risers closer than ``(1 - run_tolerance)`` times the median
         run (three risers or more, ``uniform_runs``) are one riser seen twice: the one
-        fewer frames matched with an agreeing rise (``counts``) is removed, but never the
-        first riser for the second (kept too far, it would raise the swing late; a
-        made-up first riser raises it early and later frames miss it). Where both have
+        fewer frames matched with an agreeing rise (``counts``, which start at 1 for the
+        frame that added the riser) is removed; but of the first two only the second, and
+        only when fewer frames matched it (a first riser dropped for the second is
+        published a run too far, and the swing raised late). Where the closest pair have
         the same count nothing says which is the riser, and both stay."""
         while cfg.uniform_runs and len(self.s) >= MIN_RISERS:
             gaps = np.diff(self.s)
@@ -283,23 +276,22 @@ class Track:
                 or self.counts[i] == self.counts[i + 1]
             ):
                 return
+            if i == 0 and self.counts[1] > self.counts[0]:
+                return  # the second is the better seen: misses must take a made-up first riser
             self._remove(i if i > 0 and self.counts[i] < self.counts[i + 1] else i + 1)
 
-    def _count_step_misses(
-        self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig, floor_seen: bool = False
-    ) -> None:
+    def _count_step_misses(self, ks: list[int], xy: np.ndarray, cfg: TrackingConfig) -> None:
         """A tracked riser that a frame should have seen and did not (between two it
-        matched, or nearer than those and still far enough to be in view, or nearer than
-        those where the frame saw the floor: ``floor_seen``) is missed; one missed
-        ``step_misses`` frames in a row, and more often than frames saw it, was never
-        there (a bad frame made it up) and is removed."""
+        matched, or nearer than those and still far enough to be in view) is missed; one
+        missed ``step_misses`` frames in a row, and more often than frames saw it, was
+        never there (a bad frame made it up) and is removed."""
         lo, hi = min(ks), max(ks)
         u = np.array([math.cos(self.yaw), math.sin(self.yaw)])
         here = float(u @ (xy - self.anchor))
         for k in range(len(self.s)):
             if k in ks:
                 self.step_misses[k] = 0
-            elif lo < k < hi or (k < lo and (floor_seen or self.s[k] - here > cfg.min_visible_m)):
+            elif lo < k < hi or (k < lo and self.s[k] - here > cfg.min_visible_m):
                 self.step_misses[k] += 1
         gone = [
             k for k in range(len(self.s)) if self.step_misses[k] >= max(cfg.step_misses, self.counts[k] + 1)
