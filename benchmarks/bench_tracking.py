@@ -1,6 +1,6 @@
 """Tracking (issue 14): single frames against the tracked staircase on simulated approaches.
 
-Each approach (``runtime/simulate.py``: a trotting robot with the trot's pitch oscillation
+Each approach (``runtime/simulate/``: a trotting robot with the trot's pitch oscillation
 walks from 2.2 m to 0.01 m before a staircase, so that the first riser leaves the view
 and the swing is raised (0.1 m before it); rises 0.12-0.22 m, stair yaw 0-30 deg, odometry drift 0-2 %,
 640x480 and 320x240) is rendered once and every frame runs the pipeline once; the frame's
