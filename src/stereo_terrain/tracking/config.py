@@ -65,17 +65,17 @@ class TrackingConfig:
     uniform_runs : bool
         The runs of one staircase are equal (building codes allow about 1 cm). Where a
         track's three or more risers are regular (every run within ``run_tolerance`` of
-        their median), a frame's riser past the last is added only that close to one
-        run from it; and of two neighbouring risers closer than ``(1 - run_tolerance)``
-        runs, the one fewer frames matched is removed (one riser seen twice); the first
-        riser never is (of the first two, only a second fewer frames matched), and
-        neither on a tie. A riser before the first is never
-        refused for its run: a first riser kept too far would raise the swing late. On
-        the realistic simulated approaches (``bench_tracking.py --profile realistic``)
-        frames with runs measured 30 % wrong are common, and one of them added steps past
-        the top that no later frame could take back (a riser past the frames' reach is
-        never counted as missed). False: no such check (as before the thirty-second
-        session; for stairs with a landing between flights, whose runs differ).
+        their median), a frame's riser past the last is added only that close to one run
+        from it; and of two neighbouring risers closer than ``(1 - run_tolerance)`` runs
+        the one fewer frames matched is removed (one riser seen twice), never the first
+        (of the first two, only a second that fewer frames matched), and neither on a
+        tie. A riser before the first is never refused for its run: a first riser kept
+        too far would raise the swing late. On the realistic simulated approaches
+        (``bench_tracking.py --profile realistic``) frames with runs measured 30 % wrong
+        are common, and one of them added steps past the top that no later frame could
+        take back (a riser past the frames' reach is never counted as missed). False: no
+        such check, the rule of the tracker before the thirty-second session (for stairs
+        with a landing between flights, whose runs differ).
     run_tolerance : float
         In (0, 0.9]; 0.4 by default.
     min_visible_m : float
