@@ -253,6 +253,10 @@ def test_balusters_stand_on_treads() -> None:
         ({"jpeg_quality": 70}, "jpeg_quality"),
         ({"profile": "photo"}, "profile"),
         ({"nosing_m": -0.01}, "nosing_m"),
+        ({"texture_origin_m": (0.0, float("nan"))}, "texture_origin_m"),
+        ({"texture_origin_m": 1.0}, "texture_origin_m"),
+        ({"noise_seed": -1}, "noise_seed"),
+        ({"noise_seed": 1.5}, "noise_seed"),
     ],
 )
 def test_bad_new_fields_raise(fields, match) -> None:
@@ -336,3 +340,16 @@ def test_cli_render_bad_profile_is_exit_2_one_line(tmp_path, capsys) -> None:
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "realistic" in err
+
+
+def test_the_noise_seed_draws_other_noise_over_the_same_scene() -> None:
+    stairs = StairSpec(n_steps=2, rise_m=0.17, run_m=0.3, width_m=1.0, distance_m=1.4)
+    spec = SceneSpec(stairs, image_size=TINY, supersample=1, noise_sigma=(3.0, 3.0))
+    a, b = render_scene(spec), render_scene(dataclasses.replace(spec, noise_seed=1))
+    quiet = render_scene(dataclasses.replace(spec, noise_sigma=(0.0, 0.0)))
+    assert np.array_equal(render_scene(spec).left, a.left)  # None: the scene's seed alone, as before
+    diff = a.left.astype(int) - b.left.astype(int)
+    assert np.count_nonzero(diff) > 0.5 * diff.size
+    # the same scene under the noise: both noisy images scatter about the noise-free one alike
+    for img in (a, b):
+        assert abs(np.mean(img.left.astype(float) - quiet.left.astype(float))) < 0.5

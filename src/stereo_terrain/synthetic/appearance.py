@@ -190,6 +190,7 @@ class _Appearance:
     nose_z: np.ndarray | None = None
     nosing_m: float = 0.0
     nosing_reflectance: float = 1.0
+    texture_origin: tuple[float, float] = (0.0, 0.0)  # frame (x, y) textures count from
 
     @property
     def key(self) -> np.ndarray:
@@ -293,6 +294,7 @@ def _appearance(spec: SceneSpec, geom: _Geometry) -> _Appearance:
         nose_z,
         float(spec.nosing_m),
         float(spec.nosing_reflectance),
+        (float(spec.texture_origin_m[0]), float(spec.texture_origin_m[1])),
     )
 
 
@@ -339,20 +341,23 @@ def _shade(
         ti = t[idx]
         ddx, ddy, ddz = dx[idx], dy[idx], dz[idx]
         px, py, pz = ox + ti * ddx, oy + ti * ddy, oz + ti * ddz
+        # Texture coordinates count from the textures' origin (SceneSpec.texture_origin_m).
+        qx, qy = px - np.float32(app.texture_origin[0]), py - np.float32(app.texture_origin[1])
         if m == _MODE_XY:
             # Ground texture axes at an oblique angle to x: far pixels average long runs
             # along the view direction, which must not follow the tile's rows.
             gc, gs = app.ground_axes
-            cs, ct, cos_n = gc * px - gs * py, gs * px + gc * py, np.abs(ddz)
+            cs, ct, cos_n = gc * qx - gs * qy, gs * qx + gc * qy, np.abs(ddz)
         else:
-            pa, pb = geom.to_local(px, py)
+            pa, pb = geom.to_local(px, py)  # the nosing strips are placed in these
+            qa, qb = geom.to_local(qx, qy)
             da, db = geom.to_local(ddx, ddy)
             if m == _MODE_BA:
-                cs, ct, cos_n = pb, pa, np.abs(ddz)
+                cs, ct, cos_n = qb, qa, np.abs(ddz)
             elif m == _MODE_BZ:
-                cs, ct, cos_n = pb, pz, np.abs(da)
+                cs, ct, cos_n = qb, pz, np.abs(da)
             else:
-                cs, ct, cos_n = pa, pz, np.abs(db)
+                cs, ct, cos_n = qa, pz, np.abs(db)
         norm = np.sqrt(ddx * ddx + ddy * ddy + ddz * ddz)
         cos_n = np.maximum(cos_n / norm, np.float32(0.05))
         texel_m = np.float32(app.tile_m[gi] / pyr.n)

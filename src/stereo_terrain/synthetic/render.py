@@ -282,7 +282,8 @@ def render_scene(spec: SceneSpec) -> SyntheticScene:
             left_cam, T_yaw_left.rotation, origin_l, spec, geom, app, want_truth=True
         )
         img_r, _ = job_r.result()
-    noise_rng = np.random.default_rng([spec.seed, 3])
+    noise_key = [spec.seed, 3] if spec.noise_seed is None else [spec.seed, 3, spec.noise_seed]
+    noise_rng = np.random.default_rng(noise_key)
     jpeg = spec.jpeg_quality or (None, None)
     left = _sensor(img_l, spec, left_cam, 1.0, 0.0, spec.noise_sigma[0], noise_rng, jpeg[0])
     right = _sensor(

@@ -345,6 +345,14 @@ class SceneSpec:
     jpeg_quality : (2,) int or None
         JPEG quality (1..100) of the left and right image, encoded and decoded with
         OpenCV after quantisation (webcams send MJPEG); None: no JPEG.
+    texture_origin_m : (2,) float
+        Frame (x, y) of the point the textures' coordinates count from, metres: (0, 0),
+        the frame's origin, by default. A simulated approach moves it with the stairs
+        (``-x`` for a camera ``x`` further on), so that textures stay on the surfaces as
+        the camera walks instead of sliding with it.
+    noise_seed : int or None
+        Seeds the sensor noise apart from ``seed`` (None: ``seed`` alone, as before): an
+        approach's frames each get their own noise over the same textures.
     profile : str
         Which :func:`random_scene_spec` profile drew this spec (:data:`PROFILES`);
         informational, copied to the truth.
@@ -394,6 +402,8 @@ class SceneSpec:
     nosing_reflectance: float = 0.4
     shot_noise: float = 0.0
     jpeg_quality: tuple[int, int] | None = None
+    texture_origin_m: tuple[float, float] = (0.0, 0.0)
+    noise_seed: int | None = None
     profile: str = "default"
 
     def __post_init__(self) -> None:
@@ -497,6 +507,9 @@ class SceneSpec:
             if len(q) != 2:
                 raise InputError(f"{o}.jpeg_quality must be None or (left, right), got {self.jpeg_quality!r}")
             _set(self, "jpeg_quality", tuple(_check_int(o, "jpeg_quality", v, 1, 100) for v in q))
+        _set(self, "texture_origin_m", _check_tuple(o, "texture_origin_m", self.texture_origin_m, 2))
+        if self.noise_seed is not None:
+            _set(self, "noise_seed", _check_int(o, "noise_seed", self.noise_seed, 0, 2**63 - 1))
         if self.profile not in PROFILES:
             raise InputError(f"{o}.profile must be one of {PROFILES}, got {self.profile!r}")
 

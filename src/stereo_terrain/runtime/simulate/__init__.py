@@ -11,9 +11,9 @@ hits the edge of a 0.21 m step, the raised one clears it.
 Two looks (``ApproachConfig.profile``): ``"default"``, the textured staircase of the
 default profile before a back wall, and ``"realistic"``, the same stairs and rig dressed
 as the realistic profile's scenes (issue 11): side walls, handrails, wood or paint, a
-webcam's lens, noise and JPEG, drawn from ``seed``. The walls move with the stairs; the
-floor's texture stays with the camera (it is drawn in the frame's coordinates), which
-does not change what a single pair shows.
+webcam's lens, noise and JPEG, drawn from ``seed``. In both the walls and the textures
+move with the stairs (``SceneSpec.texture_origin_m``), and each frame has its own sensor
+noise (``SceneSpec.noise_seed``).
 
 Foot model (sagittal plane, point feet, body at constant speed ``v``): trot, diagonal
 pairs half a period apart; a swing lasts ``T/2``, lifts off where the foot stood and

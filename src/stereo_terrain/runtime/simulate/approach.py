@@ -164,10 +164,14 @@ class ApproachConfig:
         return self.start_distance_m
 
 
-def approach_spec(cfg: ApproachConfig, x_m: float, pitch_rad: float) -> SceneSpec:
-    """The scene seen from body position ``x_m`` (world) with body pitch ``pitch_rad``."""
+def approach_spec(cfg: ApproachConfig, x_m: float, pitch_rad: float, frame: int | None = None) -> SceneSpec:
+    """The scene seen from body position ``x_m`` (world) with body pitch ``pitch_rad``.
+
+    The textures stay on the surfaces as the body walks (``SceneSpec.texture_origin_m``
+    at the world's origin); ``frame`` (the frame's index) draws the frame's own sensor
+    noise (None: the scene's seed alone)."""
     if cfg.profile == "realistic":
-        return _moved(_realistic_start(cfg), x_m, pitch_rad)
+        return _moved(_realistic_start(cfg), x_m, pitch_rad, frame)
     d = cfg.start_distance_m - x_m
     stairs = StairSpec(
         n_steps=cfg.n_steps,
@@ -189,6 +193,8 @@ def approach_spec(cfg: ApproachConfig, x_m: float, pitch_rad: float) -> SceneSpe
         tread=SurfaceSpec("wood", 0.9, 0.62, 0.2),
         riser=SurfaceSpec("speckle", 0.7, 0.75, 0.18),
         supersample=cfg.supersample,
+        texture_origin_m=(-x_m, 0.0),
+        noise_seed=frame,
     )
 
 
@@ -207,11 +213,12 @@ def _realistic_start(cfg: ApproachConfig) -> SceneSpec:
     return dataclasses.replace(spec, side_wall_start_m=None)
 
 
-def _moved(start: SceneSpec, x_m: float, pitch_rad: float) -> SceneSpec:
+def _moved(start: SceneSpec, x_m: float, pitch_rad: float, frame: int | None) -> SceneSpec:
     """``start`` seen from ``x_m`` further along the frame's x axis, with body pitch
     ``pitch_rad``: the stairs ``x_m`` closer along x (the first riser still meets the
     path at ``distance_m``), the back wall ``x_m cos(yaw)`` closer along the stair axis,
-    the side walls ``x_m sin(yaw)`` over along the lateral axis ``v = (-sin, cos, 0)``."""
+    the side walls ``x_m sin(yaw)`` over along the lateral axis ``v = (-sin, cos, 0)``,
+    the textures' origin ``x_m`` back; ``frame`` seeds the frame's sensor noise."""
     ob = start.obstacle
     assert isinstance(ob, StairSpec)
     c, s = math.cos(ob.yaw_rad), math.sin(ob.yaw_rad)
@@ -226,6 +233,8 @@ def _moved(start: SceneSpec, x_m: float, pitch_rad: float) -> SceneSpec:
         left_wall_m=shifted(start.left_wall_m, x_m * s),
         right_wall_m=shifted(start.right_wall_m, x_m * s),
         body_rpy=(0.0, pitch_rad, 0.0),
+        texture_origin_m=(-x_m, 0.0),
+        noise_seed=frame,
     )
 
 
@@ -244,7 +253,7 @@ def render_approach(cfg: ApproachConfig) -> Iterator[tuple[StereoFrame, Syntheti
         t = k / cfg.fps
         x = true_x(cfg, t)
         pitch = body_pitch(cfg, t)
-        scene = render_scene(approach_spec(cfg, x, pitch))
+        scene = render_scene(approach_spec(cfg, x, pitch, k))
         odo = Odometry(((1.0 + cfg.odometry_drift) * x, 0.0, 0.0), 0.0, t)
         frame = StereoFrame(scene.left, scene.right, t, t, k, odo, (0.0, pitch, 0.0))
         yield frame, scene
