@@ -120,9 +120,9 @@ def test_a_realistic_approach_moves_the_walls_with_the_stairs(yaw_deg, x, seed):
 
 
 def _walk_pair(cfg, x_b, *, glued=True):
-    """Noise-free left images from the start and from ``x_b`` further on, the second's
-    depth, and its camera (intrinsics, yaw-frame pose); textures glued to the world or
-    (``glued`` False) counted from the camera as before."""
+    """The scenes rendered from the start and from ``x_b`` further on, without noise, blur,
+    vignetting or JPEG; textures glued to the world or (``glued`` False) counted from the
+    camera as before."""
     quiet = {"noise_sigma": (0.0, 0.0), "shot_noise": 0.0, "blur_sigma_px": 0.0, "right_blur_sigma_px": None}
     quiet.update(vignetting=0.0, jpeg_quality=None)
     a = dataclasses.replace(approach_spec(cfg, 0.0, 0.0), **quiet)

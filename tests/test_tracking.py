@@ -59,12 +59,13 @@ def empty():
     return StairModel(NONE, (), 0.0, -CAM_Z, Polytope(np.zeros((0, 3))), "yaw", "")
 
 
-def approach(tracker, rng, *, frames=20, step_m=0.08, drift=0.0, start=2.2, yaw_w=0.0, body_yaw=0.0):
+def approach(tracker, rng, *, frames=20, step_m=0.08, drift=0.0, start=2.2, yaw_w=0.0, body_yaw=0.0, first=0):
     """Walk toward the stairs along the body heading; the last frames do not see the first
-    riser any more (it left the view) and report the second one first."""
+    riser any more (it left the view) and report the second one first. ``first``: the
+    index of the first frame (a walk that goes on after other frames)."""
     out = []
     h = np.array([math.cos(body_yaw), math.sin(body_yaw)])
-    for k in range(frames):
+    for k in range(first, first + frames):
         x = step_m * k
         d = start - x
         p = (1.0 + drift) * x * h
@@ -429,13 +430,9 @@ def test_a_frame_without_a_pose_publishes_the_frame_coasting_not_the_confirmed_t
     assert far.state == "none"
 
 
-def _walk(tracker, rng, frames, *, start=2.0, step_m=0.08, t0=0):
-    """Normal frames of the 3-step staircase, walking toward it; returns the last state."""
-    last = None
-    for k in range(frames):
-        x = step_m * (t0 + k)
-        last = tracker.update(frame_model(rng, start - x), Odometry((x, 0.0, 0.0), 0.0), (t0 + k) / 6.0)
-    return last
+def _walk(tracker, rng, frames, *, first=0):
+    """Normal frames of the 3-step staircase from 2.0 m (:func:`approach`); the last state."""
+    return approach(tracker, rng, frames=frames, start=2.0, first=first)[-1][1]
 
 
 def test_a_frame_with_its_runs_measured_long_adds_no_step_past_the_top():
@@ -447,7 +444,7 @@ def test_a_frame_with_its_runs_measured_long_adds_no_step_past_the_top():
     x = 0.08 * 5
     bad = frame_model(rng, 2.0 - x, n=4, run=1.35 * RUN)
     tracker.update(bad, Odometry((x, 0.0, 0.0), 0.0), 5 / 6.0)
-    last = _walk(tracker, rng, 5, t0=6)
+    last = _walk(tracker, rng, 5, first=6)
     assert len(last.steps) == 3
     runs = [s.run_m for s in last.steps[:-1]]
     assert all(abs(r - RUN) < 0.03 for r in runs)
@@ -479,7 +476,7 @@ def test_two_risers_closer_than_a_run_become_one():
     twice = dataclasses.replace(good.steps[1], distance_m=good.steps[1].distance_m + 0.05)
     steps = (good.steps[0], good.steps[1], twice, good.steps[2])
     tracker.update(dataclasses.replace(good, steps=steps), Odometry((0.0, 0.0, 0.0), 0.0), 0.0)
-    last = _walk(tracker, rng, 1, t0=1)
+    last = _walk(tracker, rng, 1, first=1)
     assert len(last.steps) == 3
     assert all(abs(s.run_m - RUN) < 0.04 for s in last.steps[:-1])
 
@@ -496,7 +493,7 @@ def test_run_tolerance_is_checked_and_the_run_check_can_be_off():
     _walk(tracker, rng, 5)
     bad = frame_model(rng, 2.0 - 0.4, n=4, run=1.35 * RUN)
     tracker.update(bad, Odometry((0.4, 0.0, 0.0), 0.0), 5 / 6.0)
-    assert len(_walk(tracker, rng, 5, t0=6).steps) == 4  # the made-up fourth step stays
+    assert len(_walk(tracker, rng, 5, first=6).steps) == 4  # the made-up fourth step stays
 
 
 @pytest.mark.parametrize("factor", [0.6, 0.7, 1.3, 1.45, 1.6])

@@ -148,10 +148,10 @@ def misplaced_top(
     is ``rise`` where the others are exactly ``rises`` (a majority already agreed without
     the pair, or the nosings' rise took them); where no majority agreed (``rises``
     empty), the others' median, all of them within the tolerance of it; where ``rises``
-    is some other set, there is no such pair. Else None. A single odd rise (a first step on a thicker floor, a
-    landing) is no such pair and keeps its own, as do two neighbours both too tall (double
-    steps) and a pair beside fewer than ``common_min_steps - 1`` others (two rises alone
-    cannot tell which is wrong).
+    is some other set, there is no such pair. Else None. A single odd rise (a first step
+    on a thicker floor, a landing) is no such pair and keeps its own, as do two
+    neighbours both too tall (double steps) and a pair beside fewer than
+    ``common_min_steps - 1`` others (two rises alone cannot tell which is wrong).
 
     Parameters
     ----------
