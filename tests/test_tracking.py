@@ -544,3 +544,52 @@ def test_a_persistent_edge_just_before_the_first_riser_never_moves_it_away():
         m = StairModel("stairs", edge.steps + good.steps, 0.0, -CAM_Z, good.polytope, "yaw", "", 0.01)
         st = tracker.update(m, Odometry((x, 0.0, 0.0), 0.0), k / 6.0)
         assert st.model.steps[0].distance_m < d0 + TOL_D
+
+
+#: Frames of a walk as seen on a painted staircase (a realistic approach, seed 23): "G" a
+#: frame that sees the staircase as it is, "B" one whose stair yaw is 14 deg off and whose
+#: first riser is 13 cm long, each with the small sigmas a frame reports; "-" nothing seen.
+_PAINTED_WALK = "B G B G G G B - -"
+
+
+def test_a_tentative_track_from_a_bad_frame_yields_to_the_frames_that_agree():
+    """The bad frames start a track that the good ones do not support. A tentative track
+    yields to a candidate that more frames supported, and where it is dropped the
+    candidate takes its place: the good frames' track is confirmed at the third of them
+    (the swing trigger waits for that), with the first riser where they put it, and it
+    stays. (Before, the dropped track took the candidate with it, and no track was ever
+    confirmed in this walk.)"""
+    rng = np.random.default_rng(12)
+    tracker = StairTracker()
+    yaw = math.radians(22.0)
+    states = []
+    for k, kind in enumerate(_PAINTED_WALK.split()):
+        x = 0.086 * k
+        d = 1.9 - x
+        if kind == "G":
+            m = frame_model(rng, d, yaw=yaw, sigma_d=0.007)
+        elif kind == "B":
+            m = frame_model(rng, d + 0.13, yaw=yaw - math.radians(14.0), sigma_d=0.007)
+        else:
+            m = empty()
+        t = tracker.update(m, Odometry((x, 0.0, 0.0), 0.0), k / 6.0)
+        states.append(t.state)
+        if t.established:
+            assert abs(t.model.steps[0].distance_m - d) < TOL_D
+            assert abs(t.yaw_rad - yaw) < math.radians(2.0)
+    assert states[4] == TRACK_CONFIRMED
+    assert all(s in (TRACK_CONFIRMED, TRACK_COASTING) for s in states[4:])
+
+
+def test_a_confirmed_track_does_not_yield_to_fewer_frames_than_new_track_frames():
+    """Once confirmed, a track is replaced only by a candidate of ``new_track_frames``
+    frames, as before: three frames of another staircase leave it coasting."""
+    rng = np.random.default_rng(13)
+    tracker = StairTracker()
+    approach(tracker, rng, frames=6)
+    old = tracker.state.track_id
+    for k in range(TrackingConfig().new_track_frames - 1):
+        x = 0.4 + 0.05 * k
+        m = frame_model(rng, 1.5 - 0.05 * k, rise=0.2, yaw=math.radians(20))
+        t = tracker.update(m, Odometry((x, 0.0, 0.0), 0.0), 1.0 + k / 6)
+        assert t.track_id == old and t.state == TRACK_COASTING

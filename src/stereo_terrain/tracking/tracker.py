@@ -108,12 +108,16 @@ class StairTracker:
             self._track = track = self._new(model, odometry, t_s)
             supported = True
         # A candidate that more frames supported than the track since it started: the
-        # stairs changed, or the track started from a bad frame.
+        # stairs changed, or the track started from a bad frame. A tentative track, which
+        # the trigger does not act on, yields to a candidate that more frames supported
+        # than it.
         cand = self._candidate
         if cand is not None and track is not None:
             if t_s - cand.last_support_s > cfg.drop_after_s:
                 self._candidate = cand = None
-            elif cand.hits >= cfg.new_track_frames and cand.hits > track.hits - cand.rival_hits:
+            elif (cand.hits >= cfg.new_track_frames and cand.hits > track.hits - cand.rival_hits) or (
+                not track.confirmed and cand.hits > track.hits
+            ):
                 self._track, self._candidate = cand, None
                 track, supported = cand, cand.last_support_s == t_s
         if track is not None:
@@ -121,7 +125,13 @@ class StairTracker:
             if (tentative and track.misses >= cfg.tentative_misses) or (
                 t_s - track.last_support_s > cfg.drop_after_s
             ):
-                self._track = track = None
+                # Dropped: a candidate that frames supported lately takes its place (the
+                # frames that disagreed with the track agreed with it).
+                self._track = track = self._candidate
+                self._candidate = None
+                if track is not None:
+                    supported = track.last_support_s == t_s
+                    track.check_confirmed(cfg, have_odo)
         if track is None:
             self._last = TrackedStaircase(TRACK_NONE)
             return self._last
