@@ -2,6 +2,7 @@
 (rendered only to check that textures stay on the surfaces)."""
 
 import dataclasses
+import time
 
 import cv2
 import numpy as np
@@ -167,3 +168,31 @@ def test_the_approach_textures_stay_on_the_surfaces(profile):
     assert len(glued) > 2000
     # (160x120, 0.3 m apart: p90 4-5 grey levels glued, 17-35 slid)
     assert np.percentile(glued, 90) < min(8.0, 0.5 * np.percentile(slid, 90))
+
+
+def test_the_simulated_approach_runs_on_its_own_time(monkeypatch):
+    """The live loop of ``simulate_approach`` takes each frame's capture time (k / fps) for
+    the time, as if the machine kept up: a slow machine gives the same messages (on the
+    machine's clock, a loaded machine stretched the time between frames, and the tracker
+    dropped a track after fewer frames)."""
+    from stereo_terrain.pipeline import Pipeline
+    from stereo_terrain.runtime.simulate import simulate_approach
+
+    cfg = ApproachConfig(image_size=(160, 120), supersample=1, start_distance_m=0.8, fps=10.0)
+
+    def key(result):
+        return [
+            (m.frame_index, m.utime, m.publish_utime, m.track_state, m.num_steps, tuple(m.distance_m))
+            for m in result.messages
+        ]
+
+    fast = simulate_approach(cfg)
+    assert [m.utime for m in fast.messages] == [round(k / cfg.fps * 1e6) for k in range(cfg.frame_count)]
+    run = Pipeline.run
+
+    def slow_run(self, *args, **kwargs):
+        time.sleep(0.05)
+        return run(self, *args, **kwargs)
+
+    monkeypatch.setattr(Pipeline, "run", slow_run)
+    assert key(simulate_approach(cfg)) == key(fast)

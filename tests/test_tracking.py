@@ -553,12 +553,13 @@ _PAINTED_WALK = "B G B G G G B - -"
 
 
 def test_a_tentative_track_from_a_bad_frame_yields_to_the_frames_that_agree():
-    """The bad frames start a track that the good ones do not support. A tentative track
-    yields to a candidate that more frames supported, and where it is dropped the
-    candidate takes its place: the good frames' track is confirmed at the third of them
-    (the swing trigger waits for that), with the first riser where they put it, and it
-    stays. (Before, the dropped track took the candidate with it, and no track was ever
-    confirmed in this walk.)"""
+    """The bad frames start a track that the good ones do not support; they build the
+    candidate. Of two tentative tracks, the one more frames supported leads, and the other
+    stays as its rival: the good frames' track leads from the third of them and is
+    confirmed then, one ahead of the bad frames' (``confirm_lead``; the swing trigger
+    waits for that), with the first riser where they put it, and it stays. (Before, the
+    dropped track took the candidate with it, and no track was ever confirmed in this
+    walk.)"""
     rng = np.random.default_rng(12)
     tracker = StairTracker()
     yaw = math.radians(22.0)
@@ -577,7 +578,7 @@ def test_a_tentative_track_from_a_bad_frame_yields_to_the_frames_that_agree():
         if t.established:
             assert abs(t.model.steps[0].distance_m - d) < TOL_D
             assert abs(t.yaw_rad - yaw) < math.radians(2.0)
-    assert states[4] == TRACK_CONFIRMED
+    assert states[3] == TRACK_TENTATIVE and states[4] == TRACK_CONFIRMED
     assert all(s in (TRACK_CONFIRMED, TRACK_COASTING) for s in states[4:])
 
 
@@ -593,3 +594,66 @@ def test_a_confirmed_track_does_not_yield_to_fewer_frames_than_new_track_frames(
         m = frame_model(rng, 1.5 - 0.05 * k, rise=0.2, yaw=math.radians(20))
         t = tracker.update(m, Odometry((x, 0.0, 0.0), 0.0), 1.0 + k / 6)
         assert t.track_id == old and t.state == TRACK_COASTING
+
+
+def _walk_pattern(pattern, *, start, step_m=0.08, dt=1 / 6, bias=0.13, seed=0, tail="G"):
+    """Frames of ``pattern`` ("G" good, "B" bad: first riser ``bias`` long and yaw 14 deg
+    off with small sigmas, "-" nothing), then ``tail`` frames until 0.3 m before the
+    stairs, then odometry alone, through ``track_and_trigger``. Returns where the swing was
+    raised against d - d_buffer (m, + early; None: never) and the largest lateness (m) of
+    a first riser published on an established track."""
+    rng = np.random.default_rng(seed)
+    tracker, trigger = StairTracker(), SwingTrigger()
+    yaw, late, raised = math.radians(10.0), -1.0, None
+    k = 0
+    while start - step_m * k >= 0.3:
+        x, d = step_m * k, start - step_m * k
+        kind = pattern[k] if k < len(pattern) else tail
+        skip = 1 if d < 0.6 else 0
+        if kind == "G":
+            m = frame_model(rng, d, yaw=yaw, skip=skip, sigma_d=0.01)
+        elif kind == "B":
+            m = frame_model(rng, d + bias, yaw=yaw - math.radians(14.0), skip=skip, sigma_d=0.007)
+        else:
+            m = empty()
+        model, state, trig = track_and_trigger(tracker, trigger, m, Odometry((x, 0.0, 0.0), 0.0), k * dt)
+        if state in (TRACK_CONFIRMED, TRACK_COASTING) and model.steps:
+            late = max(late, model.steps[0].distance_m - d)
+        if trig.raise_swing and raised is None:
+            raised = x
+        k += 1
+    x = step_m * k
+    while raised is None and x < start:
+        x += 0.002
+        if trigger.update(Odometry((x, 0.0, 0.0), 0.0)).raise_swing:
+            raised = x
+    error = None if raised is None else (start - raised) - trigger.swing.buffer_m
+    return error, late
+
+
+@pytest.mark.parametrize(
+    ("pattern", "start", "bias"),
+    [("GGBBGBGGGGG", 1.0, 0.13), ("GGBBGBGGBGG", 1.2, 0.07), ("BGBGGGB--", 1.9, 0.13)],
+)
+def test_frames_split_between_two_staircases_confirm_the_one_most_support(pattern, start, bias):
+    """Cases from a helper's review of a first version, which handed a dropped tentative
+    track's place to its candidate and threw the track away (after two good frames and two
+    bad, the bad frames' track was confirmed and the swing raised too late or never), and
+    of a second, which let a rival that had led once take a confirmed track's place with
+    fewer frames in all (the second case). Now the displaced track stays as the rival, a
+    track is confirmed only ahead of it, and a rival takes a confirmed track's place only
+    with more frames in all: the swing is raised on time and no established track
+    publishes a late first riser."""
+    error, late = _walk_pattern(pattern, start=start, bias=bias)
+    assert error is not None and abs(error) < 0.05
+    assert late < 0.05
+
+
+def test_a_stale_track_does_not_hand_its_place_to_an_old_candidate():
+    """Five good frames at 3 Hz, three bad ones (7 cm long), then nothing: the confirmed
+    track coasts and is dropped after ``drop_after_s``; the bad frames' candidate, fed
+    before the gap, does not take its place (it would be published coasting, 7 cm late),
+    and the swing is raised on time."""
+    error, late = _walk_pattern("GGGGGBBB-----", start=2.5, step_m=0.16, dt=1 / 3, bias=0.07, tail="-")
+    assert error is not None and abs(error) < 0.05
+    assert late < 0.05

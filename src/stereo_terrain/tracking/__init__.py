@@ -14,8 +14,13 @@ the body's odometry and fused into one tracked staircase:
 * frames are associated by an index offset (a frame whose nearest riser is the track's
   second one, once the first has left the view near the stairs, is offset by one), gated
   on the positions, the rises and the yaw; a frame that matches nothing is an outlier and
-  feeds a *candidate* track, which replaces the track when it is confirmed while the track
-  is not supported (the stairs changed);
+  feeds a *candidate* track. The candidate replaces a confirmed track once
+  ``new_track_frames`` frames supported it and fewer supported the track meanwhile (the
+  stairs changed, or the track started from a bad frame). Where the frames split between
+  two staircases before either is confirmed, the two are rivals: the one more frames
+  supported leads (also where the leader is dropped for its misses), the other stays as
+  the candidate, and the leader is confirmed only ``confirm_lead`` frames ahead of it; a
+  rival that led once takes a confirmed track's place only with more frames in all;
 * frames taken from nearly the same place share their errors: a frame's information is
   weighted by how far the body moved since the last fused frame
   (``decorrelation_m``), so standing still does not make the track over-confident.

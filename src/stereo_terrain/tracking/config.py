@@ -51,6 +51,11 @@ class TrackingConfig:
         and the trigger point follows it smoothly. Frames of a staircase seen far and
         turned (their risers fitted off its yaw, their distances with the lever of that:
         :func:`~stereo_terrain.terrain.estimate_step_sigmas`) do not confirm a track alone.
+    confirm_lead : int
+        and at least this many more than its rival, the candidate track (frames that
+        disagreed with the track and agreed with each other): where the frames split
+        between two staircases, the one most of them support is confirmed, not the one
+        that reached ``confirm_frames`` first.
     tentative_misses : int
         Frames in a row that do not support a tentative track before it is dropped.
     new_track_frames : int
@@ -115,6 +120,7 @@ class TrackingConfig:
     max_inflation: float = 30.0
     confirm_frames: int = 3
     confirm_sigma_m: float = 0.03
+    confirm_lead: int = 1
     tentative_misses: int = 2
     new_track_frames: int = 4
     drop_after_s: float = 2.0
@@ -174,6 +180,13 @@ class TrackingConfig:
             raise ConfigError("TrackingConfig.min_visible_m and min_run_m must be >= 0")
         if not 0 < self.run_tolerance <= 0.9:
             raise ConfigError(f"TrackingConfig.run_tolerance must be in (0, 0.9], got {self.run_tolerance}")
-        for name in ("confirm_frames", "tentative_misses", "new_track_frames", "max_steps", "step_misses"):
+        for name in (
+            "confirm_frames",
+            "confirm_lead",
+            "tentative_misses",
+            "new_track_frames",
+            "max_steps",
+            "step_misses",
+        ):
             if getattr(self, name) < 1:
                 raise ConfigError(f"TrackingConfig.{name} must be >= 1, got {getattr(self, name)}")

@@ -104,6 +104,7 @@ class Track:
         self.fused_xy = xy.copy()  # ... and at the last fused frame
         self.track_id = track_id
         self.rival_hits = 0  # as a candidate: the track's supporting frames when it started
+        self.hits_before = 0  # as a candidate: its own when it started (a track it displaced)
         self.confirmed = False  # latched (see TrackingConfig.confirm_sigma_m)
 
     # -------------------------------------------------------------- prediction
@@ -334,12 +335,13 @@ class Track:
         """1-sigma of the first riser's position, the shared error included."""
         return math.sqrt(max(self.P[0, 0], 0.0) + cfg.shared_error_fraction * self.pos_floor[0].var)
 
-    def check_confirmed(self, cfg: TrackingConfig, have_odometry: bool) -> bool:
-        """Confirm (once) when enough frames supported it and its first riser is known.
-        Without odometry every frame counts as taken where the last one was (its errors
-        shared, ``max_inflation``) and the track follows the frames: the supporting frames
-        alone confirm it."""
-        if not self.confirmed and self.hits >= cfg.confirm_frames:
+    def check_confirmed(self, cfg: TrackingConfig, have_odometry: bool, rival_hits: int = 0) -> bool:
+        """Confirm (once) when enough frames supported it, ``confirm_lead`` more than its
+        rival (the candidate: ``rival_hits`` frames supported it), and its first riser is
+        known. Without odometry every frame counts as taken where the last one was (its
+        errors shared, ``max_inflation``) and the track follows the frames: the supporting
+        frames alone confirm it."""
+        if not self.confirmed and self.hits >= max(cfg.confirm_frames, rival_hits + cfg.confirm_lead):
             self.confirmed = not have_odometry or self.first_sigma(cfg) <= cfg.confirm_sigma_m
         return self.confirmed
 

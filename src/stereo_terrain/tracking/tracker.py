@@ -108,30 +108,41 @@ class StairTracker:
             self._track = track = self._new(model, odometry, t_s)
             supported = True
         # A candidate that more frames supported than the track since it started: the
-        # stairs changed, or the track started from a bad frame. A tentative track, which
-        # the trigger does not act on, yields to a candidate that more frames supported
-        # than it.
+        # stairs changed, or the track started from a bad frame.
         cand = self._candidate
+        if cand is not None and t_s - cand.last_support_s > cfg.drop_after_s:
+            self._candidate = cand = None
         if cand is not None and track is not None:
-            if t_s - cand.last_support_s > cfg.drop_after_s:
-                self._candidate = cand = None
-            elif (cand.hits >= cfg.new_track_frames and cand.hits > track.hits - cand.rival_hits) or (
-                not track.confirmed and cand.hits > track.hits
-            ):
+            since = cand.hits - cand.hits_before  # frames that supported it as the candidate
+            if since >= cfg.new_track_frames and since > track.hits - cand.rival_hits:
                 self._track, self._candidate = cand, None
                 track, supported = cand, cand.last_support_s == t_s
-        if track is not None:
-            tentative = not track.check_confirmed(cfg, have_odo)
-            if (tentative and track.misses >= cfg.tentative_misses) or (
-                t_s - track.last_support_s > cfg.drop_after_s
+            elif (
+                (not track.confirmed or cand.hits_before > 0)
+                and cand.last_support_s == t_s
+                and cand.hits >= track.hits + cfg.confirm_lead
             ):
-                # Dropped: a candidate that frames supported lately takes its place (the
-                # frames that disagreed with the track agreed with it).
-                self._track = track = self._candidate
-                self._candidate = None
-                if track is not None:
-                    supported = track.last_support_s == t_s
-                    track.check_confirmed(cfg, have_odo)
+                # Two staircases the frames split between, neither confirmed (or the
+                # candidate led once): the one most frames supported leads, and the other
+                # stays as its rival.
+                track, supported = self._swap(), True
+        if track is not None:
+            stale = t_s - track.last_support_s > cfg.drop_after_s
+            if (
+                not track.confirmed
+                and not stale
+                and track.misses >= cfg.tentative_misses
+                and self._candidate is not None
+            ):
+                # A tentative track the last frames did not support: its rival, which they
+                # may have supported, leads instead of both going.
+                track = self._swap()
+                track.misses = 0
+                supported = track.last_support_s == t_s
+            rival = self._candidate.hits if self._candidate is not None else 0
+            tentative = not track.check_confirmed(cfg, have_odo, rival)
+            if (tentative and track.misses >= cfg.tentative_misses) or stale:
+                self._track = track = None
         if track is None:
             self._last = TrackedStaircase(TRACK_NONE)
             return self._last
@@ -141,6 +152,17 @@ class StairTracker:
             state = TRACK_CONFIRMED if supported else TRACK_COASTING
         self._last = track.summary(state, odometry, cfg)
         return self._last
+
+    def _swap(self) -> Track:
+        """The candidate becomes the track and the track its candidate; returns the new
+        track. To replace a confirmed track, the new candidate's frames from now on
+        (``hits_before``: its own until now) must outnumber the track's (``rival_hits``:
+        the track's until now), as a fresh candidate's must."""
+        track, cand = self._track, self._candidate
+        assert track is not None and cand is not None
+        track.rival_hits, track.hits_before = cand.hits, track.hits
+        self._track, self._candidate = cand, track
+        return cand
 
     def _feed_candidate(
         self, model: StairModel, odometry: Odometry | None, t_s: float, xy: np.ndarray, track_hits: int

@@ -22,6 +22,21 @@ from .controller import SwingCommand, commanded_swing, trigger_position
 from .feet import FootSwing, simulate_feet
 
 
+class _FrameClock:
+    """Simulated time for the live loop: the capture time of the newest frame read, as if
+    each frame were processed in no time. The tracker's time-based rules
+    (``TrackingConfig.drop_after_s``) then see the walk at the approach's frame rate
+    whatever the machine's speed, and an approach gives the same messages on any machine
+    (on the machine's own clock a loaded machine stretched the time between frames, and a
+    track was dropped after fewer frames)."""
+
+    def __init__(self) -> None:
+        self.now_s = 0.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+
 class FrameSource:
     """A source over given frames (in memory), in order; events may be injected as is.
 
@@ -138,6 +153,10 @@ def simulate_approach(
 ) -> ApproachResult:
     """Render the approach, run the live loop on it, and walk the feet.
 
+    The loop runs on the approach's own time: each frame's capture time, as if the
+    machine kept up with ``cfg.fps`` (:class:`_FrameClock`), so that the results do not
+    depend on the machine's speed or load.
+
     Parameters
     ----------
     cfg : ApproachConfig
@@ -153,7 +172,7 @@ def simulate_approach(
     from ...calibration import write_opencv_yaml
     from ...frames import save_rig
     from ...pipeline import Pipeline, PipelineConfig
-    from ..capture import Capture, Paced, PairWriter
+    from ..capture import Capture, PairWriter
     from ..loop import LiveLoop, LoopConfig
 
     swing = swing or SwingConfig()
@@ -168,6 +187,7 @@ def simulate_approach(
         (Path(record_to) / "approach.json").write_text(_approach_json(cfg, swing))
     x_of_frame: dict[int, float] = {}
     n = cfg.frame_count
+    clock = _FrameClock()
 
     def frames() -> Iterator[StereoFrame]:
         for frame, _scene in render_approach(cfg):
@@ -176,6 +196,7 @@ def simulate_approach(
                 writer.write(frame)
             if progress is not None:
                 progress(frame.index + 1, n)
+            clock.now_s = max(frame.t_left_s, frame.t_right_s)
             yield frame
 
     messages: list[terrain_t] = []
@@ -186,10 +207,11 @@ def simulate_approach(
             publish(msg)
 
     loop = LiveLoop(
-        Capture(Paced(FrameSource(frames()), realtime=False)),  # type: ignore[arg-type]
+        Capture(FrameSource(frames())),  # type: ignore[arg-type]
         pipeline,
         collect,
         config=LoopConfig(max_skew_s=1.0, stall_timeout_s=1e9),
+        clock=clock,
     )
     try:
         loop.run()
