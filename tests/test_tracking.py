@@ -212,6 +212,8 @@ def test_config_checks_and_yaml_section():
         TrackingConfig(min_gate_m=0.5, max_gate_m=0.1)
     with pytest.raises(ConfigError, match="confirm_frames"):
         TrackingConfig(confirm_frames=0)
+    with pytest.raises(ConfigError, match="confirm_lead"):
+        TrackingConfig(confirm_lead=0)
     with pytest.raises(ConfigError, match="drop_after_s"):
         TrackingConfig(drop_after_s=-1.0)
     with pytest.raises(ConfigError, match="max_yaw_gate_deg"):
