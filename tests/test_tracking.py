@@ -602,11 +602,12 @@ def _walk_pattern(pattern, *, start, step_m=0.08, dt=1 / 6, bias=0.13, seed=0, t
     """Frames of ``pattern`` ("G" good, "B" bad: first riser ``bias`` long and yaw 14 deg
     off with small sigmas, "-" nothing), then ``tail`` frames until 0.3 m before the
     stairs, then odometry alone, through ``track_and_trigger``. Returns where the swing was
-    raised against d - d_buffer (m, + early; None: never) and the largest lateness (m) of
-    a first riser published on an established track."""
+    raised against d - d_buffer (m, + early; None: never), the largest lateness (m) of a
+    first riser published on an established track, and the number of jumps over 8 cm of
+    that lateness between consecutive established frames."""
     rng = np.random.default_rng(seed)
     tracker, trigger = StairTracker(), SwingTrigger()
-    yaw, late, raised = math.radians(10.0), -1.0, None
+    yaw, late, raised, errors = math.radians(10.0), -1.0, None, []
     k = 0
     while start - step_m * k >= 0.3:
         x, d = step_m * k, start - step_m * k
@@ -621,6 +622,7 @@ def _walk_pattern(pattern, *, start, step_m=0.08, dt=1 / 6, bias=0.13, seed=0, t
         model, state, trig = track_and_trigger(tracker, trigger, m, Odometry((x, 0.0, 0.0), 0.0), k * dt)
         if state in (TRACK_CONFIRMED, TRACK_COASTING) and model.steps:
             late = max(late, model.steps[0].distance_m - d)
+            errors.append(model.steps[0].distance_m - d)
         if trig.raise_swing and raised is None:
             raised = x
         k += 1
@@ -630,7 +632,8 @@ def _walk_pattern(pattern, *, start, step_m=0.08, dt=1 / 6, bias=0.13, seed=0, t
         if trigger.update(Odometry((x, 0.0, 0.0), 0.0)).raise_swing:
             raised = x
     error = None if raised is None else (start - raised) - trigger.swing.buffer_m
-    return error, late
+    jumps = sum(1 for a, b in zip(errors, errors[1:], strict=False) if abs(a - b) > 0.08)
+    return error, late, jumps
 
 
 @pytest.mark.parametrize(
@@ -646,7 +649,7 @@ def test_frames_split_between_two_staircases_confirm_the_one_most_support(patter
     track is confirmed only ahead of it, and a rival takes a confirmed track's place only
     with more frames in all: the swing is raised on time and no established track
     publishes a late first riser."""
-    error, late = _walk_pattern(pattern, start=start, bias=bias)
+    error, late, _ = _walk_pattern(pattern, start=start, bias=bias)
     assert error is not None and abs(error) < 0.05
     assert late < 0.05
 
@@ -656,6 +659,26 @@ def test_a_stale_track_does_not_hand_its_place_to_an_old_candidate():
     track coasts and is dropped after ``drop_after_s``; the bad frames' candidate, fed
     before the gap, does not take its place (it would be published coasting, 7 cm late),
     and the swing is raised on time."""
-    error, late = _walk_pattern("GGGGGBBB-----", start=2.5, step_m=0.16, dt=1 / 3, bias=0.07, tail="-")
+    error, late, _ = _walk_pattern("GGGGGBBB-----", start=2.5, step_m=0.16, dt=1 / 3, bias=0.07, tail="-")
     assert error is not None and abs(error) < 0.05
     assert late < 0.05
+
+
+@pytest.mark.parametrize("start", [2.2, 2.3, 2.4])
+def test_a_stale_tracks_candidate_is_not_revived_after_the_gap(start):
+    """Five good frames and a bad one, then two seconds without stairs, then bad and good
+    frames alike and nothing more: the confirmed track goes stale, and the bad frame's
+    candidate goes with it (it was revived by the next bad frame and confirmed 13 cm late
+    in a second review's case); the swing is raised on time from the good frames."""
+    error, late, _ = _walk_pattern("GGGGGB" + "-" * 11 + "BGBGG", start=start, step_m=0.06, tail="-")
+    assert error is not None and abs(error) < 0.05
+    assert late < 0.05
+
+
+def test_two_confirmed_staircases_do_not_take_turns_every_other_frame():
+    """Frames split between two staircases two by two: once one is confirmed, its rival
+    takes its place only two frames ahead of it in all, so that the published first
+    riser does not jump by the 13 cm between them every other frame (12 jumps in this
+    walk before, 3 with the tracker before the rivals)."""
+    _, _, jumps = _walk_pattern("BBGGG" + "BBGG" * 6, start=3.0, step_m=0.06, tail="-")
+    assert jumps <= 4

@@ -20,7 +20,9 @@ the body's odometry and fused into one tracked staircase:
   two staircases before either is confirmed, the two are rivals: the one more frames
   supported leads (also where the leader is dropped for its misses), the other stays as
   the candidate, and the leader is confirmed only ``confirm_lead`` frames ahead of it; a
-  rival that led once takes a confirmed track's place only with more frames in all;
+  rival that led once takes a confirmed track's place only ``confirm_lead`` + 1 frames
+  ahead of it in all (else two could take turns every other frame); a track dropped for
+  ``drop_after_s`` goes with its candidate;
 * frames taken from nearly the same place share their errors: a frame's information is
   weighted by how far the body moved since the last fused frame
   (``decorrelation_m``), so standing still does not make the track over-confident.

@@ -55,7 +55,8 @@ class TrackingConfig:
         and at least this many more than its rival, the candidate track (frames that
         disagreed with the track and agreed with each other): where the frames split
         between two staircases, the one most of them support is confirmed, not the one
-        that reached ``confirm_frames`` first.
+        that reached ``confirm_frames`` first. A rival that led once takes a confirmed
+        track's place with one frame more than this ahead of it.
     tentative_misses : int
         Frames in a row that do not support a tentative track before it is dropped.
     new_track_frames : int

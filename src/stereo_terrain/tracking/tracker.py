@@ -120,11 +120,12 @@ class StairTracker:
             elif (
                 (not track.confirmed or cand.hits_before > 0)
                 and cand.last_support_s == t_s
-                and cand.hits >= track.hits + cfg.confirm_lead
+                and cand.hits >= track.hits + cfg.confirm_lead + int(track.confirmed)
             ):
                 # Two staircases the frames split between, neither confirmed (or the
                 # candidate led once): the one most frames supported leads, and the other
-                # stays as its rival.
+                # stays as its rival. Against a confirmed track the rival needs one frame
+                # more, or the two could take turns every other frame.
                 track, supported = self._swap(), True
         if track is not None:
             stale = t_s - track.last_support_s > cfg.drop_after_s
@@ -143,6 +144,8 @@ class StairTracker:
             tentative = not track.check_confirmed(cfg, have_odo, rival)
             if (tentative and track.misses >= cfg.tentative_misses) or stale:
                 self._track = track = None
+                if stale:  # out of touch too long: its candidate, fed before, goes too
+                    self._candidate = None
         if track is None:
             self._last = TrackedStaircase(TRACK_NONE)
             return self._last
@@ -170,6 +173,8 @@ class StairTracker:
         """An outlier frame of the track: it supports the candidate track, or starts one."""
         cfg = self.config
         cand = self._candidate
+        if cand is not None and t_s - cand.last_support_s > cfg.drop_after_s:
+            cand = None  # out of touch too long: a new candidate, not this one revived
         if cand is not None:
             cand.predict(xy, cfg, odometry is not None)
             m = measure(model, odometry, cand.yaw, cand.anchor)
