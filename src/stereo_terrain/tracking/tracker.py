@@ -158,9 +158,10 @@ class StairTracker:
 
     def _swap(self) -> Track:
         """The candidate becomes the track and the track its candidate; returns the new
-        track. To replace a confirmed track, the new candidate's frames from now on
-        (``hits_before``: its own until now) must outnumber the track's (``rival_hits``:
-        the track's until now), as a fresh candidate's must."""
+        track. Under the rule by which a fresh candidate replaces a confirmed track
+        (``new_track_frames``), the displaced track counts only its frames from now on
+        (``hits_before``: its own until now) against the track's since (``rival_hits``:
+        the track's until now); under the rivals' rule, all of its frames."""
         track, cand = self._track, self._candidate
         assert track is not None and cand is not None
         track.rival_hits, track.hits_before = cand.hits, track.hits
