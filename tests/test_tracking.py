@@ -349,12 +349,17 @@ def _raise_point(tracker, trigger, odometry_at, rng, *, d_first=2.0, step_m=0.05
         published.append((x, model.steps[0].distance_m if model.steps else None))
         if trig.raise_swing:
             return x, published
-    x = step_m * (frames - 1)
-    while x < d_first:
-        x += 0.001
+    return _walk_on_until_raised(trigger, step_m * (frames - 1), d_first, 0.001), published
+
+
+def _walk_on_until_raised(trigger, x, until, step):
+    """Walk on from ``x`` by ``step`` with odometry alone (no more frames) until the swing
+    is raised: where it was (None: not before ``until``)."""
+    while x < until:
+        x += step
         if trigger.update(Odometry((x, 0.0, 0.0), 0.0)).raise_swing:
-            return x, published
-    return None, published
+            return x
+    return None
 
 
 @pytest.mark.parametrize(
@@ -626,11 +631,8 @@ def _walk_pattern(pattern, *, start, step_m=0.08, dt=1 / 6, bias=0.13, seed=0, t
         if trig.raise_swing and raised is None:
             raised = x
         k += 1
-    x = step_m * k
-    while raised is None and x < start:
-        x += 0.002
-        if trigger.update(Odometry((x, 0.0, 0.0), 0.0)).raise_swing:
-            raised = x
+    if raised is None:
+        raised = _walk_on_until_raised(trigger, step_m * k, start, 0.002)
     error = None if raised is None else (start - raised) - trigger.swing.buffer_m
     jumps = sum(1 for a, b in zip(errors, errors[1:], strict=False) if abs(a - b) > 0.08)
     return error, late, jumps

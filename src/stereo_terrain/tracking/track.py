@@ -331,6 +331,10 @@ class Track:
         self.counts = np.insert(self.counts, at, 1)
         self.step_misses = np.insert(self.step_misses, at, 0)
 
+    def stale(self, t_s: float, cfg: TrackingConfig) -> bool:
+        """No frame supported it for longer than ``drop_after_s`` before ``t_s``."""
+        return t_s - self.last_support_s > cfg.drop_after_s
+
     def first_sigma(self, cfg: TrackingConfig) -> float:
         """1-sigma of the first riser's position, the shared error included."""
         return math.sqrt(max(self.P[0, 0], 0.0) + cfg.shared_error_fraction * self.pos_floor[0].var)

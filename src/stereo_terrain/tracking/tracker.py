@@ -72,7 +72,7 @@ class StairTracker:
         cfg = self.config
         if odometry is None and self._had_odometry:
             track = self._track
-            if track is not None and t_s - track.last_support_s > cfg.drop_after_s:
+            if track is not None and track.stale(t_s, cfg):
                 self._track = self._candidate = None  # out of touch too long, as below
                 self._last = TrackedStaircase(TRACK_NONE)
                 return self._last
@@ -110,7 +110,7 @@ class StairTracker:
         # A candidate that more frames supported than the track since it started: the
         # stairs changed, or the track started from a bad frame.
         cand = self._candidate
-        if cand is not None and t_s - cand.last_support_s > cfg.drop_after_s:
+        if cand is not None and cand.stale(t_s, cfg):
             self._candidate = cand = None
         if cand is not None and track is not None:
             since = cand.hits - cand.hits_before  # frames that supported it as the candidate
@@ -128,7 +128,7 @@ class StairTracker:
                 # more, or the two could take turns every other frame.
                 track, supported = self._swap(), True
         if track is not None:
-            stale = t_s - track.last_support_s > cfg.drop_after_s
+            stale = track.stale(t_s, cfg)
             if (
                 not track.confirmed
                 and not stale
@@ -174,7 +174,7 @@ class StairTracker:
         """An outlier frame of the track: it supports the candidate track, or starts one."""
         cfg = self.config
         cand = self._candidate
-        if cand is not None and t_s - cand.last_support_s > cfg.drop_after_s:
+        if cand is not None and cand.stale(t_s, cfg):
             cand = None  # out of touch too long: a new candidate, not this one revived
         if cand is not None:
             cand.predict(xy, cfg, odometry is not None)
