@@ -58,6 +58,45 @@ def _oakd_sensor(rng: np.random.Generator) -> dict:
     }
 
 
+#: ``--lab``'s preset: the profile, first riser distances, baseline, fixed dimensions, wood.
+LAB = ("realistic", (1.5, 2.5), 0.07, {"rise_m": 0.2, "run_m": 0.31, "n_steps": 3}, True)
+
+
+def staircase_spec(
+    rng: np.random.Generator,
+    profile: str,
+    near_far: tuple[float, float],
+    baseline: float,
+    fixed: dict,
+    *,
+    wood: bool = False,
+    oakd: bool = False,
+):
+    """``(first riser distance, spec)`` of the next staircase the script draws (with
+    ``wood``, drawn again until its treads are planks, not carpet)."""
+    while True:
+        distance = float(rng.uniform(*near_far))
+        sensor = _oakd_sensor(rng) if oakd else {}
+        spec = random_scene_spec(
+            rng,
+            profile=profile,
+            kind="stairs",
+            distance_m=distance,
+            baseline_m=baseline,
+            weak_texture=False if wood else None,
+            **fixed,
+            **sensor,
+        )
+        if not wood or spec.tread.texture == "planks":
+            return distance, spec
+
+
+def lab_spec(rng: np.random.Generator):
+    """The next of ``--lab``'s staircases (:func:`staircase_spec` with :data:`LAB`)."""
+    profile, near_far, baseline, fixed, wood = LAB
+    return staircase_spec(rng, profile, near_far, baseline, fixed, wood=wood)[1]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=15)
@@ -80,8 +119,8 @@ def main() -> None:
     if args.oakd:
         args.profile, args.near, args.far, args.baseline = "realistic", 2.0, 4.0, 0.075
     if args.lab:
-        args.profile, args.near, args.far, args.baseline = "realistic", 1.5, 2.5, 0.07
-        args.rise, args.run, args.steps, args.wood = 0.2, 0.31, 3, True
+        args.profile, (args.near, args.far), args.baseline, lab_fixed, args.wood = LAB
+        args.rise, args.run, args.steps = lab_fixed["rise_m"], lab_fixed["run_m"], lab_fixed["n_steps"]
     if args.wood and args.profile != "realistic":
         ap.error("--wood needs --profile realistic (the default profile has no wood)")
     drawn = (("rise_m", args.rise), ("run_m", args.run), ("n_steps", args.steps))
@@ -90,21 +129,9 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     scores: dict[str, list] = {"rig": [], "no rig": []}
     for i in range(args.scenes):
-        while True:
-            distance = float(rng.uniform(args.near, args.far))
-            sensor = _oakd_sensor(rng) if args.oakd else {}
-            spec = random_scene_spec(
-                rng,
-                profile=args.profile,
-                kind="stairs",
-                distance_m=distance,
-                baseline_m=args.baseline,
-                weak_texture=False if args.wood else None,
-                **fixed,
-                **sensor,
-            )
-            if not args.wood or spec.tread.texture == "planks":  # not carpet
-                break
+        distance, spec = staircase_spec(
+            rng, args.profile, (args.near, args.far), args.baseline, fixed, wood=args.wood, oakd=args.oakd
+        )
         scene = render_scene(spec)
         for name, rig in (("rig", scene.rig), ("no rig", None)):
             pipe = Pipeline(scene.calibration, rig, config, warm_up=False)

@@ -1,0 +1,236 @@
+"""Two versions of the pipeline's results side by side, scene by scene (issue 11).
+
+A change to a stage is judged on everything it changes: the rendered staircases it finds
+or loses, the real rooms where it makes or removes a false step, the real `Staircase` runs
+it keeps or loses. ``capture`` runs the pipeline (default settings, or ``--config``) on one
+set of scenes and writes one JSON line per run: the result (without its timings), the
+steps' measured rises and runs (``Step.own_rise_m``, ``own_run_m``), whether each was
+inferred, the note, and the truth where there is one. ``compare`` reads two captures of the
+same set and prints the issue's columns for each and the runs whose result changed.
+Another version of the package (a worktree, a patched copy) is captured by putting its
+``src`` first on ``PYTHONPATH``; the captures themselves are compared here.
+
+    .venv/bin/python benchmarks/bench_ab.py capture SET OUT.jsonl [--config CFG.yaml]
+    .venv/bin/python benchmarks/bench_ab.py compare BEFORE.jsonl AFTER.jsonl
+
+Sets (every rendered scene is run with its true rig and without one):
+
+- ``realistic:SEED:N``, ``default:SEED:N``: the profile's own mix of staircases, boxes
+  and empty views, as ``random_scene_spec(rng, profile=...)`` draws them from ``SEED``;
+- ``boxes:SEED:N``: realistic boxes;
+- ``lab:SEED:N``: the wooden lab stairs of ``bench_far_stairs.py --lab``;
+- ``rooms:SEEDS``: the 11 real rooms without stairs at webcam quality
+  (``bench_staircase_webcam.py --rooms``'s degradations, ``SEEDS`` noise seeds a row);
+- ``staircase:SEEDS``: the real Middlebury `Staircase` at webcam quality (the same
+  degradations; the issue's check on reported and measured rises).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stereo_terrain.evaluation import score_result, summarize
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_far_stairs import lab_spec  # noqa: E402
+from bench_real_stairs import real_pairs  # noqa: E402
+from bench_staircase_webcam import _degraded_pairs, passes  # noqa: E402
+
+
+def _record(result, **extra: Any) -> dict[str, Any]:
+    """One run's line: the result without its timings, its steps as measured, its note."""
+    data = result.to_json_dict()
+    data.pop("timing_ms", None)
+    steps = [
+        {
+            "rise": s.own_rise_m,
+            "run": s.own_run_m,
+            "inferred": bool(s.rise_inferred or s.position_inferred),
+            "width": s.width_m,
+        }
+        for s in result.terrain.steps
+    ]
+    return {**extra, "result": data, "measured": steps, "note": result.terrain.note}
+
+
+def _rendered(kind: str, seed: int, n: int) -> Iterator[tuple[int, Any]]:
+    """``(index, scene)`` of a rendered set (module docstring)."""
+    from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+    rng = np.random.default_rng(seed)
+    for i in range(n):
+        if kind in ("realistic", "default"):
+            spec = random_scene_spec(rng, profile=kind)
+        elif kind == "boxes":
+            spec = random_scene_spec(rng, profile="realistic", kind="box")
+        else:  # lab: bench_far_stairs.py --lab's draw
+            spec = lab_spec(rng)
+        yield i, render_scene(spec)
+
+
+#: The sets and the arguments each takes after its name.
+SETS = {
+    "realistic": "SEED:N",
+    "default": "SEED:N",
+    "boxes": "SEED:N",
+    "lab": "SEED:N",
+    "rooms": "SEEDS",
+    "staircase": "SEEDS",
+}
+
+
+def parse_set(set_name: str) -> tuple[str, list[int]]:
+    """``(kind, its integer arguments)`` of a set's name; ValueError naming the problem."""
+    kind, *args = set_name.split(":")
+    if kind not in SETS:
+        raise ValueError(f"unknown set {kind!r}: one of {', '.join(SETS)}")
+    want = SETS[kind].count(":") + 1
+    try:
+        numbers = [int(a) for a in args]
+    except ValueError:
+        numbers = []
+    if len(numbers) != want or any(x < 0 for x in numbers):
+        raise ValueError(f"give {kind}:{SETS[kind]} (whole numbers), got {set_name}")
+    return kind, numbers
+
+
+def _runs(kind: str, numbers: list[int], config: PipelineConfig) -> Iterator[dict[str, Any]]:
+    """Each run's line of a set (module docstring)."""
+    if kind in ("rooms", "staircase"):
+        from stereo_terrain.rectify import to_grey
+
+        for name, calibration, left, right in real_pairs(kind == "rooms"):
+            if (name == "Staircase") != (kind == "staircase") or name == "Classroom2":
+                continue
+            pipeline = Pipeline(calibration, None, config)
+            for degradation, seed, lf, rt in _degraded_pairs(to_grey(left), to_grey(right), numbers[0]):
+                yield _record(pipeline.run(lf, rt), key=f"{name} | {degradation} | {seed}", mode="no rig")
+        return
+    for i, scene in _rendered(kind, numbers[0], numbers[1]):
+        for mode, rig in (("rig", scene.rig), ("no rig", None)):
+            pipeline = Pipeline(scene.calibration, rig, config, warm_up=False)
+            result = pipeline.run(scene.left, scene.right)
+            yield _record(result, key=f"{i} {mode}", mode=mode, truth=scene.truth)
+
+
+def capture(kind: str, numbers: list[int], out: Path, config: PipelineConfig) -> int:
+    """Write the set's lines to ``out`` (through a temporary file: a capture cut short
+    leaves none); how many runs."""
+    tmp = out.with_name(out.name + ".part")
+    count = 0
+    with tmp.open("w") as fh:
+        for line in _runs(kind, numbers, config):
+            fh.write(json.dumps(line) + "\n")
+            count += 1
+    if count == 0:
+        tmp.unlink()
+        sys.exit("bench_ab.py: no real scenes under ../shared/data: the shared data folder is needed")
+    tmp.replace(out)
+    return count
+
+
+def _read(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _steps(line: dict[str, Any]) -> str:
+    """A run's result in one short string: its kind and measured rises (cm; * inferred)."""
+    result = line["result"]
+    if result["obstacle"] == "none":
+        return "none"
+    rises = ", ".join(f"{100 * s['rise']:.1f}{'*' if s['inferred'] else ''}" for s in line["measured"])
+    return f"{result['obstacle']} [{rises}]"
+
+
+def _columns(lines: list[dict[str, Any]]) -> str:
+    s = summarize(score_result(line["result"], line["truth"]) for line in lines)
+
+    def pct(x: float) -> str:
+        return "-" if x != x else f"{100 * x:.0f}%"
+
+    def cm(a: float, b: float) -> str:
+        return f"{100 * a:.2f} / {100 * b:.2f}"
+
+    return (
+        f"{pct(s['detection_rate'])} | {pct(s['count_rate'])} | {pct(s['false_positive_rate'])} | "
+        f"{cm(s['rise_median_m'], s['rise_p90_m'])} | {cm(s['run_median_m'], s['run_p90_m'])}"
+    )
+
+
+def _staircase_check(line: dict[str, Any]) -> tuple[bool, bool]:
+    """The issue's `Staircase` check on the reported and on the measured rises."""
+    result = line["result"]
+    if result["obstacle"] != "stairs":
+        return False, False
+    reported = [(s["rise"], s["run"]) for s in result["steps"]]
+    measured = [(s["rise"], s["run"]) for s in line["measured"]]
+    return passes(reported), passes(measured)
+
+
+def compare(before_path: Path, after_path: Path) -> None:
+    before, after = _read(before_path), _read(after_path)
+    if [b["key"] for b in before] != [a["key"] for a in after]:
+        sys.exit("bench_ab.py: the two captures are not of the same set (their runs differ)")
+    if "truth" in before[0]:
+        print(
+            "| gravity from | version | detected | step count | false pos. "
+            "| rise cm median / p90 | run cm median / p90 |"
+        )
+        print("| --- | --- | --- | --- | --- | --- | --- |")
+        for mode in ("rig", "no rig"):
+            for name, lines in (("before", before), ("after", after)):
+                print(f"| {mode} | {name} | {_columns([x for x in lines if x['mode'] == mode])} |")
+    else:
+        for name, lines in (("before", before), ("after", after)):
+            flagged = sum(x["result"]["obstacle"] != "none" for x in lines)
+            print(f"{name}: {flagged} of {len(lines)} runs report an obstacle", end="")
+            if all(x["key"].startswith("Staircase") for x in lines):
+                checks = [_staircase_check(x) for x in lines]
+                print(
+                    f"; the issue's check passes on the reported rises in {sum(c[0] for c in checks)}, "
+                    f"on the measured ones in {sum(c[1] for c in checks)}",
+                    end="",
+                )
+            print()
+    changed = [(b, a) for b, a in zip(before, after, strict=True) if _steps(b) != _steps(a)]
+    print(f"\n{len(changed)} of {len(before)} runs changed:")
+    for b, a in changed:
+        truth = b.get("truth")
+        told = "" if truth is None else f" (truth: {truth['obstacle']}, {len(truth.get('steps', []))} steps)"
+        print(f"- {b['key']}{told}: {_steps(b)} -> {_steps(a)}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="command", required=True)
+    cap = sub.add_parser("capture", help="run one set of scenes and write its results")
+    cap.add_argument(
+        "set", help="realistic:SEED:N, default:SEED:N, boxes:SEED:N, lab:SEED:N, rooms:SEEDS, staircase:SEEDS"
+    )
+    cap.add_argument("out", type=Path, help="JSON lines file to write")
+    cap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")
+    cmp = sub.add_parser("compare", help="compare two captures of the same set")
+    cmp.add_argument("before", type=Path)
+    cmp.add_argument("after", type=Path)
+    args = ap.parse_args()
+    if args.command == "capture":
+        try:
+            kind, numbers = parse_set(args.set)
+        except ValueError as e:
+            ap.error(str(e))
+        config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
+        print(f"{capture(kind, numbers, args.out, config)} runs written to {args.out}")
+    else:
+        compare(args.before, args.after)
+
+
+if __name__ == "__main__":
+    main()
