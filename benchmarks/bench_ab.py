@@ -3,10 +3,10 @@
 A change to a stage is judged on everything it changes: the rendered staircases it finds
 or loses, the real rooms where it makes or removes a false step, the real `Staircase` runs
 it keeps or loses. ``capture`` runs the pipeline (default settings, or ``--config``) on one
-set of scenes and writes one JSON line per run: the result (without its timings), the
-steps' measured rises and runs (``Step.own_rise_m``, ``own_run_m``), whether each was
-inferred, the note, and the truth where there is one. ``compare`` reads two captures of the
-same set and prints the issue's columns for each and the runs whose result changed.
+set of scenes and writes one JSON line per run: the result without its timings (its steps'
+``measured_rise`` and ``measured_run`` where they report the staircase's common ones), the
+note, and the truth where there is one. ``compare`` reads two captures of the same set and
+prints the issue's columns for each and the runs whose result changed.
 Another version of the package (a worktree, a patched copy) is captured by putting its
 ``src`` first on ``PYTHONPATH``; the captures themselves are compared here.
 
@@ -46,19 +46,24 @@ from bench_staircase_webcam import _degraded_pairs, passes  # noqa: E402
 
 
 def _record(result, **extra: Any) -> dict[str, Any]:
-    """One run's line: the result without its timings, its steps as measured, its note."""
+    """One run's line: the result without its timings (which holds each step's measured
+    rise and run where it reports the staircase's common ones), its note."""
     data = result.to_json_dict()
     data.pop("timing_ms", None)
-    steps = [
-        {
-            "rise": s.own_rise_m,
-            "run": s.own_run_m,
-            "inferred": bool(s.rise_inferred or s.position_inferred),
-            "width": s.width_m,
-        }
-        for s in result.terrain.steps
+    return {**extra, "result": data, "note": result.terrain.note}
+
+
+def _measured(line: dict[str, Any]) -> list[tuple[float, float | None, bool]]:
+    """Each step's own rise and run (``measured_rise``, ``measured_run`` where it reports
+    the common ones) and whether it was inferred."""
+    return [
+        (
+            s["rise"] if s["measured_rise"] is None else s["measured_rise"],
+            s["run"] if s["measured_run"] is None else s["measured_run"],
+            s["rise_inferred"] or s["position_inferred"],
+        )
+        for s in line["result"]["steps"]
     ]
-    return {**extra, "result": data, "measured": steps, "note": result.terrain.note}
 
 
 def _rendered(kind: str, seed: int, n: int) -> Iterator[tuple[int, Any]]:
@@ -146,7 +151,7 @@ def _steps(line: dict[str, Any]) -> str:
     result = line["result"]
     if result["obstacle"] == "none":
         return "none"
-    rises = ", ".join(f"{100 * s['rise']:.1f}{'*' if s['inferred'] else ''}" for s in line["measured"])
+    rises = ", ".join(f"{100 * rise:.1f}{'*' if inferred else ''}" for rise, _, inferred in _measured(line))
     return f"{result['obstacle']} [{rises}]"
 
 
@@ -171,7 +176,7 @@ def _staircase_check(line: dict[str, Any]) -> tuple[bool, bool]:
     if result["obstacle"] != "stairs":
         return False, False
     reported = [(s["rise"], s["run"]) for s in result["steps"]]
-    measured = [(s["rise"], s["run"]) for s in line["measured"]]
+    measured = [(rise, run) for rise, run, _ in _measured(line)]
     return passes(reported), passes(measured)
 
 
