@@ -234,7 +234,13 @@ def main() -> None:
         config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
         print(f"{capture(kind, numbers, args.out, config)} runs written to {args.out}")
     else:
-        compare(args.before, args.after)
+        for path in (args.before, args.after):
+            if not path.is_file():
+                ap.error(f"{path}: no such capture (write one with: bench_ab.py capture SET {path})")
+        try:
+            compare(args.before, args.after)
+        except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as e:
+            ap.error(f"not a capture of bench_ab.py ({type(e).__name__}: {e}); capture both again")
 
 
 if __name__ == "__main__":
