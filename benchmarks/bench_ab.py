@@ -32,7 +32,7 @@ import json
 import sys
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -43,6 +43,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_far_stairs import lab_spec  # noqa: E402
 from bench_real_stairs import real_pairs  # noqa: E402
 from bench_staircase_webcam import _degraded_pairs, passes  # noqa: E402
+
+
+def _fail(message: str) -> NoReturn:
+    """One line on stderr and exit status 2 (a bad input, as the package's commands)."""
+    print(f"bench_ab.py: {message}", file=sys.stderr)
+    sys.exit(2)
 
 
 def _record(result, **extra: Any) -> dict[str, Any]:
@@ -131,13 +137,17 @@ def capture(kind: str, numbers: list[int], out: Path, config: PipelineConfig) ->
     leaves none); how many runs."""
     tmp = out.with_name(out.name + ".part")
     count = 0
-    with tmp.open("w") as fh:
-        for line in _runs(kind, numbers, config):
-            fh.write(json.dumps(line) + "\n")
-            count += 1
+    try:
+        with tmp.open("w") as fh:
+            for line in _runs(kind, numbers, config):
+                fh.write(json.dumps(line) + "\n")
+                count += 1
+    except BaseException:  # (an interrupt too: no half-written capture is left)
+        tmp.unlink(missing_ok=True)
+        raise
     if count == 0:
         tmp.unlink()
-        sys.exit("bench_ab.py: no real scenes under ../shared/data: the shared data folder is needed")
+        _fail("no real scenes under ../shared/data: the shared data folder is needed")
     tmp.replace(out)
     return count
 
@@ -182,8 +192,10 @@ def _staircase_check(line: dict[str, Any]) -> tuple[bool, bool]:
 
 def compare(before_path: Path, after_path: Path) -> None:
     before, after = _read(before_path), _read(after_path)
+    if not before or not after:
+        _fail(f"{before_path if not before else after_path} holds no runs: capture it again")
     if [b["key"] for b in before] != [a["key"] for a in after]:
-        sys.exit("bench_ab.py: the two captures are not of the same set (their runs differ)")
+        _fail("the two captures are not of the same set (their runs differ)")
     if "truth" in before[0]:
         print(
             "| gravity from | version | detected | step count | false pos. "

@@ -1,0 +1,49 @@
+"""benchmarks/bench_ab.py, the A/B tool of issue 11's measurements: a capture and its
+comparison end to end on one rendered scene, and its errors in one line."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_ab.py"
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300)
+
+
+def test_a_capture_compared_with_itself_changes_nothing(tmp_path):
+    out = tmp_path / "lab.jsonl"
+    done = _run("capture", "lab:77:1", str(out))
+    assert done.returncode == 0, done.stderr
+    lines = [json.loads(x) for x in out.read_text().splitlines()]
+    assert [x["key"] for x in lines] == ["0 rig", "0 no rig"]
+    assert all(x["truth"]["obstacle"] == "stairs" and "timing_ms" not in x["result"] for x in lines)
+    assert not list(tmp_path.glob("*.part"))
+    same = _run("compare", str(out), str(out))
+    assert same.returncode == 0, same.stderr
+    assert "| rig | before |" in same.stdout and "0 of 2 runs changed" in same.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (("capture", "stairs:1:2", "x.jsonl"), "unknown set 'stairs'"),
+        (("capture", "lab:77", "x.jsonl"), "give lab:SEED:N"),
+        (("compare", "missing.jsonl", "missing.jsonl"), "no such capture"),
+        (("compare", "garbage.jsonl", "garbage.jsonl"), "not a capture"),
+        (("compare", "empty.jsonl", "empty.jsonl"), "holds no runs"),
+    ],
+)
+def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, says):
+    (tmp_path / "garbage.jsonl").write_text("not json\n")
+    (tmp_path / "empty.jsonl").write_text("")
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
+    assert done.returncode == 2, done.stderr
+    assert says in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "x.jsonl").exists()
