@@ -248,11 +248,11 @@ def main() -> None:
     else:
         for path in (args.before, args.after):
             if not path.is_file():
-                ap.error(f"{path}: no such capture (write one with: bench_ab.py capture SET {path})")
+                _fail(f"{path}: no such capture (write one with: bench_ab.py capture SET {path})")
         try:
             compare(args.before, args.after)
         except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as e:
-            ap.error(f"not a capture of bench_ab.py ({type(e).__name__}: {e}); capture both again")
+            _fail(f"not a capture of bench_ab.py ({type(e).__name__}: {e}); capture both again")
 
 
 if __name__ == "__main__":

@@ -11,8 +11,10 @@ import pytest
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_ab.py"
 
 
-def _run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300)
+def _run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300, cwd=cwd
+    )
 
 
 def test_a_capture_compared_with_itself_changes_nothing(tmp_path):
@@ -41,9 +43,7 @@ def test_a_capture_compared_with_itself_changes_nothing(tmp_path):
 def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, says):
     (tmp_path / "garbage.jsonl").write_text("not json\n")
     (tmp_path / "empty.jsonl").write_text("")
-    done = subprocess.run(
-        [sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300, cwd=tmp_path
-    )
+    done = _run(*args, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     assert says in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "x.jsonl").exists()
