@@ -105,6 +105,15 @@ class VerticalLinesConfig:
         scenes, gravity within 2 deg of the truth in 93% of them instead of 75% (median
         0.88 -> 0.50 deg; 78-80% instead of 62-68% on two fresh sets of 40); the default
         profile's planes fix up to about 0.45 deg and are left alone (docs/benchmarks.md).
+    frame_at_border : bool
+        The frame is also fitted to the segments that run out of the view (clipped at the
+        border of the valid region, :attr:`SceneLines.at_border`), not only the whole ones
+        (True, the default): a staircase wider than the view, or yawed so that its
+        nosings leave the image, has few whole lines (realistic 41 scene 57: 3 whole of
+        10). Gravity within 2 deg without a rig on eight sets went up on four and held on
+        four, the planes' worst errors (10-37 deg) mostly mended; a wooden floor's plank
+        lines cut by the border misled it in two scenes (docs/benchmarks.md, thirty-sixth
+        session). The other estimates keep to whole segments.
     frame_start_deg, frame_inlier_deg : float
         A segment belongs to the frame's direction whose vanishing point it points at
         within this angle: ``frame_start_deg`` at the start, narrowing to
@@ -146,6 +155,7 @@ class VerticalLinesConfig:
     horizontal_window_deg: float = 4.0
     horizontal_max_slope_deg: float = 20.0
     frame: bool = True
+    frame_at_border: bool = True
     frame_start_deg: float = 3.0
     frame_inlier_deg: float = 1.5
     endpoint_sigma_px: float = 1.0
@@ -597,7 +607,8 @@ class SceneLines:
     at_border : (M, 4) float64
         The same pass's segments that reach that border, clipped there (for the terrain's
         nosings, :mod:`stereo_terrain.terrain.nosings`: a staircase wider than the view has
-        all its nosings so). The estimates above keep to whole segments: with these too,
+        all its nosings so), and for gravity's Manhattan frame of the lines
+        (``frame_at_border``). The estimates above keep to whole segments: with these too,
         the Manhattan fill and the rematches moved and lost as many staircases as the
         nosings gained (docs/benchmarks.md, "Sixteenth session").
     """

@@ -440,7 +440,10 @@ class Pipeline:
                 overrule=cfg.vanishing.overrule_planes,
             )
         if rig_T is None and lines_job is not None and cfg.vanishing.frame:
-            segments = lines_job.result().segments
+            seen = lines_job.result()
+            segments = seen.segments
+            if cfg.vanishing.frame_at_border:  # the lines that run out of the view too
+                segments = np.vstack([segments, seen.at_border])
             framed = _level_with_line_frame(fine, before_planes, source, T, segments, pair, cfg)
             if framed is not None:
                 fine, source = framed, "scene"
