@@ -279,7 +279,7 @@ def test_the_frame_takes_the_lines_that_run_out_of_the_view():
 
 def test_a_plane_counts_as_at_most_plane_pieces_independent_points():
     """Realistic seed 41, scene 36 (planks): without the cap its planes' sigma shrank with
-    their count to 0.63 deg, under ``vanishing.frame_above_deg``, and their up, 2.8 deg
+    their count to 0.63 deg, under ``vanishing.frame_above_deg`` (then 0.7), and their up, 2.8 deg
     off (measured), was kept without asking the lines; capped, the lines' frame puts up
     within the bound. A default-profile scene's planes, thin in scatter, keep their
     sigma. (The first matcher's planes: the rematch, which finds this staircase from other
