@@ -33,6 +33,9 @@ CAMERA_UP = np.array([0.0, -1.0, 0.0])
 DRAWN_TOL_DEG = 1.0
 #: Bound on gravity from the rendered realistic scenes below (the truth's criterion).
 RENDERED_TOL_DEG = 2.0
+#: The lines' frame on whole segments alone (before ``frame_at_border``), for the tests of
+#: its choices measured then.
+_WHOLE_SEGMENTS = VerticalLinesConfig(frame_at_border=False)
 
 
 def _rectification():
@@ -229,10 +232,7 @@ def test_realistic_renders_where_the_vertical_lines_are_too_few(index, note):
 )
 def test_realistic_renders_where_the_planes_are_tilted_as_a_whole(seed, index, note):
     scene = _realistic(index, seed)
-    config = PipelineConfig()
-    if (seed, index) == (23, 2):
-        whole_only = dataclasses.replace(config.vanishing, frame_at_border=False)
-        config = dataclasses.replace(config, vanishing=whole_only)
+    config = PipelineConfig(vanishing=_WHOLE_SEGMENTS) if (seed, index) == (23, 2) else PipelineConfig()
     pipeline = Pipeline(scene.calibration, config=config)
     # The first matcher's gravity (seed 23 scene 16's staircase is found by the far planes
     # of the coarse rematch since the wider far planes, with that pass's own gravity).
@@ -253,8 +253,8 @@ def test_planes_that_report_under_a_degree_are_still_asked_the_lines():
     result = pipeline.run(scene.left, scene.right, rematch=False)
     assert "Manhattan frame" in result.gravity.note
     assert _gravity_error(scene, pipeline, result.gravity.up_camera) < RENDERED_TOL_DEG
-    old_gate = dataclasses.replace(PipelineConfig().vanishing, frame_above_deg=0.7)
-    before = Pipeline(scene.calibration, config=dataclasses.replace(PipelineConfig(), vanishing=old_gate))
+    old_gate = PipelineConfig(vanishing=VerticalLinesConfig(frame_above_deg=0.7))
+    before = Pipeline(scene.calibration, config=old_gate)
     kept = before.run(scene.left, scene.right, rematch=False)
     assert kept.gravity.note == "planes of the scene"  # the scene still tests the gate
 
@@ -271,8 +271,7 @@ def test_the_frame_takes_the_lines_that_run_out_of_the_view():
     result = pipeline.run(scene.left, scene.right, rematch=False)
     assert "Manhattan frame" in result.gravity.note
     assert _gravity_error(scene, pipeline, result.gravity.up_camera) < RENDERED_TOL_DEG
-    whole_only = dataclasses.replace(PipelineConfig().vanishing, frame_at_border=False)
-    before = Pipeline(scene.calibration, config=dataclasses.replace(PipelineConfig(), vanishing=whole_only))
+    before = Pipeline(scene.calibration, config=PipelineConfig(vanishing=_WHOLE_SEGMENTS))
     kept = before.run(scene.left, scene.right, rematch=False)
     assert _gravity_error(scene, before, kept.gravity.up_camera) > 2 * RENDERED_TOL_DEG
 
@@ -287,8 +286,7 @@ def test_a_plane_counts_as_at_most_plane_pieces_independent_points():
     planes are extracted again after the Manhattan fill in the frame the lines level, and
     with the segments that run out of the view too they are other planes, 0.42 deg off.)"""
     scene = _realistic(36, 41)
-    whole_only = dataclasses.replace(PipelineConfig().vanishing, frame_at_border=False)
-    pipeline = Pipeline(scene.calibration, config=PipelineConfig(rematch=False, vanishing=whole_only))
+    pipeline = Pipeline(scene.calibration, config=PipelineConfig(rematch=False, vanishing=_WHOLE_SEGMENTS))
     result = pipeline.run(scene.left, scene.right)
     assert _gravity_error(scene, pipeline, result.gravity.up_camera) < RENDERED_TOL_DEG
     uncapped = dataclasses.replace(GravityConfig(), plane_pieces=1e9)  # no plane has so many

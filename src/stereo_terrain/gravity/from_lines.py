@@ -618,6 +618,12 @@ class SceneLines:
     segments: np.ndarray
     at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
 
+    @property
+    def every_segment(self) -> np.ndarray:
+        """``(N + M, 4)``: the whole segments, then those at the border (the band fill's,
+        and with ``frame_at_border`` the Manhattan frame's)."""
+        return np.concatenate([self.segments, self.at_border])
+
 
 def scene_lines(
     image: np.ndarray,

@@ -441,9 +441,8 @@ class Pipeline:
             )
         if rig_T is None and lines_job is not None and cfg.vanishing.frame:
             seen = lines_job.result()
-            segments = seen.segments
-            if cfg.vanishing.frame_at_border:  # the lines that run out of the view too
-                segments = np.vstack([segments, seen.at_border])
+            # with frame_at_border, the lines that run out of the view too
+            segments = seen.every_segment if cfg.vanishing.frame_at_border else seen.segments
             framed = _level_with_line_frame(fine, before_planes, source, T, segments, pair, cfg)
             if framed is not None:
                 fine, source = framed, "scene"
@@ -595,8 +594,7 @@ def _band_planes(
         up = scene_up
     if up is None:
         return None
-    segments = np.concatenate([lines.segments, lines.at_border])
-    return sweep_bands(pair, segments, up, max_disparity_px, config)
+    return sweep_bands(pair, lines.every_segment, up, max_disparity_px, config)
 
 
 def _check_arguments(calibration: Any, rig: Any, config: Any) -> None:
