@@ -203,6 +203,18 @@ class PipelineConfig:
         beyond the top; no taller than ``terrain.max_rise_m``) is kept, and the note says
         so (:func:`~.second_opinions.whole_box`). Default true (issue 11; docs/benchmarks.md,
         "Twenty-fifth session").
+    corroborated_frame : bool
+        Without a rig, with ``rematch``: where the frame keeps an obstacle found by a pass
+        whose up from the scene the other passes do not corroborate, and two or more of
+        them corroborate another pass's up (within three combined sigmas, as
+        :func:`~.second_opinions.corroborated_up` asks), that pass's samples are
+        expressed in the corroborated pass's frame and the terrain is found again there;
+        the result keeps that frame and its gravity, and the notes say so
+        (:func:`~.second_opinions.corroborated_frame`). Where the terrain found there is
+        no obstacle, or steps that disagree, the result is left as it was. Default true
+        (issue 11; docs/benchmarks.md, "Thirty-seventh session": a denoised pass's far
+        planes 13 deg off became 0.4 deg; 1 of 240 rendered runs and 2 of 187 real room
+        runs changed).
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -250,6 +262,7 @@ class PipelineConfig:
     redraw_planes: int = 3  # issue 11
     agreed_lone_step: bool = True  # issue 11
     whole_box: bool = True  # issue 11
+    corroborated_frame: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

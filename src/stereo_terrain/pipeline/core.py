@@ -48,8 +48,8 @@ from .gravity_steps import (
     _level_from_scene,
     _level_with_line_frame,
     _level_with_lines,
-    _origin_on_floor,
     _rig_check,
+    origin_on_floor,
 )
 from .result import TerrainResult
 from .second_opinions import (
@@ -60,6 +60,7 @@ from .second_opinions import (
     REMATCH_NOTE,
     Passes,
     agreed_lone_step,
+    corroborated_frame,
     corroborated_up,
     far_planes,
     redrawn_planes,
@@ -254,6 +255,11 @@ class Pipeline:
             # Last, so that it changes nothing the others found (but a lone step or steps
             # that disagree, which a staircase of its own may replace).
             result = self._denoised_opinions(pair, image_jobs, result, tried)
+        if rematch and self.config.corroborated_frame and self.T_yaw_camera_rect is None:
+            # Without a rig: an obstacle found in a pass's frame that the other passes do
+            # not corroborate, found again in the frame they do (issue 11;
+            # PipelineConfig.corroborated_frame).
+            result = corroborated_frame(tried, result, self.config)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 
@@ -464,7 +470,7 @@ class Pipeline:
                 planes = self._extract_planes(transform_sample(cam_sample, T), pair.left)
         floor_known = source == "rig"
         if not floor_known:
-            planes, T, floor_known = _origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
+            planes, T, floor_known = origin_on_floor(planes, T, cfg.gravity.min_floor_drop_m)
         if before_planes is None:
             before_planes = _rig_check(cam_sample, fine, prior, cfg.gravity, cfg.orientation.angle_tol_deg)
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)

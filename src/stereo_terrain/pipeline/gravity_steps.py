@@ -124,7 +124,7 @@ def _rig_check(
     return checked
 
 
-def _origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform, bool]:
+def origin_on_floor(planes: PlaneSet, T: Transform, min_drop_m: float) -> tuple[PlaneSet, Transform, bool]:
     """Put the yaw frame's origin on the floor below the camera (CONVENTIONS: a rig off a
     robot has its body origin on the ground below the left camera). The floor is the lowest
     large horizontal plane (a quarter of the largest one's inliers or more) at least

@@ -16,6 +16,9 @@ their results here:
   and the ground beyond it);
 - :func:`redrawn_planes`: the last pass's samples with other seeds of the plane stage's
   random draws;
+- :func:`corroborated_frame`: without a rig, an obstacle found again in the frame of the
+  up the passes corroborate, where they do not corroborate the up of the pass that found
+  it;
 - :func:`kept_staircase`: what every one of them asks of a staircase before it is kept.
 """
 
@@ -27,13 +30,15 @@ import time
 
 import numpy as np
 
-from ..cloud import transform_sample
+from ..cloud import GridSample, transform_sample
+from ..frames import Transform
 from ..gravity import angle_deg
 from ..planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation, noise_widened
 from ..swing import plan_swing
 from ..terrain import StairModel, build_terrain, estimate_step_sigmas
 from ..terrain.model import BOX, NONE, STAIRS, TerrainConfig
 from .config import AGREEING_RISE_RATIO, PipelineConfig
+from .gravity_steps import origin_on_floor
 from .result import TerrainResult
 
 #: The passes a frame ran, in order: each one's name and own result (the first matcher's,
@@ -324,6 +329,14 @@ DENOISED_COARSE_NOTE = (
 _AGREE_SIGMAS = 3.0
 
 
+def _ups_agree(a: tuple[np.ndarray, float] | None, b: tuple[np.ndarray, float] | None) -> bool:
+    """Whether two passes' ups from the scene (:func:`scene_up`) corroborate each other:
+    within ``_AGREE_SIGMAS`` of their combined sigmas (False where either is None)."""
+    if a is None or b is None:
+        return False
+    return angle_deg(a[0], b[0]) <= _AGREE_SIGMAS * math.hypot(a[1], b[1])
+
+
 def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
     """Where every pass of a frame without a rig found nothing and the first's result is
     kept: the result of the pass (of those that found nothing) whose up from the scene the
@@ -336,15 +349,8 @@ def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
         return kept
     # Each pass's up (rectified camera) and its sigma, where the scene fixed it.
     ups = [scene_up(r) for _, r in tried]
-
-    def agree(i: int, j: int) -> bool:
-        a, b = ups[i], ups[j]
-        if a is None or b is None:
-            return False
-        return angle_deg(a[0], b[0]) <= _AGREE_SIGMAS * math.hypot(a[1], b[1])
-
     n = len(tried)
-    support = [sum(agree(i, j) for j in range(n) if j != i) for i in range(n)]
+    support = [sum(_ups_agree(ups[i], ups[j]) for j in range(n) if j != i) for i in range(n)]
     nothing = [i for i in range(n) if tried[i][1].terrain.obstacle == NONE]
     best = max(nothing, key=lambda i: (support[i], -i))
     if support[best] <= support[0]:  # the first pass (found nothing, kept) as sure: kept
@@ -355,6 +361,103 @@ def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
         note = f"{gravity.note}; the {name}'s up, which {support[best]} other pass(es) corroborate"
         gravity = dataclasses.replace(gravity, note=note)
     return dataclasses.replace(other, gravity=gravity, timing_ms=kept.timing_ms)
+
+
+def corroborated_frame(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """Without a rig, ``kept`` (an obstacle a pass found) found again in the frame of the
+    up that the frame's passes corroborate, where they do not corroborate its own
+    (``PipelineConfig.corroborated_frame``); else ``kept``.
+
+    A result keeps the frame of the pass that found its obstacle, and each pass levels
+    its frame from its own disparities: a denoised pass's far planes can find a
+    staircase in a frame 13 deg off where the first matcher's and the coarse rematch's
+    ups agree within a degree (realistic renders; docs/benchmarks.md, "Thirty-seventh
+    session"). Each pass's support is how many others corroborate its up (within
+    ``_AGREE_SIGMAS`` combined sigmas, as :func:`corroborated_up` counts). Where the
+    best-supported pass has two or more, more than ``kept``'s up has, and does not
+    corroborate ``kept``'s up either, ``kept``'s samples are expressed in that pass's
+    frame, the origin put on the floor again, and the planes and terrain found there
+    (with the plane stage's widened normal tests too where ``kept`` came from the far
+    planes). The first terrain with an obstacle, and with steps that agree where it is
+    a staircase (:func:`steps_agree`), is kept, with that frame and that pass's gravity,
+    the notes saying so; where none is, ``kept`` stands."""
+    if kept.gravity_source != "scene" or kept.terrain.obstacle == NONE or len(tried) < 2:
+        return kept
+    own = scene_up(kept)
+    if own is None:
+        return kept
+    ups = [scene_up(r) for _, r in tried]
+    n = len(tried)
+
+    support = [sum(_ups_agree(ups[i], ups[j]) for j in range(n) if j != i) for i in range(n)]
+    # kept's own pass (the first whose up is kept's) does not corroborate kept
+    same = [i for i, u in enumerate(ups) if u is not None and angle_deg(u[0], own[0]) < 1e-6]
+    own_support = sum(_ups_agree(own, ups[j]) for j in range(n) if j not in same[:1])
+    best = max(range(n), key=lambda i: (support[i], -i))
+    if support[best] < 2 or support[best] <= own_support or _ups_agree(ups[best], own):
+        return kept
+    name, other = tried[best]
+    T_move = other.T_yaw_camera_rect @ kept.T_yaw_camera_rect.inverse()
+    samples = transform_sample(kept.planes.samples, T_move)
+    plane_configs = [config.orientation]
+    if kept.plane_choice.startswith("orientation, normal tests widened"):  # the far planes'
+        widenings = [
+            (config.far_planes_sigmas, config.orientation.max_noise_tolerance_deg),
+            (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg),
+        ]
+        plane_configs += [
+            dataclasses.replace(config.orientation, normal_noise_sigmas=k, max_noise_tolerance_deg=deg)
+            for k, deg in widenings
+        ]
+    corroborated = f"the {name}'s up, which {support[best]} other pass(es) corroborate"
+    for plane_config in plane_configs:
+        found = _found_in_frame(kept, samples, other.T_yaw_camera_rect, plane_config, config)
+        if found is None:
+            continue
+        terrain = dataclasses.replace(
+            found.terrain, note=f"{found.terrain.note}; found again in {corroborated} (corroborated_frame)"
+        )
+        gravity = other.gravity
+        if gravity is not None:
+            gravity = dataclasses.replace(gravity, note=f"{gravity.note}; {corroborated}")
+        swing = plan_swing(terrain, config.swing)
+        return dataclasses.replace(found, terrain=terrain, swing=swing, gravity=gravity)
+    return kept
+
+
+def _found_in_frame(
+    kept: TerrainResult,
+    samples: GridSample,
+    T_levelled: Transform,
+    plane_config: OrientationConfig,
+    config: PipelineConfig,
+) -> TerrainResult | None:
+    """``kept`` with the planes and terrain found in ``samples`` (``kept``'s, expressed in
+    the levelled frame of ``T_levelled``, a pass's ``T_yaw_camera_rect``), the origin put
+    on the floor again (:func:`~.gravity_steps.origin_on_floor`); None where the terrain
+    has no obstacle, or is a staircase of two steps or more whose steps do not agree
+    (:func:`corroborated_frame`)."""
+    up = np.array([0.0, 0.0, 1.0])  # the samples' frame is levelled
+    planes = extract_planes_orientation(samples, plane_config, up=up, camera_position=samples.camera_position)
+    planes, T, floor_known = origin_on_floor(planes, T_levelled, config.gravity.min_floor_drop_m)
+    lines = kept.image_lines
+    if lines is not None:  # the camera in the new frame
+        stereo = lines.stereo
+        if stereo is not None:
+            stereo = dataclasses.replace(stereo, T_frame_camera=T.matrix)
+        lines = dataclasses.replace(lines, T_frame_camera=T.matrix, stereo=stereo)
+    terrain = build_terrain(planes, config.terrain, floor_known=floor_known, lines=lines)
+    if terrain.obstacle == NONE:
+        return None
+    if terrain.obstacle == STAIRS and len(terrain.steps) >= 2 and not steps_agree(terrain, config.terrain):
+        return None
+    rect = kept.rectified.rectification
+    terrain = estimate_step_sigmas(
+        terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=config.terrain
+    )
+    return dataclasses.replace(
+        kept, terrain=terrain, planes=planes, T_yaw_camera_rect=T, floor_known=floor_known, image_lines=lines
+    )
 
 
 def scene_up(result: TerrainResult) -> tuple[np.ndarray, float] | None:
