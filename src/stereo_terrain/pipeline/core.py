@@ -254,7 +254,13 @@ class Pipeline:
             # box (with a rig) and redrawn planes (issue 11; PipelineConfig.rematch_denoised).
             # Last, so that it changes nothing the others found (but a lone step or steps
             # that disagree, which a staircase of its own may replace).
+            before = len(tried)
             result = self._denoised_opinions(pair, image_jobs, result, tried)
+            if len(tried) > before and result.terrain.obstacle == NONE:
+                # Still nothing: the up that most of all the passes corroborate, the
+                # denoised ones' too (issue 11; corroborated_up asked again).
+                first = dataclasses.replace(tried[0][1], timing_ms=result.timing_ms)
+                result = corroborated_up(tried, first)
         if rematch and self.config.corroborated_frame and self.T_yaw_camera_rect is None:
             # Without a rig: an obstacle found in a pass's frame that the other passes do
             # not corroborate, found again in the frame they do (issue 11;
