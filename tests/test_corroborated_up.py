@@ -182,3 +182,22 @@ def test_the_denoised_passes_corroborate_too_where_nothing_is_found():
     assert got.terrain.obstacle == "none"
     assert _gravity_error(scene, pipeline, got.gravity.up_camera) < 2.0
     assert "the coarse rematch's up, which 4 other pass(es) corroborate" in got.gravity.note
+
+
+def test_the_frame_is_found_again_only_by_the_orientation_method(monkeypatch):
+    """The planes are found again by the orientation method: with ``method: contour`` (or
+    ``auto``) the result is left as it is, where the same passes would move it."""
+    import stereo_terrain.pipeline.second_opinions as opinions
+
+    r = _empty_result()
+    stairs = _tilted(r, 0.0, 0.7, obstacle="stairs")
+    others = [("a", _tilted(r, 8.0, 0.5)), ("b", _tilted(r, 8.2, 0.5)), ("c", _tilted(r, 8.1, 0.5))]
+    tried = [*others, ("d", stairs)]
+    asked = []
+    monkeypatch.setattr(opinions, "_found_in_frame", lambda *a: asked.append(a) or None)
+    assert corroborated_frame(tried, stairs, PipelineConfig()) is stairs
+    assert asked  # the orientation method tried it (and found nothing there)
+    asked.clear()
+    for method in ("contour", "auto"):
+        assert corroborated_frame(tried, stairs, PipelineConfig(method=method)) is stairs
+    assert not asked

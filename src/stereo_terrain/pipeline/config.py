@@ -211,7 +211,8 @@ class PipelineConfig:
         expressed in the corroborated pass's frame and the terrain is found again there;
         the result keeps that frame and its gravity, and the notes say so
         (:func:`~.second_opinions.corroborated_frame`). Where the terrain found there is
-        no obstacle, or steps that disagree, the result is left as it was. Default true
+        no obstacle, or steps that disagree, the result is left as it was. Only with
+        ``method: orientation``. Default true
         (issue 11; docs/benchmarks.md, "Thirty-seventh session": a denoised pass's far
         planes 13 deg off became 0.4 deg; 1 of 240 rendered runs and 2 of 187 real room
         runs changed).

@@ -384,7 +384,10 @@ def corroborated_frame(tried: Passes, kept: TerrainResult, config: PipelineConfi
     (with the plane stage's widened normal tests too where ``kept`` came from the far
     planes). The first terrain with an obstacle, and with steps that agree where it is
     a staircase (:func:`steps_agree`), is kept, with that frame and that pass's gravity,
-    the notes saying so; where none is, ``kept`` stands."""
+    the notes saying so; where none is, ``kept`` stands. Only with ``method:
+    orientation`` (the planes are found again by the orientation method)."""
+    if config.method != "orientation":
+        return kept
     if kept.gravity_source != "scene" or kept.terrain.obstacle == NONE or len(tried) < 2:
         return kept
     own = scene_up(kept)
