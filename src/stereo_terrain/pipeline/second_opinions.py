@@ -395,7 +395,6 @@ def corroborated_frame(tried: Passes, kept: TerrainResult, config: PipelineConfi
         return kept
     ups = [scene_up(r) for _, r in tried]
     n = len(tried)
-
     support = [sum(_ups_agree(ups[i], ups[j]) for j in range(n) if j != i) for i in range(n)]
     # kept's own pass (the first whose up is kept's) does not corroborate kept
     same = [i for i, u in enumerate(ups) if u is not None and angle_deg(u[0], own[0]) < 1e-6]
@@ -421,9 +420,8 @@ def corroborated_frame(tried: Passes, kept: TerrainResult, config: PipelineConfi
         found = _found_in_frame(kept, samples, other.T_yaw_camera_rect, plane_config, config)
         if found is None:
             continue
-        terrain = dataclasses.replace(
-            found.terrain, note=f"{found.terrain.note}; found again in {corroborated} (corroborated_frame)"
-        )
+        again = f"found again in the frame of {corroborated} (corroborated_frame)"
+        terrain = dataclasses.replace(found.terrain, note=f"{found.terrain.note}; {again}")
         gravity = other.gravity
         if gravity is not None:
             gravity = dataclasses.replace(gravity, note=f"{gravity.note}; {corroborated}")
