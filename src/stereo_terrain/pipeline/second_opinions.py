@@ -99,13 +99,8 @@ def far_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> Te
     earlier in the frame (those of the focus and denoised rematches come after the
     others')."""
     t0 = time.perf_counter()
-    first = (config.far_planes_sigmas, config.orientation.max_noise_tolerance_deg, "far_planes_sigmas")
-    wider = (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg, "far_planes_wider_sigmas")
     result = kept
-    for sigmas, max_deg, option in [first, wider] if wider[0] > 0 else [first]:
-        wide = dataclasses.replace(
-            config.orientation, normal_noise_sigmas=sigmas, max_noise_tolerance_deg=max_deg
-        )
+    for wide, option in _far_widenings(config):
         found = _far_planes_with(tried, kept, wide, option, config)
         if found is not None:
             result = found
@@ -113,6 +108,25 @@ def far_planes(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> Te
     took = (time.perf_counter() - t0) * 1000.0
     result.timing_ms["far_planes"] = kept.timing_ms.get("far_planes", 0.0) + took  # the focus pass's too
     return result
+
+
+#: How a far planes' result's ``plane_choice`` begins (:func:`_far_planes_with`).
+_FAR_PLANES_CHOICE = "orientation, normal tests widened"
+
+
+def _far_widenings(config: PipelineConfig) -> list[tuple[OrientationConfig, str]]:
+    """The plane stage's configs the far planes try in turn, each with the option that
+    names it: the normal tests widened by ``far_planes_sigmas``, then (unless 0)
+    further by ``far_planes_wider_sigmas`` up to ``far_planes_wider_max_deg``."""
+    widenings = [(config.far_planes_sigmas, config.orientation.max_noise_tolerance_deg, "far_planes_sigmas")]
+    if config.far_planes_wider_sigmas > 0:
+        widenings.append(
+            (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg, "far_planes_wider_sigmas")
+        )
+    return [
+        (dataclasses.replace(config.orientation, normal_noise_sigmas=k, max_noise_tolerance_deg=deg), option)
+        for k, deg, option in widenings
+    ]
 
 
 def _far_planes_with(
@@ -143,7 +157,7 @@ def _far_planes_with(
                 f"found by the far planes (no pass found an obstacle; the {which}'s samples with "
                 f"normal tests widened{further} by the far samples' noise, {option})"
             ),
-            plane_choice=f"orientation, normal tests widened{further} ({option})",
+            plane_choice=f"{_FAR_PLANES_CHOICE}{further} ({option})",
             timing_ms=kept.timing_ms,
         )
         if found is not None:
@@ -290,10 +304,7 @@ def kept_staircase(
     are ``base``'s matcher's."""
     if not steps_agree(terrain, config.terrain) or terrain.steps[0].rise_inferred:
         return None
-    rect = base.rectified.rectification
-    terrain = estimate_step_sigmas(
-        terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=config.terrain
-    )
+    terrain = _with_step_sigmas(terrain, planes, base, config)
     terrain = dataclasses.replace(terrain, note=f"{terrain.note}; {found_by}")
     return dataclasses.replace(
         base,
@@ -303,6 +314,17 @@ def kept_staircase(
         plane_choice=plane_choice,
         timing_ms={**timing_ms},
         rematched=True,
+    )
+
+
+def _with_step_sigmas(
+    terrain: StairModel, planes: PlaneSet, base: TerrainResult, config: PipelineConfig
+) -> StairModel:
+    """``terrain`` (found on ``planes``) with each step's sigmas from ``base``'s matcher
+    (:func:`~stereo_terrain.terrain.estimate_step_sigmas`)."""
+    rect = base.rectified.rectification
+    return estimate_step_sigmas(
+        terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=config.terrain
     )
 
 
@@ -406,15 +428,8 @@ def corroborated_frame(tried: Passes, kept: TerrainResult, config: PipelineConfi
     T_move = other.T_yaw_camera_rect @ kept.T_yaw_camera_rect.inverse()
     samples = transform_sample(kept.planes.samples, T_move)
     plane_configs = [config.orientation]
-    if kept.plane_choice.startswith("orientation, normal tests widened"):  # the far planes'
-        widenings = [
-            (config.far_planes_sigmas, config.orientation.max_noise_tolerance_deg),
-            (config.far_planes_wider_sigmas, config.far_planes_wider_max_deg),
-        ]
-        plane_configs += [
-            dataclasses.replace(config.orientation, normal_noise_sigmas=k, max_noise_tolerance_deg=deg)
-            for k, deg in widenings
-        ]
+    if kept.plane_choice.startswith(_FAR_PLANES_CHOICE):
+        plane_configs += [wide for wide, _ in _far_widenings(config)]
     corroborated = f"the {name}'s up, which {support[best]} other pass(es) corroborate"
     for plane_config in plane_configs:
         found = _found_in_frame(kept, samples, other.T_yaw_camera_rect, plane_config, config)
@@ -456,10 +471,7 @@ def _found_in_frame(
         return None
     if terrain.obstacle == STAIRS and len(terrain.steps) >= 2 and not steps_agree(terrain, config.terrain):
         return None
-    rect = kept.rectified.rectification
-    terrain = estimate_step_sigmas(
-        terrain, planes, focal_px=rect.focal_px, baseline_m=rect.baseline_m, config=config.terrain
-    )
+    terrain = _with_step_sigmas(terrain, planes, kept, config)
     return dataclasses.replace(
         kept, terrain=terrain, planes=planes, T_yaw_camera_rect=T, floor_known=floor_known, image_lines=lines
     )
