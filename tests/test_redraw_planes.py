@@ -31,6 +31,11 @@ NO_BANDS = PipelineConfig(
     bands=BandFillConfig(enabled=False), terrain=TerrainConfig(photometric_risers=False), rematch_denoised=0.0
 )
 OFF_NO_BANDS = dataclasses.replace(NO_BANDS, redraw_planes=0)
+#: The painted stairs below are found by the far planes too since a riser whose samples
+#: the matcher put beyond it no longer stops a staircase as a landing would
+#: (docs/benchmarks.md, "Thirty-eighth session"): off, so that the redraw is what finds them.
+NO_FAR = dataclasses.replace(NO_BANDS, far_planes_sigmas=0.0)
+OFF_NO_FAR = dataclasses.replace(NO_FAR, redraw_planes=0)
 
 
 def _realistic(seed: int, index: int, **kw):
@@ -43,13 +48,14 @@ def _realistic(seed: int, index: int, **kw):
 
 @pytest.fixture(scope="module")
 def painted_stairs():
-    """Three texture-poor steps of 14.5 cm that every pass and the far planes miss."""
+    """Three texture-poor steps of 14.5 cm that every pass misses (and the far planes, where
+    they are off: ``NO_FAR``)."""
     return _realistic(11, 15)
 
 
 def test_a_staircase_the_draws_missed_is_found_by_a_redraw(painted_stairs):
     scene = painted_stairs
-    result = Pipeline(scene.calibration, scene.rig, NO_BANDS, warm_up=False).run(scene.left, scene.right)
+    result = Pipeline(scene.calibration, scene.rig, NO_FAR, warm_up=False).run(scene.left, scene.right)
     assert result.terrain.obstacle == "stairs"
     assert "redrawn planes" in result.terrain.note and "coarse rematch" in result.terrain.note
     assert result.plane_choice.startswith("orientation, the draws seeded")
@@ -57,7 +63,7 @@ def test_a_staircase_the_draws_missed_is_found_by_a_redraw(painted_stairs):
     assert_steps_match_truth(result.terrain.steps, scene.truth["steps"])
     assert not result.terrain.steps[0].rise_inferred
 
-    off = Pipeline(scene.calibration, scene.rig, OFF_NO_BANDS, warm_up=False).run(scene.left, scene.right)
+    off = Pipeline(scene.calibration, scene.rig, OFF_NO_FAR, warm_up=False).run(scene.left, scene.right)
     assert off.terrain.obstacle == "none"
     assert "redraw" not in off.timing_ms
 

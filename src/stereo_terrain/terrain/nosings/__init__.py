@@ -35,8 +35,8 @@ The next step is accepted where:
   nosing can cover more of the width than the nosing itself, which a baluster crosses);
 
 and it is not added where the samples in the image of its riser lie on the last tread's
-height beyond it (a landing the matcher holds: tile joints are long lines too) or a wall
-stands across the stairs there.
+height beyond it, more of them than stand above that tread (a landing the matcher holds:
+tile joints are long lines too), or a wall stands across the stairs there.
 
 A nosing at the cameras' height is seen edge-on: its tread is no taller than a line in
 the image (``view.EDGE_ON_PX``) and the foot of the riser above meets it there, so nothing

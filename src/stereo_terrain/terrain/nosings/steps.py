@@ -295,9 +295,17 @@ def _floor_where_the_riser_would_be(
 ) -> bool:
     """Whether the samples in the image of the riser that would stand at ``s_new`` on the
     tread at ``top`` lie on that tread's height beyond it (at least ``_MIN_FLOOR_SAMPLES``,
-    and more than lie at ``s_new``): the tread goes on, as a landing does. Where the
-    matcher holds the faces (textured stairs) this tells a landing's tile joints from a
-    step; where it holds nothing there (the far faces this module is for) it says nothing."""
+    more than lie at ``s_new`` and more than stand above the tread, up to a rise over it):
+    the tread goes on, as a landing does. Where the matcher holds the faces (textured
+    stairs) this tells a landing's tile joints from a step; where it holds nothing there
+    (the far faces this module is for) it says nothing.
+
+    Samples standing above the tread in that image are a riser wherever the matcher put
+    them: a landing seen there has none (every ray through the riser's image meets its
+    floor). On realistic renders the matcher placed a far riser's samples 10-40 cm off
+    along their rays, some of them down to the tread's height: counted as floor alone,
+    they stopped staircases whose next nosing showed, 4-6 steps short (docs/benchmarks.md,
+    "Thirty-eighth session")."""
     lines, u, v = view.lines, view.u, view.v
     span = visible_span(view, s_new, top + 0.5 * rise)
     if span is None:
@@ -317,8 +325,11 @@ def _floor_where_the_riser_would_be(
     s = q @ u
     at_riser = np.abs(s - s_new) < thr
     on_floor = (np.abs(q[:, 2] - top) < thr) & (s > s_new - thr) & ~at_riser
+    standing = (q[:, 2] > top + thr) & (q[:, 2] < top + rise + thr)
     n_floor = int(np.count_nonzero(on_floor))
-    return n_floor >= _MIN_FLOOR_SAMPLES and n_floor > int(np.count_nonzero(at_riser))
+    return n_floor >= _MIN_FLOOR_SAMPLES and n_floor > max(
+        int(np.count_nonzero(at_riser)), int(np.count_nonzero(standing))
+    )
 
 
 def _in_convex(quad: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
