@@ -301,11 +301,11 @@ def _floor_where_the_riser_would_be(
     (the far faces this module is for) it says nothing.
 
     Samples standing above the tread in that image are a riser wherever the matcher put
-    them: a landing seen there has none (every ray through the riser's image meets its
-    floor). On realistic renders the matcher placed a far riser's samples 10-40 cm off
-    along their rays, some of them down to the tread's height: counted as floor alone,
-    they stopped staircases whose next nosing showed, 4-6 steps short (docs/benchmarks.md,
-    "Thirty-eighth session")."""
+    them: a landing seen there has next to none (the rays through the riser's image meet
+    its floor, unless a wall stands just beyond). On realistic renders the matcher placed
+    a far riser's samples 10-40 cm off along their rays, some of them down to the tread's
+    height: counted as floor alone, they stopped staircases whose next nosings showed, 1-4
+    steps short (docs/benchmarks.md, "Thirty-eighth session")."""
     lines, u, v = view.lines, view.u, view.v
     span = visible_span(view, s_new, top + 0.5 * rise)
     if span is None:
