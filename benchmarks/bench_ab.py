@@ -18,6 +18,9 @@ Sets (every rendered scene is run with its true rig and without one):
 - ``realistic:SEED:N``, ``default:SEED:N``: the profile's own mix of staircases, boxes
   and empty views, as ``random_scene_spec(rng, profile=...)`` draws them from ``SEED``;
 - ``boxes:SEED:N``: realistic boxes;
+- ``landings:SEED:N``: realistic staircases whose landing is short (0.25-0.45 m) with a
+  wall at its end: the wall stands in the image of the riser a step beyond the top would
+  have, where the terrain stage asks whether a landing goes on;
 - ``lab:SEED:N``: the wooden lab stairs of ``bench_far_stairs.py --lab``;
 - ``rooms:SEEDS``: the 11 real rooms without stairs at webcam quality
   (``bench_staircase_webcam.py --rooms``'s degradations, ``SEEDS`` noise seeds a row);
@@ -28,7 +31,9 @@ Sets (every rendered scene is run with its true rig and without one):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import math
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -72,6 +77,16 @@ def _measured(line: dict[str, Any]) -> list[tuple[float, float | None, bool]]:
     ]
 
 
+def _short_landing(spec: Any, rng: np.random.Generator) -> Any:
+    """``spec`` (a staircase) with a landing of 0.25-0.45 m and a back wall at its end."""
+    stairs = spec.obstacle
+    landing = float(rng.uniform(0.25, 0.45))
+    end = stairs.distance_m * math.cos(stairs.yaw_rad) + (stairs.n_steps - 1) * stairs.run_m + landing
+    return dataclasses.replace(
+        spec, obstacle=dataclasses.replace(stairs, landing_m=landing), back_wall_m=end + 1e-3
+    )
+
+
 def _rendered(kind: str, seed: int, n: int) -> Iterator[tuple[int, Any]]:
     """``(index, scene)`` of a rendered set (module docstring)."""
     from stereo_terrain.synthetic import random_scene_spec, render_scene
@@ -82,6 +97,8 @@ def _rendered(kind: str, seed: int, n: int) -> Iterator[tuple[int, Any]]:
             spec = random_scene_spec(rng, profile=kind)
         elif kind == "boxes":
             spec = random_scene_spec(rng, profile="realistic", kind="box")
+        elif kind == "landings":
+            spec = _short_landing(random_scene_spec(rng, profile="realistic", kind="stairs"), rng)
         else:  # lab: bench_far_stairs.py --lab's draw
             spec = lab_spec(rng)
         yield i, render_scene(spec)
@@ -92,6 +109,7 @@ SETS = {
     "realistic": "SEED:N",
     "default": "SEED:N",
     "boxes": "SEED:N",
+    "landings": "SEED:N",
     "lab": "SEED:N",
     "rooms": "SEEDS",
     "staircase": "SEEDS",
@@ -230,7 +248,11 @@ def main() -> None:
     sub = ap.add_subparsers(dest="command", required=True)
     cap = sub.add_parser("capture", help="run one set of scenes and write its results")
     cap.add_argument(
-        "set", help="realistic:SEED:N, default:SEED:N, boxes:SEED:N, lab:SEED:N, rooms:SEEDS, staircase:SEEDS"
+        "set",
+        help=(
+            "realistic:SEED:N, default:SEED:N, boxes:SEED:N, landings:SEED:N, lab:SEED:N, "
+            "rooms:SEEDS, staircase:SEEDS"
+        ),
     )
     cap.add_argument("out", type=Path, help="JSON lines file to write")
     cap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")

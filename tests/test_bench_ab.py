@@ -47,3 +47,17 @@ def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, says):
     assert done.returncode == 2, done.stderr
     assert says in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "x.jsonl").exists()
+
+
+def test_the_landings_set_draws_short_landings_ending_at_a_wall():
+    sys.path.insert(0, str(SCRIPT.parent))
+    try:
+        from bench_ab import _rendered
+    finally:
+        sys.path.remove(str(SCRIPT.parent))
+    ((_, scene),) = list(_rendered("landings", 5, 1))
+    stairs = scene.truth["spec"]["obstacle"]
+    assert 0.25 <= stairs["landing_m"] <= 0.45
+    planes = {p["name"]: p for p in scene.truth["planes"]}
+    last = planes[f"riser_{stairs['n_steps']}"]["offset"]
+    assert planes["back_wall"]["offset"] == pytest.approx(last + stairs["landing_m"], abs=0.01)
