@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -79,12 +78,10 @@ def _measured(line: dict[str, Any]) -> list[tuple[float, float | None, bool]]:
 
 def _short_landing(spec: Any, rng: np.random.Generator) -> Any:
     """``spec`` (a staircase) with a landing of 0.25-0.45 m and a back wall at its end."""
-    stairs = spec.obstacle
-    landing = float(rng.uniform(0.25, 0.45))
-    end = stairs.distance_m * math.cos(stairs.yaw_rad) + (stairs.n_steps - 1) * stairs.run_m + landing
-    return dataclasses.replace(
-        spec, obstacle=dataclasses.replace(stairs, landing_m=landing), back_wall_m=end + 1e-3
-    )
+    from stereo_terrain.synthetic.spec import _obstacle_far_end
+
+    stairs = dataclasses.replace(spec.obstacle, landing_m=float(rng.uniform(0.25, 0.45)))
+    return dataclasses.replace(spec, obstacle=stairs, back_wall_m=_obstacle_far_end(stairs) + 1e-3)
 
 
 def _rendered(kind: str, seed: int, n: int) -> Iterator[tuple[int, Any]]:

@@ -1,6 +1,7 @@
 """benchmarks/bench_ab.py, the A/B tool of issue 11's measurements: a capture and its
 comparison end to end on one rendered scene, and its errors in one line."""
 
+import importlib.util
 import json
 import subprocess
 import sys
@@ -50,12 +51,11 @@ def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, says):
 
 
 def test_the_landings_set_draws_short_landings_ending_at_a_wall():
-    sys.path.insert(0, str(SCRIPT.parent))
-    try:
-        from bench_ab import _rendered
-    finally:
-        sys.path.remove(str(SCRIPT.parent))
-    ((_, scene),) = list(_rendered("landings", 5, 1))
+    spec = importlib.util.spec_from_file_location("bench_ab", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    bench_ab = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench_ab)
+    ((_, scene),) = list(bench_ab._rendered("landings", 5, 1))
     stairs = scene.truth["spec"]["obstacle"]
     assert 0.25 <= stairs["landing_m"] <= 0.45
     planes = {p["name"]: p for p in scene.truth["planes"]}

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
+from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.terrain import (
     STAIRS,
     ImageLines,
@@ -20,6 +21,7 @@ from stereo_terrain.terrain import (
 )
 from stereo_terrain.terrain.nosings import nosing_steps
 
+from .test_line_frame import _realistic
 from .test_terrain import CAM
 from .test_terrain_continuation import _moved_samples, _unplaned
 
@@ -558,10 +560,6 @@ def test_a_realistic_staircase_is_not_stopped_by_its_riser_matched_beyond_it():
     height; they stopped the staircase at two steps. With the samples that stand above the
     tread counted, its nosings carry it to all six (docs/benchmarks.md, "Thirty-eighth
     session")."""
-    from stereo_terrain.pipeline import Pipeline
-
-    from .test_line_frame import _realistic
-
     scene = _realistic(50, 23)
     result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
     truth = scene.truth["steps"]
