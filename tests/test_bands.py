@@ -20,6 +20,7 @@ from stereo_terrain.synthetic import random_scene_spec, render_scene
 from stereo_terrain.terrain import TerrainConfig
 
 from .analytic import rectified_calibration
+from .test_line_frame import _realistic
 
 #: A level camera's up in the rectified camera (y points down).
 UP = np.array([0.0, -1.0, 0.0])
@@ -120,6 +121,20 @@ def test_a_flat_band_a_two_face_band_and_a_narrow_band_are_left():
     width = fill_bands(disp, pair, segments, UP, BandFillConfig())[1][0].width_m
     assert width > BandFillConfig().min_width_m
     out, bands = fill_bands(disp, pair, segments, UP, BandFillConfig(min_width_m=width + 0.1))
+    assert out is disp and not bands[0].kept
+
+
+def test_a_riser_seen_half_a_metre_wide_gets_its_plane():
+    """The band spans only its two segments' overlap, which the image's border, balusters
+    or a yawed staircase's far end cut well short of the staircase: half a metre of a
+    riser is filled (refused before the thirty-ninth session, at 0.6 m)."""
+    disp, pair, _ = _pair()
+    segments = np.array([[LEFT + 100, TOP, LEFT + 177, TOP], [LEFT + 100, BOTTOM, LEFT + 177, BOTTOM]], float)
+    out, bands = fill_bands(disp, pair, segments, UP, BandFillConfig())
+    assert len(bands) == 1 and bands[0].kept and 0.45 < bands[0].width_m < 0.55
+    band = out.filled & ~np.isnan(out.disparity)
+    assert band.sum() > 3000 and np.all(np.abs(out.disparity[band] - BAND_PX) <= FILL_TOL_PX)
+    out, bands = fill_bands(disp, pair, segments, UP, BandFillConfig(min_width_m=0.6))
     assert out is disp and not bands[0].kept
 
 
@@ -242,3 +257,20 @@ def test_the_band_fill_finds_wooden_lab_stairs():
     score = score_result(found.to_json_dict(), scene.truth)
     assert score.detected and score.count_right, found.terrain.note
     assert max(score.rise_errors_m) <= RISE_TOL_M
+
+
+def test_a_painted_staircase_without_a_rig_is_measured_from_its_half_metre_bands():
+    """Realistic 23 scene 54 (painted risers, plank treads, four steps of 12.5 / 28.5 cm
+    from 1.4 m, no rig): with the bands under 0.6 m wide refused, two steps of 17.8 and
+    24.1 cm; with them, all four within a centimetre (docs/benchmarks.md, "Thirty-ninth
+    session")."""
+    scene = _realistic(54, 23)
+    result = Pipeline(scene.calibration, None, warm_up=False).run(scene.left, scene.right)
+    truth = scene.truth["steps"]
+    steps = result.terrain.steps
+    assert len(steps) == len(truth) == 4
+    for step, true in zip(steps, truth, strict=True):
+        assert step.rise_m == pytest.approx(true["rise"], abs=0.01)
+        assert step.distance_m == pytest.approx(true["distance"], abs=0.03)
+        if true["run"] is not None:
+            assert step.run_m == pytest.approx(true["run"], abs=0.015)

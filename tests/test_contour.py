@@ -306,15 +306,22 @@ def test_auto_takes_the_contour_planes_when_they_add_steps(rendered):
     staircase and auto says so. (The risers moved to where both images put them are off:
     with them the far planes' one riser, moved, carries on to the whole staircase by its
     nosings, and the short orientation method alone finds all four steps;
-    tests/test_photometric.py.)"""
+    tests/test_photometric.py. The band fill is off too: with it a second opinion's one
+    riser carries on to all four steps by its nosings.)"""
     from stereo_terrain.planes.orientation import OrientationConfig
+    from stereo_terrain.stereo.bands import BandFillConfig
     from stereo_terrain.terrain import TerrainConfig
 
     cut = OrientationConfig(max_planes=2)
     still = TerrainConfig(photometric_risers=False)
-    short = Pipeline(rendered.calibration, rendered.rig, PipelineConfig(orientation=cut, terrain=still))
+    no_bands = BandFillConfig(enabled=False)
+    short = Pipeline(
+        rendered.calibration, rendered.rig, PipelineConfig(orientation=cut, terrain=still, bands=no_bands)
+    )
     auto = Pipeline(
-        rendered.calibration, rendered.rig, PipelineConfig(method="auto", orientation=cut, terrain=still)
+        rendered.calibration,
+        rendered.rig,
+        PipelineConfig(method="auto", orientation=cut, terrain=still, bands=no_bands),
     )
     n_short = len(short.run(rendered.left, rendered.right).terrain.steps)
     data = auto.run(rendered.left, rendered.right).to_json_dict()
