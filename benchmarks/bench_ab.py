@@ -6,7 +6,10 @@ it keeps or loses. ``capture`` runs the pipeline (default settings, or ``--confi
 set of scenes and writes one JSON line per run: the result without its timings (its steps'
 ``measured_rise`` and ``measured_run`` where they report the staircase's common ones), the
 note, and the truth where there is one. ``compare`` reads two captures of the same set and
-prints the issue's columns for each and the runs whose result changed.
+prints the issue's columns for each, on rendered sets how many step counts the change made
+right and made wrong scene by scene (a rate's change hides wins cancelled by losses: on
+the lab-like seeds any change moves a third of the runs), and the runs whose result
+changed, those whose count it made right or wrong marked so.
 Another version of the package (a worktree, a patched copy) is captured by putting its
 ``src`` first on ``PYTHONPATH``; the captures themselves are compared here.
 
@@ -195,6 +198,12 @@ def _columns(lines: list[dict[str, Any]]) -> str:
     )
 
 
+def _count_right(line: dict[str, Any]) -> bool:
+    """Whether a rendered run's step count is the truth's (scenes without an obstacle
+    count as right when nothing is reported)."""
+    return bool(score_result(line["result"], line["truth"]).count_right)
+
+
 def _staircase_check(line: dict[str, Any]) -> tuple[bool, bool]:
     """The issue's `Staircase` check on the reported and on the measured rises."""
     result = line["result"]
@@ -220,6 +229,12 @@ def compare(before_path: Path, after_path: Path) -> None:
         for mode in ("rig", "no rig"):
             for name, lines in (("before", before), ("after", after)):
                 print(f"| {mode} | {name} | {_columns([x for x in lines if x['mode'] == mode])} |")
+        print()
+        for mode in ("rig", "no rig"):
+            pairs = [(b, a) for b, a in zip(before, after, strict=True) if b["mode"] == mode]
+            won = sum(_count_right(a) and not _count_right(b) for b, a in pairs)
+            lost = sum(_count_right(b) and not _count_right(a) for b, a in pairs)
+            print(f"Step count, {mode}, scene by scene: {won} made right, {lost} made wrong.")
     else:
         for name, lines in (("before", before), ("after", after)):
             flagged = sum(x["result"]["obstacle"] != "none" for x in lines)
@@ -237,7 +252,10 @@ def compare(before_path: Path, after_path: Path) -> None:
     for b, a in changed:
         truth = b.get("truth")
         told = "" if truth is None else f" (truth: {truth['obstacle']}, {len(truth.get('steps', []))} steps)"
-        print(f"- {b['key']}{told}: {_steps(b)} -> {_steps(a)}")
+        flip = ""
+        if truth is not None and _count_right(a) != _count_right(b):
+            flip = " [count made right]" if _count_right(a) else " [count made wrong]"
+        print(f"- {b['key']}{told}: {_steps(b)} -> {_steps(a)}{flip}")
 
 
 def main() -> None:

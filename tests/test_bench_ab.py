@@ -18,7 +18,13 @@ def _run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     )
 
 
-def test_a_capture_compared_with_itself_changes_nothing(tmp_path):
+def _as_result(true_step: dict) -> dict:
+    """A truth's step as a result reports it."""
+    extra = ("measured_rise", "measured_run", "rise_sigma", "run_sigma", "distance_sigma", "width_sigma")
+    return dict(true_step, rise_inferred=False, position_inferred=False, **dict.fromkeys(extra))
+
+
+def test_a_capture_compared_with_itself_and_with_its_counts_turned_over(tmp_path):
     out = tmp_path / "lab.jsonl"
     done = _run("capture", "lab:77:1", str(out))
     assert done.returncode == 0, done.stderr
@@ -29,6 +35,26 @@ def test_a_capture_compared_with_itself_changes_nothing(tmp_path):
     same = _run("compare", str(out), str(out))
     assert same.returncode == 0, same.stderr
     assert "| rig | before |" in same.stdout and "0 of 2 runs changed" in same.stdout
+    assert "Step count, rig, scene by scene: 0 made right, 0 made wrong." in same.stdout
+    # each run's count turned over: a right one reports nothing, a wrong one the truth's steps
+    right = {x["key"]: len(x["result"]["steps"]) == len(x["truth"]["steps"]) for x in lines}
+    turned = [
+        dict(x, result=dict(x["result"], obstacle="none", steps=[]))
+        if right[x["key"]]
+        else dict(
+            x, result=dict(x["result"], obstacle="stairs", steps=[_as_result(t) for t in x["truth"]["steps"]])
+        )
+        for x in lines
+    ]
+    (tmp_path / "turned.jsonl").write_text("".join(json.dumps(x) + "\n" for x in turned))
+    both = _run("compare", str(out), str(tmp_path / "turned.jsonl"))
+    assert both.returncode == 0, both.stderr
+    for mode in ("rig", "no rig"):
+        was = [right[x["key"]] for x in lines if x["mode"] == mode]
+        said = f"{mode}, scene by scene: {was.count(False)} made right, {was.count(True)} made wrong."
+        assert f"Step count, {said}" in both.stdout
+    assert both.stdout.count("[count made wrong]") == sum(right.values())
+    assert both.stdout.count("[count made right]") == len(right) - sum(right.values())
 
 
 @pytest.mark.parametrize(
