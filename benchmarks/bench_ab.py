@@ -9,7 +9,9 @@ note, and the truth where there is one. ``compare`` reads two captures of the sa
 prints the issue's columns for each, on rendered sets how many step counts the change made
 right and made wrong scene by scene (a rate's change hides wins cancelled by losses: on
 the lab-like seeds any change moves a third of the runs), and the runs whose result
-changed, those whose count it made right or wrong marked so.
+changed, those whose count it made right or wrong marked so. A run's steps are listed with
+their measured rises (``*`` inferred); where only the rises it reports changed (a common
+rise taken otherwise), those are added.
 Another version of the package (a worktree, a patched copy) is captured by putting its
 ``src`` first on ``PYTHONPATH``; the captures themselves are compared here.
 
@@ -183,6 +185,11 @@ def _steps(line: dict[str, Any]) -> str:
     return f"{result['obstacle']} [{rises}]"
 
 
+def _reported(line: dict[str, Any]) -> str:
+    """The rises a run reports (cm), where a staircase's common rise replaces measured ones."""
+    return "[" + ", ".join(f"{100 * s['rise']:.1f}" for s in line["result"]["steps"]) + "]"
+
+
 def _columns(lines: list[dict[str, Any]]) -> str:
     s = summarize(score_result(line["result"], line["truth"]) for line in lines)
 
@@ -247,7 +254,11 @@ def compare(before_path: Path, after_path: Path) -> None:
                     end="",
                 )
             print()
-    changed = [(b, a) for b, a in zip(before, after, strict=True) if _steps(b) != _steps(a)]
+    changed = [
+        (b, a)
+        for b, a in zip(before, after, strict=True)
+        if _steps(b) != _steps(a) or _reported(b) != _reported(a)
+    ]
     print(f"\n{len(changed)} of {len(before)} runs changed:")
     for b, a in changed:
         truth = b.get("truth")
@@ -255,7 +266,8 @@ def compare(before_path: Path, after_path: Path) -> None:
         flip = ""
         if truth is not None and _count_right(a) != _count_right(b):
             flip = " [count made right]" if _count_right(a) else " [count made wrong]"
-        print(f"- {b['key']}{told}: {_steps(b)} -> {_steps(a)}{flip}")
+        reported = "" if _reported(b) == _reported(a) else f" (reported {_reported(b)} -> {_reported(a)})"
+        print(f"- {b['key']}{told}: {_steps(b)} -> {_steps(a)}{reported}{flip}")
 
 
 def main() -> None:

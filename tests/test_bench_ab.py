@@ -57,6 +57,26 @@ def test_a_capture_compared_with_itself_and_with_its_counts_turned_over(tmp_path
     assert both.stdout.count("[count made right]") == len(right) - sum(right.values())
 
 
+def test_a_run_whose_reported_rises_alone_changed_is_listed(tmp_path):
+    """A common rise taken otherwise changes the rises a run reports, not its measured
+    ones: the run is listed, with both."""
+    truth = {"obstacle": "stairs", "steps": [{"rise": 0.17, "run": 0.3, "distance": 1.0, "width": 1.0}] * 2}
+    own = [_as_result(dict(t, rise=r)) for t, r in zip(truth["steps"], (0.12, 0.22), strict=True)]
+    pooled = [dict(s, rise=0.17, measured_rise=s["rise"]) for s in own]
+    for name, steps in (("own", own), ("pooled", pooled)):
+        line = {
+            "key": "0 rig",
+            "mode": "rig",
+            "truth": truth,
+            "result": {"obstacle": "stairs", "steps": steps},
+        }
+        (tmp_path / f"{name}.jsonl").write_text(json.dumps(line) + "\n")
+    done = _run("compare", str(tmp_path / "own.jsonl"), str(tmp_path / "pooled.jsonl"))
+    assert done.returncode == 0, done.stderr
+    assert "1 of 1 runs changed" in done.stdout
+    assert "stairs [12.0, 22.0] -> stairs [12.0, 22.0] (reported [12.0, 22.0] -> [17.0, 17.0])" in done.stdout
+
+
 @pytest.mark.parametrize(
     ("args", "says"),
     [
