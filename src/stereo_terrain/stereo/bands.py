@@ -132,9 +132,9 @@ class BandFillConfig:
         Least width of a band at its plane's depth: a staircase is wider than a drawer
         front or a box on a shelf. The band spans only the two segments' overlap, which
         the image's border, balusters and a yawed staircase's far end cut well short of
-        the staircase's 0.8-0.9 m (building codes): on realistic renders, the stair bands
+        the staircase's 0.8-0.9 m (building codes): on realistic renders, the bands
         refused for their width alone were within 2 px of the truth in 82% (those kept,
-        93%), and at 0.4 m eight more staircases were counted right, none fewer, with the
+        93%), and at 0.4 m eight more realistic runs were counted right, none fewer, with the
         rooms no worse (docs/benchmarks.md, "Thirty-ninth session"). Default 0.4 (0.6
         before).
     merge_tol_px, merge_gap_px : float
