@@ -227,7 +227,13 @@ def compare(before_path: Path, after_path: Path) -> None:
         _fail(f"{before_path if not before else after_path} holds no runs: capture it again")
     if [b["key"] for b in before] != [a["key"] for a in after]:
         _fail("the two captures are not of the same set (their runs differ)")
-    if "truth" in before[0]:
+    rendered = "truth" in before[0]
+    # each run's step count right before and after (rendered sets), scored once
+    counts = [
+        (_count_right(b), _count_right(a)) if rendered else (True, True)
+        for b, a in zip(before, after, strict=True)
+    ]
+    if rendered:
         print(
             "| gravity from | version | detected | step count | false pos. "
             "| rise cm median / p90 | run cm median / p90 |"
@@ -238,9 +244,9 @@ def compare(before_path: Path, after_path: Path) -> None:
                 print(f"| {mode} | {name} | {_columns([x for x in lines if x['mode'] == mode])} |")
         print()
         for mode in ("rig", "no rig"):
-            pairs = [(b, a) for b, a in zip(before, after, strict=True) if b["mode"] == mode]
-            won = sum(_count_right(a) and not _count_right(b) for b, a in pairs)
-            lost = sum(_count_right(b) and not _count_right(a) for b, a in pairs)
+            pairs = [c for c, b in zip(counts, before, strict=True) if b["mode"] == mode]
+            won = sum(after_right and not before_right for before_right, after_right in pairs)
+            lost = sum(before_right and not after_right for before_right, after_right in pairs)
             print(f"Step count, {mode}, scene by scene: {won} made right, {lost} made wrong.")
     else:
         for name, lines in (("before", before), ("after", after)):
@@ -254,20 +260,20 @@ def compare(before_path: Path, after_path: Path) -> None:
                     end="",
                 )
             print()
-    changed = [
-        (b, a)
-        for b, a in zip(before, after, strict=True)
-        if _steps(b) != _steps(a) or _reported(b) != _reported(a)
+    runs = [
+        (b, a, _steps(b), _steps(a), _reported(b), _reported(a), c)
+        for b, a, c in zip(before, after, counts, strict=True)
     ]
+    changed = [r for r in runs if r[2] != r[3] or r[4] != r[5]]
     print(f"\n{len(changed)} of {len(before)} runs changed:")
-    for b, a in changed:
+    for b, _, steps_b, steps_a, reported_b, reported_a, (before_right, after_right) in changed:
         truth = b.get("truth")
         told = "" if truth is None else f" (truth: {truth['obstacle']}, {len(truth.get('steps', []))} steps)"
         flip = ""
-        if truth is not None and _count_right(a) != _count_right(b):
-            flip = " [count made right]" if _count_right(a) else " [count made wrong]"
-        reported = "" if _reported(b) == _reported(a) else f" (reported {_reported(b)} -> {_reported(a)})"
-        print(f"- {b['key']}{told}: {_steps(b)} -> {_steps(a)}{reported}{flip}")
+        if before_right != after_right:
+            flip = " [count made right]" if after_right else " [count made wrong]"
+        reported = "" if reported_b == reported_a else f" (reported {reported_b} -> {reported_a})"
+        print(f"- {b['key']}{told}: {steps_b} -> {steps_a}{reported}{flip}")
 
 
 def main() -> None:
