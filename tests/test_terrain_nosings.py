@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
+from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline
 from stereo_terrain.terrain import (
     STAIRS,
@@ -567,3 +568,18 @@ def test_a_realistic_staircase_is_not_stopped_by_its_riser_matched_beyond_it():
     for step, true in zip(result.terrain.steps, truth, strict=True):
         assert step.rise_m == pytest.approx(true["rise"], abs=0.015)
         assert step.distance_m == pytest.approx(true["distance"], abs=0.1)
+
+
+def test_the_next_nosing_is_looked_for_across_the_narrowest_riser():
+    """Realistic 23 scene 6 with its rig (carpet, five steps of 21.9 / 25.6 cm yawed 37
+    deg): one of its riser planes runs on over the wall beside the stairs, and across the
+    chain's whole lateral extent the fifth nosing covered too little of the width (four
+    steps). Looked for across the narrowest riser plane, it is found (docs/benchmarks.md,
+    "Fortieth session")."""
+    scene = _realistic(6, 23)
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    score = score_result(result.to_json_dict(), scene.truth)
+    assert score.count_right, result.terrain.note
+    assert len(score.rise_errors_m) == len(scene.truth["steps"]) == 5
+    assert max(score.rise_errors_m) <= 0.025
+    assert max(score.run_errors_m) <= 0.025

@@ -477,9 +477,11 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
             steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
         )
     if lines is not None and config.nosing_steps:
-        steps, from_lines, split = nosing_steps(
-            steps, chain.planes, chain.P, u, v, chain.lateral, lines, config
-        )
+        # The nosings are looked for across the chain's narrowest riser plane: a fill
+        # can paint a riser's plane on over a plain wall in line with it (2-3.4 m for a
+        # 1-1.4 m staircase), and the next nosing then covers too little of that width.
+        narrow = min(((r.v_lo, r.v_hi) for r in chain.ordered), key=lambda e: e[1] - e[0])
+        steps, from_lines, split = nosing_steps(steps, chain.planes, chain.P, u, v, narrow, lines, config)
     if pitch_on and lines is not None and len(chain.ordered) > 1:
         steps, pitched = pitched_steps(
             steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
