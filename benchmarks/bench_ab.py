@@ -6,7 +6,8 @@ it keeps or loses. ``capture`` runs the pipeline (default settings, or ``--confi
 set of scenes and writes one JSON line per run: the result without its timings (its steps'
 ``measured_rise`` and ``measured_run`` where they report the staircase's common ones), the
 note, and the truth where there is one. ``compare`` reads two captures of the same set and
-prints the issue's columns for each, on rendered sets how many step counts the change made
+prints the issue's columns for each (and the stair axis's error, deg, where an obstacle is
+found: the direction the robot turns to), on rendered sets how many step counts the change made
 right and made wrong scene by scene (a rate's change hides wins cancelled by losses: on
 the lab-like seeds any change moves a third of the runs), and the runs whose result
 changed, those whose count it made right or wrong marked so. A run's steps are listed with
@@ -38,6 +39,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -191,7 +193,13 @@ def _reported(line: dict[str, Any]) -> str:
 
 
 def _columns(lines: list[dict[str, Any]]) -> str:
-    s = summarize(score_result(line["result"], line["truth"]) for line in lines)
+    scores = [score_result(line["result"], line["truth"]) for line in lines]
+    s = summarize(scores)
+    # the stair axis's error where an obstacle is found (deg; a yaw's turn wrapped to +-180)
+    yaw = np.degrees(
+        [abs(math.remainder(x.yaw_error_rad, 2 * math.pi)) for x in scores if x.yaw_error_rad is not None]
+    )
+    yaw_cols = f"{np.median(yaw):.2f} / {np.percentile(yaw, 90):.2f}" if len(yaw) else "-"
 
     def pct(x: float) -> str:
         return "-" if x != x else f"{100 * x:.0f}%"
@@ -201,7 +209,7 @@ def _columns(lines: list[dict[str, Any]]) -> str:
 
     return (
         f"{pct(s['detection_rate'])} | {pct(s['count_rate'])} | {pct(s['false_positive_rate'])} | "
-        f"{cm(s['rise_median_m'], s['rise_p90_m'])} | {cm(s['run_median_m'], s['run_p90_m'])}"
+        f"{cm(s['rise_median_m'], s['rise_p90_m'])} | {cm(s['run_median_m'], s['run_p90_m'])} | {yaw_cols}"
     )
 
 
@@ -236,9 +244,9 @@ def compare(before_path: Path, after_path: Path) -> None:
     if rendered:
         print(
             "| gravity from | version | detected | step count | false pos. "
-            "| rise cm median / p90 | run cm median / p90 |"
+            "| rise cm median / p90 | run cm median / p90 | yaw deg median / p90 |"
         )
-        print("| --- | --- | --- | --- | --- | --- | --- |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
         for mode in ("rig", "no rig"):
             for name, lines in (("before", before), ("after", after)):
                 print(f"| {mode} | {name} | {_columns([x for x in lines if x['mode'] == mode])} |")

@@ -35,6 +35,7 @@ def test_a_capture_compared_with_itself_and_with_its_counts_turned_over(tmp_path
     same = _run("compare", str(out), str(out))
     assert same.returncode == 0, same.stderr
     assert "| rig | before |" in same.stdout and "0 of 2 runs changed" in same.stdout
+    assert "yaw deg median / p90 |" in same.stdout
     assert "Step count, rig, scene by scene: 0 made right, 0 made wrong." in same.stdout
     # each run's count turned over: a right one reports nothing, a wrong one the truth's steps
     right = {x["key"]: len(x["result"]["steps"]) == len(x["truth"]["steps"]) for x in lines}

@@ -119,7 +119,9 @@ def test_a_staircase_found_in_a_frame_the_other_passes_do_not_corroborate_is_fou
     first matcher, the rematch and the coarse rematch found nothing, their ups within a
     degree or two of the truth and of each other. Found again in the first matcher's
     frame, gravity is within the 2 deg bound (0.4 deg measured) and the staircase is
-    still there, nearer its rise (13.0 and 15.0 cm -> 19.6 and 16.7 cm)."""
+    still there, its rises within 2 cm (13.0 and 15.0 cm -> 19.6 and 16.7 cm before the
+    stair axis the nosings show; with it, 15.2 and 15.2 -> 18.4 and 18.4: the wrong
+    frame's rises no longer the worse, docs/benchmarks.md, "Fortieth session")."""
     scene = _realistic(47, 23)
     off = Pipeline(scene.calibration, None, PipelineConfig(corroborated_frame=False))
     before = off.run(scene.left, scene.right)
@@ -134,9 +136,7 @@ def test_a_staircase_found_in_a_frame_the_other_passes_do_not_corroborate_is_fou
     assert "corroborated_frame" in after.terrain.note
     assert "other pass(es) corroborate" in after.gravity.note
     truth = scene.truth["steps"][0]["rise"]
-    err = [abs(s.rise_m - truth) for s in after.terrain.steps]
-    err_before = [abs(s.rise_m - truth) for s in before.terrain.steps]
-    assert float(np.mean(err)) < float(np.mean(err_before))
+    assert max(abs(s.rise_m - truth) for s in after.terrain.steps) < 0.02
 
 
 def test_the_frame_stays_where_its_up_is_corroborated_or_nothing_was_found():

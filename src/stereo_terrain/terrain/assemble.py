@@ -16,7 +16,7 @@ from .below import Link as _Link
 from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
-from .nosings import ImageLines, nosing_heights, nosing_steps, pitched_steps
+from .nosings import ImageLines, axis_from_nosings, nosing_heights, nosing_steps, pitched_steps
 from .photometric import refine_risers
 from .polytope import _classify_single_step, _polytope
 from .risers import (
@@ -105,7 +105,7 @@ def _assemble(
         )
         model = found if isinstance(found, StairModel) else _finish(found, config)
         if best is None or _chained(model) > _chained(best):
-            best, best_found = model, found
+            best, best_found, best_family = model, found, family
     assert best is not None
     images_help = (
         config.nosing_steps
@@ -117,6 +117,25 @@ def _assemble(
         # and the risers where the images put them, for the family that won only (they do
         # not count in the choice: the one is inferred, the other moves centimetres).
         best = _finish(best_found, config, lines)
+    if lines is not None and config.nosing_axis and isinstance(best_found, _Chain):
+        # The axis the image's nosings show: the chain is assembled again along it and
+        # finished so, and kept where it has as many steps (:mod:`.nosings.axis`).
+        turned = axis_from_nosings(lines, best_found.yaw, best_found.steps, best_found.lateral)
+        if turned is not None:
+            again = _assemble_along(
+                planes,
+                config,
+                best_family,
+                turned,
+                horizontals,
+                h_z,
+                tread_first=tread_first,
+                floor_known=floor_known,
+            )
+            if isinstance(again, _Chain):
+                model = _finish(again, config, lines if images_help else None)
+                if len(model.steps) >= len(best.steps):
+                    best = model
     return best
 
 

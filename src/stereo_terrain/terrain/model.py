@@ -134,6 +134,12 @@ class TerrainConfig:
         too few or too noisy for either). Their rise is the median of the measured ones
         and their position the median run beyond the step before (``rise_inferred``). See
         :mod:`.nosings`.
+    nosing_axis : bool
+        Where the pipeline passes the image's line segments, the staircase's axis is the
+        one its nosings' and risers' feet's segments show (near the risers' normals'): its
+        chain is assembled and finished again along it, and kept where it has as many
+        steps (:mod:`.nosings.axis`). Default true (issue 11: painted and carpeted risers are
+        mostly a fill's plane, whose normal can be degrees off).
     nosing_pitch : bool
         With ``nosing_steps``: a chain that stands on one riser plane is rebuilt on the
         pitch (rise and run) that puts the most nosings, from the first on, on the image's
@@ -266,6 +272,7 @@ class TerrainConfig:
     continue_max_run_m: float = 0.45
     max_continued_steps: int = 3
     nosing_steps: bool = True
+    nosing_axis: bool = True
     nosing_pitch: bool = True
     max_nosing_steps: int = 4
     nosing_run_tolerance: float = 0.35

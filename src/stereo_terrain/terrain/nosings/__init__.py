@@ -72,14 +72,19 @@ Each step's nosing height as its segments show it on its riser plane
 (:func:`nosing_heights`) is what the staircase's rise is fitted to where two or more show
 (:func:`~stereo_terrain.terrain.uniform.rise_from_nosings`, ``TerrainConfig.nosing_rise``).
 
+The chain's axis itself is turned to the one its nosings' segments show where they
+show one clearly (:func:`axis_from_nosings`, ``TerrainConfig.nosing_axis``).
+
 Layout (each module imports only those before it): ``view`` (:class:`ImageLines`, the
-segments parallel to a staircase's nosings, what of a line is in view) -> ``edges`` (the
+segments parallel to a staircase's nosings, what of a line is in view) -> ``axis`` (the
+stair axis the segments show) -> ``edges`` (the
 grey-level tests) -> ``next_nosing`` (the test of one nosing and its foot) -> ``splits``
 (double and too-tall steps split) -> ``steps`` (:func:`nosing_steps`,
 :func:`nosing_heights`).
 """
 
+from .axis import axis_from_nosings
 from .steps import nosing_heights, nosing_steps, pitched_steps
 from .view import ImageLines
 
-__all__ = ["ImageLines", "nosing_heights", "nosing_steps", "pitched_steps"]
+__all__ = ["ImageLines", "axis_from_nosings", "nosing_heights", "nosing_steps", "pitched_steps"]
