@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..model import Step
-from .view import HORIZON_DEG, ImageLines
+from .view import HORIZON_DEG, ImageLines, segment_planes
 
 #: The lateral directions searched: this far (deg) either side of the risers'.
 _WINDOW_DEG = 12.0
@@ -74,15 +74,12 @@ def axis_from_nosings(
     seg = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
     if not len(seg) or not steps:
         return None
-    d0, d1 = lines.rays(seg[:, :2]), lines.rays(seg[:, 2:])
-    n = np.cross(d0, d1)
-    n /= np.maximum(np.linalg.norm(n, axis=1), 1e-12)[:, None]
-    length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    d0, d1, n, length, ok = segment_planes(lines, seg)
     h = np.cross(n, np.array([0.0, 0.0, 1.0]))
     # Not a vertical line's plane (its horizontal direction is its bearing), nor the
     # horizon's (a horizontal plane holds every horizontal direction).
     tilt = np.abs(n[:, 2])
-    ok = (tilt > math.sin(math.radians(_MIN_TILT_DEG))) & (tilt < math.cos(math.radians(HORIZON_DEG)))
+    ok &= (tilt > math.sin(math.radians(_MIN_TILT_DEG))) & (tilt < math.cos(math.radians(HORIZON_DEG)))
     ok &= length >= _MIN_LENGTH_PX
     ok &= _on_steps(lines, 0.5 * (d0 + d1), yaw, steps, lateral)
     # Each segment's horizontal direction against the risers' lateral direction, in

@@ -131,6 +131,21 @@ def inner_lateral(lateral: tuple[float, float]) -> tuple[float, float]:
     return (lateral[0] + margin, lateral[1] - margin)
 
 
+def segment_planes(
+    lines: ImageLines, segments: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each segment's end rays ``d0``, ``d1`` (terrain frame), the unit normal of its plane
+    through the camera, its length (pixels) and whether it spans a plane at all (not
+    degenerate); ``segments`` ``(N, 4)`` as :attr:`ImageLines.segments`."""
+    d0, d1 = lines.rays(segments[:, :2]), lines.rays(segments[:, 2:])
+    n = np.cross(d0, d1)
+    norm = np.linalg.norm(n, axis=1)
+    length = np.hypot(segments[:, 2] - segments[:, 0], segments[:, 3] - segments[:, 1])
+    ok = (norm > 1e-12) & (length > 0)
+    n[ok] /= norm[ok, None]
+    return d0, d1, n, length, ok
+
+
 def parallel_segments(lines: ImageLines, v: np.ndarray) -> Segments | None:
     """The segments that are images of lines along ``v``; None when there are none.
 
@@ -141,13 +156,7 @@ def parallel_segments(lines: ImageLines, v: np.ndarray) -> Segments | None:
     staircase whose top is at the cameras' height are such segments."""
     whole = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
     border = np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4)
-    s = np.concatenate([whole, border])
-    d0, d1 = lines.rays(s[:, :2]), lines.rays(s[:, 2:])
-    n = np.cross(d0, d1)
-    norm = np.linalg.norm(n, axis=1)
-    length = np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1])
-    ok = (norm > 1e-12) & (length > 0)
-    n[ok] /= norm[ok, None]
+    d0, d1, n, length, ok = segment_planes(lines, np.concatenate([whole, border]))
     tol = np.sin(np.radians(_PARALLEL_DEG) + 2.0 / np.maximum(length, 1.0))
     ok &= np.abs(n @ v) < tol
     ok[len(whole) :] &= np.abs(n[len(whole) :, 2]) < math.cos(math.radians(HORIZON_DEG))
