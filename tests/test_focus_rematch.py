@@ -12,6 +12,7 @@ import pytest
 
 from stereo_terrain.pipeline import Pipeline, PipelineConfig, core
 from stereo_terrain.stereo.bands import BandFillConfig
+from stereo_terrain.terrain import TerrainConfig
 
 from .test_bad_input_corpus import _calib
 from .test_blur import _texture
@@ -26,9 +27,13 @@ def lab_scene():
 
 
 #: The focus rematch's own tests run with the band fill off: with it the rematch finds
-#: these stairs (tests/test_bands.py tests the band fill); and with the denoised opinions
-#: off, which run after it and find them too (tests/test_denoise.py).
-NO_BANDS = PipelineConfig(bands=BandFillConfig(enabled=False), rematch_denoised=0.0)
+#: these stairs (tests/test_bands.py tests the band fill); with the denoised opinions
+#: off, which run after it and find them too (tests/test_denoise.py); and with the
+#: staircase of the lines off, the last opinion, which makes one there of four steps of
+#: 14.4 cm for three of 20 (tests/test_terrain_first_riser.py tests it).
+NO_BANDS = PipelineConfig(
+    bands=BandFillConfig(enabled=False), rematch_denoised=0.0, terrain=TerrainConfig(lines_first_riser=False)
+)
 
 #: The focus rematch's rises on that scene are 23.6 cm for 20 (measured): a find, not a
 #: precise one.

@@ -66,6 +66,7 @@ from .second_opinions import (
     redrawn_planes,
     rematch_kept,
     scene_up,
+    staircase_of_lines,
     wants_rematch,
     whole_box,
 )
@@ -175,12 +176,13 @@ class Pipeline:
 
         ``rematch``: False skips the second opinions for this frame (the rematch, the
         coarse, focus and denoised rematches, the far planes, the agreed lone step, the
-        whole box and the redrawn planes: ``PipelineConfig.rematch``,
-        ``far_planes_sigmas``, ``agreed_lone_step``, ``whole_box``, ``redraw_planes`` and
-        ``rematch_denoised``; the live loop runs them on every other pair while they keep
-        nothing). ``denoised``: False skips only the denoised opinions (the dearest; the
-        live loop runs them on every ``LoopConfig.denoised_every``-th pair that runs the
-        others while nothing is kept). On the main thread the process's BLAS is held to
+        whole box, the redrawn planes and the staircase of the lines:
+        ``PipelineConfig.rematch``, ``far_planes_sigmas``, ``agreed_lone_step``,
+        ``whole_box``, ``redraw_planes``, ``rematch_denoised`` and
+        ``TerrainConfig.lines_first_riser``; the live loop runs them on every other pair
+        while they keep nothing). ``denoised``: False skips only the denoised opinions
+        (the dearest; the live loop runs them on every ``LoopConfig.denoised_every``-th
+        pair that runs the others while nothing is kept). On the main thread the process's BLAS is held to
         one thread while the frame runs (see :func:`~.threads.one_blas_thread`); the
         caller's setting is back afterwards."""
         with one_blas_thread():
@@ -266,6 +268,12 @@ class Pipeline:
             # not corroborate, found again in the frame they do (issue 11;
             # PipelineConfig.corroborated_frame).
             result = corroborated_frame(tried, result, self.config)
+        if rematch:
+            # Nothing found: the staircase whose first riser the image's lines show, where
+            # the floor is known (issue 11; TerrainConfig.lines_first_riser). A second
+            # opinion, the last: on wooden stairs whose other opinions were turned off it
+            # put the staircase a riser's position off (tests/test_far_planes.py).
+            result = staircase_of_lines(result, self.config)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 

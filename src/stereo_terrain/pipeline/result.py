@@ -53,7 +53,9 @@ class TerrainResult:
         lone step or steps that disagree); ``timing_ms["rematch"]`` is there whenever the
         rematch ran, ``timing_ms["far_planes"]`` and ``timing_ms["redraw"]`` whenever
         those did (each the sum over the frame's passes), ``timing_ms["denoise"]``
-        whenever the pair was denoised.
+        whenever the pair was denoised, ``timing_ms["lines_staircase"]`` whenever the
+        staircase of the first riser the image's lines show was looked for (nothing else
+        found, ``TerrainConfig.lines_first_riser``).
     floor_known, image_lines
         What the terrain stage was given besides the planes (the frame's origin is on the
         floor; the image's line segments), so that it can run again on other planes

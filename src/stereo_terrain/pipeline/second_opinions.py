@@ -19,6 +19,8 @@ their results here:
 - :func:`corroborated_frame`: without a rig, an obstacle found again in the frame of the
   up the passes corroborate, where they do not corroborate the up of the pass that found
   it;
+- :func:`staircase_of_lines`: last, where nothing was found and the floor is known, the
+  staircase whose first riser the image's lines show (no riser formed a plane);
 - :func:`kept_staircase`: what every one of them asks of a staircase before it is kept.
 """
 
@@ -35,7 +37,7 @@ from ..frames import Transform
 from ..gravity import angle_deg
 from ..planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation, noise_widened
 from ..swing import plan_swing
-from ..terrain import StairModel, build_terrain, estimate_step_sigmas
+from ..terrain import StairModel, build_terrain, estimate_step_sigmas, staircase_from_lines
 from ..terrain.model import BOX, NONE, STAIRS, TerrainConfig
 from .config import AGREEING_RISE_RATIO, PipelineConfig
 from .gravity_steps import origin_on_floor
@@ -217,6 +219,32 @@ def whole_box(tried: Passes, kept: TerrainResult, config: PipelineConfig) -> Ter
             continue
         return _pass_kept(done, f"found by the {name} (a box seen whole; before it nothing: whole_box)", kept)
     return kept
+
+
+def staircase_of_lines(kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """``kept`` (every pass and second opinion found nothing), or the staircase whose first
+    riser the image's lines show in its planes' frame, where its floor is known
+    (:func:`~stereo_terrain.terrain.staircase_from_lines`, ``TerrainConfig.lines_first_riser``).
+
+    Last and only on nothing: the lines' staircase is placed by the lines alone (its
+    risers' samples are anywhere along their rays), and where a riser plane was found the
+    chain from it is the better measure. ``timing_ms["lines_staircase"]``: the time it
+    took, where it ran."""
+    if (
+        kept.terrain.obstacle != NONE
+        or not config.terrain.lines_first_riser
+        or not kept.floor_known
+        or kept.image_lines is None
+    ):
+        return kept
+    t0 = time.perf_counter()
+    found = staircase_from_lines(kept.planes, config.terrain, kept.image_lines)
+    result = kept
+    if found is not None:
+        terrain = _with_step_sigmas(found, kept.planes, kept, config)
+        result = dataclasses.replace(kept, terrain=terrain, swing=plan_swing(terrain, config.swing))
+    result.timing_ms["lines_staircase"] = (time.perf_counter() - t0) * 1000.0
+    return result
 
 
 def _pass_kept(done: TerrainResult, found_by: str, kept: TerrainResult) -> TerrainResult:

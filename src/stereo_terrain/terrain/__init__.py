@@ -18,13 +18,16 @@ floor and a chain that starts above it), ``nosings`` (steps beyond those
 whose nosings the image's line segments show), ``uniform`` (the staircase's common
 rise and run), ``photometric`` (risers moved to where both rectified images of their
 faces agree) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
-first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb);
+first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb),
+``from_lines`` (:func:`staircase_from_lines`: where no riser formed a plane, the staircase
+of the first riser the image's lines show);
 ``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
 """
 
 from __future__ import annotations
 
 from .build import build_terrain
+from .from_lines import staircase_from_lines
 from .model import BOX, NONE, STAIRS, Polytope, RiserMove, StairModel, Step, TerrainConfig
 from .nosings import ImageLines
 from .photometric import StereoView
@@ -43,4 +46,5 @@ __all__ = [
     "TerrainConfig",
     "build_terrain",
     "estimate_step_sigmas",
+    "staircase_from_lines",
 ]

@@ -595,7 +595,7 @@ def _faces_lateral(chain: _Chain, steps: list[Step], v: np.ndarray) -> list[tupl
     out = []
     for s in steps:
         own = next((r for r in chain.ordered if r.plane is s.riser), None)
-        if own is None:
+        if own is None or not len(own.idx):
             out.append((lo_all, hi_all))
             continue
         lo, hi = percentile(chain.P[own.idx] @ v, _FACE_LATERAL_PCT)

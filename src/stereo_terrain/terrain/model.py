@@ -140,6 +140,14 @@ class TerrainConfig:
         chain is assembled and finished again along it, and kept where it has as many
         steps (:mod:`.nosings.axis`). Default true (issue 11: painted and carpeted risers are
         mostly a fill's plane, whose normal can be degrees off).
+    lines_first_riser : bool
+        Where every pass found nothing, the floor is known and the pipeline has the image's
+        line segments: the staircase whose first riser's foot and nosing the segments show
+        as lines (the floor the matcher holds in front of the foot, and not most of the
+        samples beyond it), finished as a one-riser chain is (the nosings' pitch and the
+        nosings beyond), kept where that makes three steps or more
+        (:func:`~.from_lines.staircase_from_lines`, asked by the pipeline last). Default
+        true (issue 11: painted stairs, whose risers form no plane).
     nosing_pitch : bool
         With ``nosing_steps``: a chain that stands on one riser plane is rebuilt on the
         pitch (rise and run) that puts the most nosings, from the first on, on the image's
@@ -273,6 +281,7 @@ class TerrainConfig:
     max_continued_steps: int = 3
     nosing_steps: bool = True
     nosing_axis: bool = True
+    lines_first_riser: bool = True
     nosing_pitch: bool = True
     max_nosing_steps: int = 4
     nosing_run_tolerance: float = 0.35

@@ -346,7 +346,8 @@ def estimate_step_sigmas(
             # step found beyond the last riser plane: terrain/continuation.py)
             others = rises[measured]
             spread = float(np.std(others)) if len(others) > 1 else 0.0
-            own = float(np.nanmean(own_each)) if own_each else math.nan
+            finite = [x for x in own_each if math.isfinite(x)]  # a riser the lines show: NaN
+            own = float(np.mean(finite)) if finite else math.nan
             # the median of n values: its own error, and how far a rise may differ from it
             sig_rise = math.sqrt(own**2 / max(len(others), 1) + spread**2 + (config.min_rise_m / 2) ** 2)
         else:  # its own measured rise, and how far the others' disagree with it

@@ -80,11 +80,22 @@ segments parallel to a staircase's nosings, what of a line is in view) -> ``axis
 stair axis the segments show) -> ``edges`` (the
 grey-level tests) -> ``next_nosing`` (the test of one nosing and its foot) -> ``splits``
 (double and too-tall steps split) -> ``steps`` (:func:`nosing_steps`,
-:func:`nosing_heights`).
+:func:`nosing_heights`) -> ``first_riser`` (a staircase's first riser where no riser formed
+a plane: its foot and nosing as lines).
 """
 
 from .axis import axis_from_nosings
+from .first_riser import FirstRiser, first_risers, line_axes
 from .steps import nosing_heights, nosing_steps, pitched_steps
 from .view import ImageLines
 
-__all__ = ["ImageLines", "axis_from_nosings", "nosing_heights", "nosing_steps", "pitched_steps"]
+__all__ = [
+    "FirstRiser",
+    "ImageLines",
+    "axis_from_nosings",
+    "first_risers",
+    "line_axes",
+    "nosing_heights",
+    "nosing_steps",
+    "pitched_steps",
+]
