@@ -66,6 +66,9 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
             lateral = over[0].lateral
             if not _ground_plane_holds(h_info, ground_z, a0 - config.continue_max_run_m, a0, lateral, config):
                 continue  # no floor seen just in front of it: no foot on the floor
+            s_lo = a0 + config.merge_distance_m
+            if _ground_plane_holds(h_info, ground_z, s_lo, a0 + config.continue_min_run_m, lateral, config):
+                continue  # the floor goes on just beyond it: a line on the floor (no chain needed)
             plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
             models = []
             for first in over:
@@ -82,7 +85,6 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
                 )
                 chain = _Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
                 models.append(_finish(chain, finishing, lines))
-            s_lo = a0 + config.merge_distance_m
             beyond = [
                 _ground_plane_holds(h_info, ground_z, s_lo, _far_end(a0, m, config), lateral, config)
                 for m in models

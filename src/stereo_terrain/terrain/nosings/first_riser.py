@@ -70,8 +70,9 @@ _MIN_FOOT_COVER = 0.5
 _NEAREST_M = 0.4
 _FARTHEST_M = 4.0
 
-#: Candidate feet tried, nearest first, and nosings over each, best covered first.
-MAX_FEET = 4
+#: Candidate feet tried, nearest first, and nosings over each, best covered first (a
+#: plank or tiled floor's joints come before the first riser's foot).
+MAX_FEET = 8
 MAX_NOSINGS = 2
 
 #: Nosing heights on a foot's riser plane within this (metres) of each other are one line.
