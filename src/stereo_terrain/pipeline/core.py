@@ -182,9 +182,9 @@ class Pipeline:
         ``TerrainConfig.lines_first_riser``; the live loop runs them on every other pair
         while they keep nothing). ``denoised``: False skips only the denoised opinions
         (the dearest; the live loop runs them on every ``LoopConfig.denoised_every``-th
-        pair that runs the others while nothing is kept). On the main thread the process's BLAS is held to
-        one thread while the frame runs (see :func:`~.threads.one_blas_thread`); the
-        caller's setting is back afterwards."""
+        pair that runs the others while nothing is kept). On the main thread the
+        process's BLAS is held to one thread while the frame runs (see
+        :func:`~.threads.one_blas_thread`); the caller's setting is back afterwards."""
         with one_blas_thread():
             return self._run(left, right, rematch, denoised)
 

@@ -476,10 +476,13 @@ class _Chain:
     continued: int
 
 
-def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = None) -> StairModel:
+def _finish(
+    chain: _Chain, config: TerrainConfig, lines: ImageLines | None = None, *, origin: str | None = None
+) -> StairModel:
     """The model of a family's chain: the steps the image's lines show beyond it
     (``lines``, :mod:`.nosings`), the staircase's common rise and run, a single step
-    classified, the polytope and the note."""
+    classified, the polytope and the note (whose steps are "from N riser plane(s)", or
+    from ``origin`` where given)."""
     u = np.array([math.cos(chain.yaw), math.sin(chain.yaw), 0.0])
     v = np.array([-u[1], u[0], 0.0])
     steps = list(chain.steps)
@@ -520,7 +523,7 @@ def _finish(chain: _Chain, config: TerrainConfig, lines: ImageLines | None = Non
     )
 
     obstacle = STAIRS
-    note = f"{len(steps)} step(s) from {len(chain.ordered)} riser plane(s)"
+    note = f"{len(steps)} step(s) {origin or f'from {len(chain.ordered)} riser plane(s)'}"
     if chain.inferred_first:
         note += "; the first riser's foot is out of view: its rise is the median of the others"
     if chain.below:
@@ -616,11 +619,30 @@ def _ground_before(s_h, v_h, h_z, ground_z: float, r: _Riser, config: TerrainCon
     """Whether the surface at ``ground_z`` is seen in front of riser ``r`` (before it along
     the stair axis, within its lateral extent): then it is the floor the riser stands on or
     beside, not a tread on top of it (issue 11)."""
+    tol = config.tread_height_tolerance_m / 2
+    lateral = (r.v_lo, r.v_hi)
+    count = _samples_at(h_z, s_h, v_h, ground_z, tol, (-np.inf, r.s - config.merge_distance_m), lateral)
+    return count >= config.min_tread_points
+
+
+def _samples_at(
+    h_z: list[float],
+    s_h: list[np.ndarray],
+    v_h: list[np.ndarray],
+    z: float,
+    tol: float,
+    along: tuple[float, float],
+    lateral: tuple[float, float],
+) -> int:
+    """How many inliers the horizontal planes within ``tol`` of height ``z`` hold strictly
+    between ``along`` (metres along the stair axis) and ``lateral`` (along the lateral
+    direction); ``h_z``, ``s_h``, ``v_h``: each plane's height and its inliers' positions."""
     count = 0
     for hz, sh, vh in zip(h_z, s_h, v_h, strict=True):
-        if abs(hz - ground_z) <= config.tread_height_tolerance_m / 2:
-            count += int(np.sum((sh < r.s - config.merge_distance_m) & (vh > r.v_lo) & (vh < r.v_hi)))
-    return count >= config.min_tread_points
+        if abs(hz - z) <= tol:
+            inside = (sh > along[0]) & (sh < along[1]) & (vh > lateral[0]) & (vh < lateral[1])
+            count += int(np.sum(inside))
+    return count
 
 
 def _tread_between(horizontals, h_z, s_h, z: float, s_lo: float, s_hi: float) -> Plane | None:

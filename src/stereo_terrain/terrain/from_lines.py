@@ -17,7 +17,7 @@ import numpy as np
 from .._numeric import median
 from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, PlaneSet
-from .assemble import _Chain, _finish
+from .assemble import _Chain, _finish, _samples_at
 from .model import STAIRS, StairModel, Step, TerrainConfig
 from .nosings import FirstRiser, ImageLines, first_risers, line_axes
 from .nosings.view import parallel_segments
@@ -26,6 +26,9 @@ from .risers import _Riser, riser_distance
 #: The fewest steps a staircase from the lines must have: a lone pair of edges, or two, is
 #: any box's or shelf's.
 MIN_STEPS = 3
+
+#: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
+ORIGIN = "from the image's lines (no riser formed a plane: the first riser's foot and nosing are lines)"
 
 
 def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLines) -> StairModel | None:
@@ -36,12 +39,11 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
     Along each stair axis the lines show, the feet are taken nearest first. A foot without
     the ground's plane a run's length in front of it is no first riser's; one with the
     ground's plane beyond it, where each staircase it makes would stand
-    (:func:`_ground_plane_holds`), is a line on the floor (or a box's front), and the next
-    is looked at. The first other foot
-    is the first riser's: its staircase with most steps (of the nosings over it), or none
-    where it makes none: a farther foot would skip the first riser and put the staircase
-    a step or more too far (on a realistic render 0.7 m). Of the axes, the staircase with
-    most steps."""
+    (:func:`_ground_holds`), is a line on the floor (or a box's front), and the next is
+    looked at. The first other foot is the first riser's: its staircase with most steps
+    (of the nosings over it), or none where it makes none: a farther foot would skip the
+    first riser and put the staircase a step or more too far (on a realistic render 0.7
+    m). Of the axes, the staircase with most steps."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
     horizontals = [s for s in planes.segments if s.kind == HORIZONTAL]
@@ -56,39 +58,37 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
         segs = parallel_segments(lines, v)
         if segs is None:
             continue
-        s_h = [P[h.indices] @ u for h in horizontals]
-        v_h = [P[h.indices] @ v for h in horizontals]
+        s_all, v_all = P @ u, P @ v
+        s_h = [s_all[h.indices] for h in horizontals]
+        v_h = [v_all[h.indices] for h in horizontals]
         h_info = list(zip(horizontals, h_z, s_h, v_h, strict=True))
+        ground = (h_z, s_h, v_h, ground_z)
         feet: dict[float, list[FirstRiser]] = {}
         for first in first_risers(lines, segs, u, v, ground_z, config):
             feet.setdefault(first.axis_position_m, []).append(first)
         for a0, over in feet.items():  # nearest first
             lateral = over[0].lateral
-            if not _ground_plane_holds(h_info, ground_z, a0 - config.continue_max_run_m, a0, lateral, config):
+            if not _ground_holds(ground, (a0 - config.continue_max_run_m, a0), lateral, config):
                 continue  # no floor seen just in front of it: no foot on the floor
             s_lo = a0 + config.merge_distance_m
-            if _ground_plane_holds(h_info, ground_z, s_lo, a0 + config.continue_min_run_m, lateral, config):
+            if _ground_holds(ground, (s_lo, a0 + config.continue_min_run_m), lateral, config):
                 continue  # the floor goes on just beyond it: a line on the floor (no chain needed)
             plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
+            # the samples on its face, within merge_distance_m of it (few or none on a painted riser)
+            on_face = (
+                (np.abs(s_all - a0) < config.merge_distance_m) & (v_all > lateral[0]) & (v_all < lateral[1])
+            )
+            on_face &= P[:, 2] > ground_z
             models = []
             for first in over:
-                riser = _line_riser(P, plane, u, v, a0, first.top_z_m, lateral, ground_z, config)
+                top = first.top_z_m
+                idx = np.flatnonzero(on_face & (P[:, 2] < top))
+                riser = _Riser(plane, idx, a0, ground_z, top, lateral[0], lateral[1], False)
                 width = lateral[1] - lateral[0]
-                step = Step(
-                    first.top_z_m - ground_z,
-                    None,
-                    riser_distance(plane, a0, u),
-                    width,
-                    first.top_z_m,
-                    a0,
-                    plane,
-                )
+                step = Step(top - ground_z, None, riser_distance(plane, a0, u), width, top, a0, plane)
                 chain = _Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
-                models.append(_finish(chain, finishing, lines))
-            beyond = [
-                _ground_plane_holds(h_info, ground_z, s_lo, _far_end(a0, m, config), lateral, config)
-                for m in models
-            ]
+                models.append(_finish(chain, finishing, lines, origin=ORIGIN))
+            beyond = [_ground_holds(ground, (s_lo, _far_end(a0, m, config)), lateral, config) for m in models]
             if all(beyond):
                 continue  # a line on the floor, or a box's front: the floor goes on beyond it
             found = [
@@ -101,33 +101,7 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
                 if best is None or len(along.steps) > len(best.steps):
                     best = along
             break  # the first riser's foot: the staircase is its or none
-    if best is None:
-        return None
-    note = best.note.replace(
-        "from 1 riser plane(s)",
-        "from the image's lines (no riser formed a plane: the first riser's foot and nosing are lines)",
-        1,
-    )
-    return dataclasses.replace(best, note=note)
-
-
-def _line_riser(
-    P: np.ndarray,
-    plane: Plane,
-    u: np.ndarray,
-    v: np.ndarray,
-    a0: float,
-    top: float,
-    lateral: tuple[float, float],
-    ground_z: float,
-    config: TerrainConfig,
-) -> _Riser:
-    """The riser the lines show at ``a0``, ``top`` high across ``lateral``, with the samples
-    on its face (within ``merge_distance_m`` of it; few or none on a painted riser)."""
-    s, lat, z = P @ u, P @ v, P[:, 2]
-    face = (np.abs(s - a0) < config.merge_distance_m) & (lat > lateral[0]) & (lat < lateral[1])
-    face &= (z > ground_z) & (z < top)
-    return _Riser(plane, np.flatnonzero(face), a0, ground_z, top, lateral[0], lateral[1], False)
+    return best
 
 
 def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:
@@ -140,17 +114,16 @@ def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:
     return end
 
 
-def _ground_plane_holds(
-    h_info: list,
-    ground_z: float,
-    s_lo: float,
-    s_hi: float,
+def _ground_holds(
+    ground: tuple[list[float], list[np.ndarray], list[np.ndarray], float],
+    along: tuple[float, float],
     lateral: tuple[float, float],
     config: TerrainConfig,
 ) -> bool:
-    """Whether the ground's planes (horizontal planes within ``tread_height_tolerance_m``
-    of ``ground_z``: a floor's plane may be split in two a few centimetres apart) hold
-    ``min_tread_points`` samples or more between ``s_lo`` and ``s_hi`` along the axis,
+    """Whether the ground's planes (``ground``: the horizontal planes' heights, their
+    inliers' positions along the axis and across, the ground's height; those within
+    ``tread_height_tolerance_m`` of it count: a floor's plane may be split in two a few
+    centimetres apart) hold ``min_tread_points`` samples or more between ``along`` and
     within ``lateral``.
 
     The ground plane's samples are the matcher's well-placed ones: a painted riser's
@@ -162,9 +135,6 @@ def _ground_plane_holds(
     staircase would stand beyond it (a box's front and top edge, with its far top edge
     and the wall behind, fit a pitch of three steps; so does a line on the floor in front
     of the real first riser, or a plank floor's joints)."""
-    count = 0
-    for _h, hz, sh, vh in h_info:
-        if abs(hz - ground_z) > config.tread_height_tolerance_m:
-            continue
-        count += int(np.sum((sh > s_lo) & (sh < s_hi) & (vh > lateral[0]) & (vh < lateral[1])))
+    h_z, s_h, v_h, ground_z = ground
+    count = _samples_at(h_z, s_h, v_h, ground_z, config.tread_height_tolerance_m, along, lateral)
     return count >= config.min_tread_points

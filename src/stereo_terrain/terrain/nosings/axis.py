@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..model import Step
-from .view import HORIZON_DEG, ImageLines, segment_planes
+from .view import ImageLines, horizontal_directions
 
 #: The lateral directions searched: this far (deg) either side of the risers'.
 _WINDOW_DEG = 12.0
@@ -40,13 +40,6 @@ _PEAK_DEG = 1.0
 
 #: The peak's segments must be at least this long together, as a share of the image's width.
 _MIN_PILE = 0.25
-
-#: Shorter segments (pixels) do not vote: their direction is a few degrees uncertain.
-_MIN_LENGTH_PX = 20.0
-
-#: A segment whose plane through the camera is within this (deg) of vertical holds a
-#: vertical line (a baluster, a wall's corner): its horizontal direction is only its bearing.
-_MIN_TILT_DEG = 15.0
 
 #: A segment counts for a step where its middle's ray meets the step's height this near
 #: (metres along the axis) the step's position, within its width widened by as much again.
@@ -74,17 +67,11 @@ def axis_from_nosings(
     seg = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
     if not len(seg) or not steps:
         return None
-    d0, d1, n, length, ok = segment_planes(lines, seg)
-    h = np.cross(n, np.array([0.0, 0.0, 1.0]))
-    # Not a vertical line's plane (its horizontal direction is its bearing), nor the
-    # horizon's (a horizontal plane holds every horizontal direction).
-    tilt = np.abs(n[:, 2])
-    ok &= (tilt > math.sin(math.radians(_MIN_TILT_DEG))) & (tilt < math.cos(math.radians(HORIZON_DEG)))
-    ok &= length >= _MIN_LENGTH_PX
-    ok &= _on_steps(lines, 0.5 * (d0 + d1), yaw, steps, lateral)
+    mid, bearing, length, ok = horizontal_directions(lines, seg)
+    ok &= _on_steps(lines, mid, yaw, steps, lateral)
     # Each segment's horizontal direction against the risers' lateral direction, in
     # (-90, 90] deg (a line has no sign).
-    off = (np.arctan2(h[:, 1], h[:, 0]) - yaw) % math.pi - math.pi / 2
+    off = (bearing - yaw) % math.pi - math.pi / 2
     window = math.radians(_WINDOW_DEG)
     ok &= np.abs(off) < window
     if not ok.any():

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import TerrainConfig
-from .view import HORIZON_DEG, ImageLines, Segments, covered_share, on_height, segment_planes
+from .view import ImageLines, Segments, covered_share, horizontal_directions, on_height, on_riser_plane
 
 #: Stair axes tried: this many peaks of the segments' horizontal directions (each foot
 #: and nosing tried costs a one-riser chain's finishing, 10-50 ms).
@@ -53,9 +53,6 @@ _PEAK_APART_BINS = 6
 
 #: A peak's segments must be this long together, as a share of the image's width.
 _MIN_PILE = 0.25
-
-#: Shorter segments (pixels) do not vote for an axis.
-_MIN_LENGTH_PX = 20.0
 
 #: Segments whose lines on the floor lie within this of each other (metres along the
 #: axis, and this share of their distance) are one line.
@@ -81,10 +78,10 @@ _NOSING_GROUP_M = 0.01
 
 @dataclass(frozen=True)
 class FirstRiser:
-    """A first riser the lines show: its foot at ``axis_position_m`` along ``u`` on the
-    floor, its nosing ``top_z_m`` high, across ``lateral`` (metres along ``v``)."""
+    """A first riser the lines show: its foot at ``axis_position_m`` along the stair axis
+    on the floor, its nosing ``top_z_m`` high, across ``lateral`` (metres along the
+    lateral direction)."""
 
-    yaw: float
     axis_position_m: float
     top_z_m: float
     lateral: tuple[float, float]
@@ -101,16 +98,11 @@ def line_axes(lines: ImageLines) -> list[float]:
     )
     if not len(seg):
         return []
-    _, _, n, length, ok = segment_planes(lines, seg)
-    tilt = np.abs(n[:, 2])
-    # Not a vertical line's plane (its direction is its bearing), nor the horizon's.
-    ok &= (tilt > math.sin(math.radians(15.0))) & (tilt < math.cos(math.radians(HORIZON_DEG)))
-    ok &= length >= _MIN_LENGTH_PX
-    h = np.cross(n, np.array([0.0, 0.0, 1.0]))
+    _, bearing, length, ok = horizontal_directions(lines, seg)
     cam_x, cam_z = lines.T_frame_camera[:3, 0], lines.T_frame_camera[:3, 2]
     side = math.atan2(float(cam_x[1]), float(cam_x[0]))
     ahead = math.atan2(float(cam_z[1]), float(cam_z[0]))
-    off = (np.arctan2(h[:, 1], h[:, 0]) - side + math.pi / 2) % math.pi - math.pi / 2
+    off = (bearing - side + math.pi / 2) % math.pi - math.pi / 2
     ok &= np.abs(off) <= math.radians(_MAX_YAW_DEG)
     if not ok.any():
         return []
@@ -140,7 +132,6 @@ def first_risers(
     ``ground_z``: each long line on the floor (nearest first, at most ``MAX_FEET``) with
     each nosing line over it (a stair's rise up on its riser plane, covering
     ``nosing_min_cover`` of its width), best covered first."""
-    yaw = math.atan2(float(u[1]), float(u[0]))
     c = lines.centre
     p0, p1 = on_height(lines, segs.d0, ground_z), on_height(lines, segs.d1, ground_z)
     a = 0.5 * (p0 + p1) @ u
@@ -164,7 +155,7 @@ def first_risers(
         feet += 1
         a0 = float(np.median(a[group]))
         for top in _nosings_over(lines, segs, u, v, a0, span, ground_z, config):
-            out.append(FirstRiser(yaw, a0, top, span))
+            out.append(FirstRiser(a0, top, span))
     return out
 
 
@@ -181,18 +172,9 @@ def _nosings_over(
     """The heights of the lines on the riser plane ``u . x = a0`` a stair's rise above the
     floor whose segments cover ``nosing_min_cover`` of ``span``, best covered first (at
     most ``MAX_NOSINGS``)."""
-    c = lines.centre
-    n = segs.normal
-    base = a0 * u + 0.5 * (span[0] + span[1]) * v
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = -(n @ (base - c)) / n[:, 2]
-        t0 = (a0 - c @ u) / (segs.d0 @ u)
-        t1 = (a0 - c @ u) / (segs.d1 @ u)
-    e0 = (c + t0[:, None] * segs.d0) @ v
-    e1 = (c + t1[:, None] * segs.d1) @ v
-    lo, hi = np.minimum(e0, e1), np.maximum(e0, e1)
+    z, lo, hi, ahead = on_riser_plane(lines, segs, u, v, a0, 0.5 * (span[0] + span[1]))
     rise = z - ground_z
-    ok = np.isfinite(z) & np.isfinite(lo) & np.isfinite(hi) & (t0 > 0) & (t1 > 0)
+    ok = np.isfinite(z) & np.isfinite(lo) & np.isfinite(hi) & ahead
     ok &= (rise >= max(config.min_rise_m, 0.08)) & (rise <= config.max_rise_m)
     found: list[tuple[float, float]] = []
     for k in np.flatnonzero(ok)[np.argsort(z[ok])]:

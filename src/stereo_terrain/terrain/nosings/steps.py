@@ -25,6 +25,7 @@ from .view import (
     covered_share,
     inner_lateral,
     lateral_on_height,
+    on_riser_plane,
     parallel_segments,
     tread_height_px,
     visible_span,
@@ -402,25 +403,14 @@ def _nosing_top(
     cover ``_TOP_MIN_COVER`` of its width, the nearest; the top found from the samples is
     biased low, docs/benchmarks.md "Tenth session"); None where none does, or the step is
     not in view."""
-    lines, segs, u, v = view.lines, view.segs, view.u, view.v
     span = visible_span(view, a_k, top_k)
     if span is None:
         return None
-    c = lines.centre
-    n = segs.normal
-    base = a_k * u + 0.5 * (span[0] + span[1]) * v
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = -(n @ (base - c)) / n[:, 2]
+    # The segments' lines on the riser plane, and their ends there for their lateral extent.
+    z, lo, hi, _ = on_riser_plane(view.lines, view.segs, view.u, view.v, a_k, 0.5 * (span[0] + span[1]))
     near = np.isfinite(z) & (np.abs(z - top_k) < rise / 3.0)
     if not near.any():
         return None
-    # The segments' ends on the riser plane, for their lateral extent.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t0 = (a_k - c @ u) / (segs.d0 @ u)
-        t1 = (a_k - c @ u) / (segs.d1 @ u)
-    e0 = (c + t0[:, None] * segs.d0) @ v
-    e1 = (c + t1[:, None] * segs.d1) @ v
-    lo, hi = np.minimum(e0, e1), np.maximum(e0, e1)
     near &= np.isfinite(lo) & np.isfinite(hi)
     best: float | None = None
     best_dz = math.inf

@@ -146,6 +146,31 @@ def segment_planes(
     return d0, d1, n, length, ok
 
 
+#: A segment whose plane through the camera is within this (deg) of vertical holds a
+#: vertical line (a baluster, a wall's corner): its horizontal direction is only its
+#: bearing (:func:`horizontal_directions`).
+MIN_TILT_DEG = 15.0
+
+#: Shorter segments (pixels) do not vote for a direction: theirs is a few degrees uncertain.
+MIN_DIRECTION_LENGTH_PX = 20.0
+
+
+def horizontal_directions(
+    lines: ImageLines, segments: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each segment's middle ray (terrain frame), the bearing (radians, terrain frame) of
+    the one horizontal direction its plane through the camera holds, its length (pixels)
+    and whether it votes for a direction: its plane neither within ``MIN_TILT_DEG`` of
+    vertical nor within ``HORIZON_DEG`` of horizontal (which holds every horizontal
+    direction), and it is ``MIN_DIRECTION_LENGTH_PX`` long at least."""
+    d0, d1, n, length, ok = segment_planes(lines, segments)
+    h = np.cross(n, np.array([0.0, 0.0, 1.0]))
+    tilt = np.abs(n[:, 2])
+    ok &= (tilt > math.sin(math.radians(MIN_TILT_DEG))) & (tilt < math.cos(math.radians(HORIZON_DEG)))
+    ok &= length >= MIN_DIRECTION_LENGTH_PX
+    return 0.5 * (d0 + d1), np.arctan2(h[:, 1], h[:, 0]), length, ok
+
+
 def parallel_segments(lines: ImageLines, v: np.ndarray) -> Segments | None:
     """The segments that are images of lines along ``v``; None when there are none.
 
@@ -202,6 +227,24 @@ def covered_share(lo: np.ndarray, hi: np.ndarray, span: tuple[float, float]) -> 
             total += y - max(x, reach)
             reach = y
     return total / (span[1] - span[0])
+
+
+def on_riser_plane(
+    lines: ImageLines, segs: Segments, u: np.ndarray, v: np.ndarray, a: float, middle: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where each segment's plane through the camera meets the riser plane ``u . x = a``:
+    the height of that line at ``middle`` along ``v``, the lateral extent ``(lo, hi)`` of
+    the segment's end rays on the plane, and whether both rays meet it in front of the
+    camera (NaN where a ray or plane runs along it)."""
+    c = lines.centre
+    base = a * u + middle * v
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = -(segs.normal @ (base - c)) / segs.normal[:, 2]
+        t0 = (a - c @ u) / (segs.d0 @ u)
+        t1 = (a - c @ u) / (segs.d1 @ u)
+        e0 = (c + t0[:, None] * segs.d0) @ v
+        e1 = (c + t1[:, None] * segs.d1) @ v
+    return z, np.minimum(e0, e1), np.maximum(e0, e1), (t0 > 0) & (t1 > 0)
 
 
 def lateral_on_height(view: StairView, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
