@@ -16,7 +16,7 @@ from .below import Link as _Link
 from .below import steps_below
 from .continuation import continue_steps
 from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
-from .nosings import ImageLines, axis_from_nosings, nosing_heights, nosing_steps, pitched_steps
+from .nosings import ImageLines, axis_from_nosings, end_steps, nosing_heights, nosing_steps, pitched_steps
 from .photometric import refine_risers
 from .polytope import _classify_single_step, _polytope
 from .risers import (
@@ -509,6 +509,13 @@ def _finish(
             steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
         )
     pitch = (steps[-1].rise_m, steps[-2].run_m or 0.0) if pitched else (0.0, 0.0)
+    before_ends = len(steps)
+    profile = None
+    if lines is not None and config.riser_end_steps:
+        steps, profile = end_steps(
+            steps, chain.planes, chain.P, u, v, chain.lateral, chain.ground_z, lines, config
+        )
+    ends = len(steps) - before_ends
     fit = None
     if lines is not None and config.nosing_rise:
         heights = nosing_heights(steps, u, v, chain.lateral, lines)
@@ -518,6 +525,10 @@ def _finish(
     nosing_rise, fits = fit if fit is not None else (None, [])
     # whether the steps report the nosings' rise (else the median's rule, or their own)
     nosings_taken = nosing_rise is not None and bool(takers_of_rise(steps, nosing_rise, config, fits=fits))
+    profile_taken = nosing_rise is None and profile is not None
+    if profile is not None and profile_taken:
+        # the rise both images measure at the risers' ends, for every step they show
+        nosing_rise, fits = profile.rise_m, list(range(min(profile.ends, len(steps))))
     steps, pooled_rises, pooled_runs, across = common_steps(
         steps, chain.ground_z, config, rise_m=nosing_rise, fits=fits
     )
@@ -550,6 +561,16 @@ def _finish(
         note += (
             f"; {from_lines} more beyond, where the image's line segments show their nosings"
             " (at the median rise and run)"
+        )
+    if ends:
+        note += (
+            f"; {ends} more beyond, where the image shows their risers' ends (vertical edges"
+            " both images place)"
+        )
+    if profile is not None and profile_taken:
+        note += (
+            f"; the staircase's rise is the one its {profile.ends} risers' ends show"
+            f" ({100.0 * profile.rise_m:.1f} cm)"
         )
     # the measured rises that agree (those of two neighbours across a misplaced top apart)
     agreeing = pooled_rises - (2 if across is not None else 0)

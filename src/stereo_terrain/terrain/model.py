@@ -154,7 +154,12 @@ class TerrainConfig:
         segments, anchored at the riser's foot (:func:`~stereo_terrain.terrain.nosings.pitched_steps`;
         its guards there). Default true (issue 11).
     max_nosing_steps : int
-        At most this many steps are added so.
+        At most this many steps are added so (and as many by ``riser_end_steps``).
+    riser_end_steps : bool
+        Carry a chain on beyond its last step where the image shows the next risers' ends:
+        vertical edges a rise tall, about a run apart, that both images place
+        (:func:`~stereo_terrain.terrain.nosings.end_steps`). Default true (issue 11:
+        painted stairs seen at an angle, whose faces and nosings the matcher cannot hold).
     nosing_run_tolerance : float
         A nosing counts where the segments put it within this fraction of a step (along
         the staircase's pitch line) from where the median rise and run put it.
@@ -284,6 +289,7 @@ class TerrainConfig:
     lines_first_riser: bool = True
     nosing_pitch: bool = True
     max_nosing_steps: int = 4
+    riser_end_steps: bool = True
     nosing_run_tolerance: float = 0.35
     nosing_min_cover: float = 0.4
     nosing_min_foot_cover: float = 0.25

@@ -72,6 +72,10 @@ Each step's nosing height as its segments show it on its riser plane
 (:func:`nosing_heights`) is what the staircase's rise is fitted to where two or more show
 (:func:`~stereo_terrain.terrain.uniform.rise_from_nosings`, ``TerrainConfig.nosing_rise``).
 
+A chain is also carried on where the image shows its next risers' ends: vertical edges a
+rise tall, about a run apart, placed by both images (:func:`end_steps`,
+``TerrainConfig.riser_end_steps``: a painted staircase seen at an angle).
+
 The chain's axis itself is turned to the one its nosings' segments show where they
 show one clearly (:func:`axis_from_nosings`, ``TerrainConfig.nosing_axis``).
 
@@ -80,12 +84,14 @@ segments parallel to a staircase's nosings, what of a line is in view) -> ``axis
 stair axis the segments show) -> ``edges`` (the
 grey-level tests) -> ``next_nosing`` (the test of one nosing and its foot) -> ``splits``
 (double and too-tall steps split) -> ``steps`` (:func:`nosing_steps`,
-:func:`nosing_heights`) -> ``first_riser`` (a staircase's first riser where no riser formed
-a plane: its foot and nosing as lines).
+:func:`nosing_heights`) -> ``riser_ends`` (:func:`end_steps`: steps where the risers' ends
+show) -> ``first_riser`` (a staircase's first riser where no riser formed a plane: its foot
+and nosing as lines).
 """
 
 from .axis import axis_from_nosings
 from .first_riser import FirstRiser, first_risers, line_axes
+from .riser_ends import end_steps
 from .steps import nosing_heights, nosing_steps, pitched_steps
 from .view import ImageLines
 
@@ -93,6 +99,7 @@ __all__ = [
     "FirstRiser",
     "ImageLines",
     "axis_from_nosings",
+    "end_steps",
     "first_risers",
     "line_axes",
     "nosing_heights",

@@ -126,7 +126,7 @@ def nosing_steps(
         for _ in range(n_new):
             last = out[-1]
             a_new = a + run
-            if _no_riser_at(planes, P, view, walls, a_new, last.top_z_m, rise, config):
+            if no_riser_at(planes, P, view, walls, a_new, last.top_z_m, rise, config):
                 stop = True
                 break
             out[-1] = dataclasses.replace(last, run_m=run)
@@ -198,7 +198,7 @@ def pitched_steps(
         return steps, 0
     walls = np.asarray(walls_across(planes, P, u, config), dtype=np.float64)
     for k in range(len(steps), pitch.nosings):  # as nosing_steps asks of a step it adds
-        if _no_riser_at(planes, P, view, walls, a0 + k * run, ground_z + k * rise, rise, config):
+        if no_riser_at(planes, P, view, walls, a0 + k * run, ground_z + k * rise, rise, config):
             return steps, 0
     if len(steps) == 1:
         out = [dataclasses.replace(first, rise_m=rise, top_z_m=ground_z + rise, measured_rise_m=first.rise_m)]
@@ -267,7 +267,7 @@ def nosing_heights(
     return [_nosing_top(view, s.axis_position_m, s.top_z_m, rise) for s in steps]
 
 
-def _no_riser_at(
+def no_riser_at(
     planes: PlaneSet,
     P: np.ndarray,
     view: StairView,

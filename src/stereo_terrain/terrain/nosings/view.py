@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
-from ..photometric import StereoView
+from ..photometric import StereoView, edge_disparities
 
 #: A segment is parallel to the nosings when its plane through the camera is within this
 #: of containing ``v``, plus the angle one pixel of end error makes over its length.
@@ -74,6 +75,12 @@ class ImageLines:
     image: np.ndarray | None = field(repr=False, default=None)
     stereo: StereoView | None = field(repr=False, default=None)
 
+    @cached_property
+    def vertical_edges(self) -> VerticalEdges:
+        """The image's vertical 3D lines placed by both images (:func:`vertical_edges`),
+        found once per frame."""
+        return vertical_edges(self)
+
     @property
     def centre(self) -> np.ndarray:
         """The camera centre in the terrain's frame."""
@@ -100,6 +107,15 @@ class ImageLines:
                 [self.focal_px * X[:, 0] / X[:, 2] + self.cx, self.focal_px * X[:, 1] / X[:, 2] + self.cy]
             )
         return uv, X[:, 2]
+
+
+@dataclass(frozen=True)
+class VerticalEdges:
+    """Vertical lines of the scene that the image's segments show and both images place
+    (:func:`vertical_edges`): each one's foot and top (the segment's ends), terrain frame."""
+
+    foot: np.ndarray = field(repr=False)
+    top: np.ndarray = field(repr=False)
 
 
 @dataclass(frozen=True)
@@ -269,3 +285,72 @@ def tread_height_px(view: StairView, front: float, back: float, z: float) -> flo
     along = uv[1] - uv[0]
     across = abs(float(along[0] * (uv[2, 1] - uv[0, 1]) - along[1] * (uv[2, 0] - uv[0, 0])))
     return across / float(np.hypot(*along))
+
+
+#: A segment is the image of a vertical line where its plane through the camera is within
+#: this of vertical, plus the angle 1.5 px of end error makes over its length.
+_VERTICAL_DEG = 1.5
+
+#: Shorter segments (pixels) are not matched: too few rows.
+_MIN_VERTICAL_PX = 12.0
+
+#: Nearest and farthest a vertical line is looked for (metres from the cameras).
+_EDGE_DEPTHS_M = (0.3, 6.0)
+
+#: Least correlation of the two images' gradients across a vertical line for it to be
+#: placed (:func:`~..photometric.edge_disparities`).
+MIN_EDGE_SCORE = 0.7
+
+
+def vertical_edges(lines: ImageLines) -> VerticalEdges:
+    """The segments that are images of vertical lines (their plane through the camera
+    holds up within ``_VERTICAL_DEG``), each placed in depth by its disparity between the
+    two images (:func:`~..photometric.edge_disparities`), where the images agree on it
+    (``MIN_EDGE_SCORE``): the foot and top of each, terrain frame. Empty without the
+    rectified pair (``lines.stereo``).
+
+    A horizontal baseline places a vertical edge best of all: its two images differ by a
+    shift along the rows that the edge's whole length measures. A painted staircase's
+    faces give the matcher nothing, but each riser's end is such an edge, against the wall
+    beside it or the room behind (issue 11)."""
+    empty = VerticalEdges(np.empty((0, 3)), np.empty((0, 3)))
+    stereo = lines.stereo
+    seg = np.concatenate(
+        [
+            np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4),
+            np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4),
+        ]
+    )
+    if stereo is None or not len(seg):
+        return empty
+    _, _, n, length, ok = segment_planes(lines, seg)
+    tol = np.sin(np.radians(_VERTICAL_DEG) + 1.5 / np.maximum(length, 1.0))
+    ok &= (np.abs(n[:, 2]) < tol) & (length >= _MIN_VERTICAL_PX)
+    seg = seg[ok]
+    if not len(seg):
+        return empty
+    fb = stereo.focal_px * stereo.baseline_m
+    span = (fb / _EDGE_DEPTHS_M[1] - stereo.doffs_px, fb / _EDGE_DEPTHS_M[0] - stereo.doffs_px)
+    d, score = edge_disparities(stereo, seg, span)
+    with np.errstate(invalid="ignore"):
+        keep = np.isfinite(d) & (score >= MIN_EDGE_SCORE) & (d + stereo.doffs_px > 0)
+    if not keep.any():
+        return empty
+    seg, depth = seg[keep], fb / (d[keep] + stereo.doffs_px)
+    lower_first = seg[:, 1] > seg[:, 3]  # image rows grow downwards: the foot is the lower end
+    foot = np.where(lower_first[:, None], seg[:, :2], seg[:, 2:])
+    top = np.where(lower_first[:, None], seg[:, 2:], seg[:, :2])
+    return VerticalEdges(_at_depth(lines, foot, depth), _at_depth(lines, top, depth))
+
+
+def _at_depth(lines: ImageLines, pixels: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """The terrain-frame points of ``pixels`` ``(N, 2)`` at camera ``depth`` ``(N,)``."""
+    X = np.column_stack(
+        [
+            (pixels[:, 0] - lines.cx) / lines.focal_px * depth,
+            (pixels[:, 1] - lines.cy) / lines.focal_px * depth,
+            depth,
+        ]
+    )
+    out: np.ndarray = X @ lines.T_frame_camera[:3, :3].T + lines.centre
+    return out
