@@ -1,24 +1,30 @@
-"""Steps beyond a staircase's last where the image shows their risers' ends (issue 11).
+"""Steps and rise where the image shows a staircase's risers' ends (issue 11).
 
 A staircase seen at an angle shows its side: each riser ends in a vertical edge, against
 the wall beside the stairs or the room behind them, and the side's outline climbs in a
 saw-tooth of those edges and the treads' sides. On a painted staircase the faces give the
 matcher nothing and the nosings are barely darker than the risers, yet the ends stand out
-and a horizontal baseline places them best of all
-(:attr:`~.view.ImageLines.vertical_edges`: within 3 cm along the stair axis on the
-realistic renders' painted stairs that the chain ended short on).
+and a horizontal baseline places them best of all (:attr:`~.view.ImageLines.vertical_edges`:
+within 3 cm along the stair axis and 2 cm in height on a realistic render whose chain
+ended two steps short).
 
-:func:`end_steps` carries a chain on, one step at a time: the next step stands where a
-vertical edge of a riser's height is placed about a run beyond the last step (within
-``nosing_run_tolerance`` of the run), across the staircase's width or just beside it,
-with its foot about the last tread's height and its top about a rise above that. The
-step is placed at the edge (its run measured), at the staircase's median rise (inferred),
-and, as the nosings' steps are (:func:`~.steps.nosing_steps`), not where a wall stands
-across the stairs or the samples see the last tread go on.
+:func:`end_steps` looks for the side's profile from the chain's first riser on
+(:func:`_profile`): its end (within ``_FIRST_ALONG_M`` of the riser along the axis, its
+foot on the ground), then end after end, each 0.15-0.45 m on (``min_run_m`` to
+``continue_max_run_m``) within ``_ALONG_DEG`` of the axis, its foot about the top of the
+one before, no taller than a rise; the longest such saw-tooth of ``MIN_ENDS`` ends or more
+whose heights lie on one pitch and whose runs agree. The profile comes from the ends
+alone, not from the chain's own rise and run: the chains it carries on are often a few
+degrees and centimetres off (docs/benchmarks.md, "Forty-second session").
 
-A wall's corner or a door's frame is taller than a rise and is no riser's end; a
-baluster's piece as tall as one, at the next step's place and height, would be taken for
-one.
+The chain gains a step for each end beyond its last, a run of the profile's apart, at its
+median rise (inferred), and not where a wall stands across the stairs or the samples see
+the last tread go on (as :func:`~.steps.nosing_steps` asks). The profile's rise, which
+both images measure at the ends, is the staircase's where no nosings fit one
+(:func:`~stereo_terrain.terrain.assemble._finish`).
+
+A wall's corner or a door's frame is taller than a rise and is no riser's end; pieces of
+balusters as tall as a rise, stacked a run apart, would be taken for a profile.
 """
 
 from __future__ import annotations
