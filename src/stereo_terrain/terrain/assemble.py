@@ -525,10 +525,11 @@ def _finish(
     nosing_rise, fits = fit if fit is not None else (None, [])
     # whether the steps report the nosings' rise (else the median's rule, or their own)
     nosings_taken = nosing_rise is not None and bool(takers_of_rise(steps, nosing_rise, config, fits=fits))
-    profile_taken = nosing_rise is None and profile is not None
-    if profile is not None and profile_taken:
-        # the rise both images measure at the risers' ends, for every step they show
-        nosing_rise, fits = profile.rise_m, list(range(min(profile.ends, len(steps))))
+    # where no nosings fit a rise: the one both images measure at the risers' ends, for
+    # every step they show
+    rise_of_ends = profile if nosing_rise is None else None
+    if rise_of_ends is not None:
+        nosing_rise, fits = rise_of_ends.rise_m, list(range(min(rise_of_ends.ends, len(steps))))
     steps, pooled_rises, pooled_runs, across = common_steps(
         steps, chain.ground_z, config, rise_m=nosing_rise, fits=fits
     )
@@ -567,10 +568,10 @@ def _finish(
             f"; {ends} more beyond, where the image shows their risers' ends (vertical edges"
             " both images place)"
         )
-    if profile is not None and profile_taken:
+    if rise_of_ends is not None:
         note += (
-            f"; the staircase's rise is the one its {profile.ends} risers' ends show"
-            f" ({100.0 * profile.rise_m:.1f} cm)"
+            f"; the staircase's rise is the one its {rise_of_ends.ends} risers' ends show"
+            f" ({100.0 * rise_of_ends.rise_m:.1f} cm)"
         )
     # the measured rises that agree (those of two neighbours across a misplaced top apart)
     agreeing = pooled_rises - (2 if across is not None else 0)

@@ -38,6 +38,7 @@ import cv2
 import numpy as np
 
 from ..msac import Plane
+from ..stereo.subpixel import parabola_peak
 from .model import RiserMove, Step, TerrainConfig
 from .risers import riser_distance
 
@@ -433,7 +434,7 @@ def edge_disparities(
     disparity = np.full(n, np.nan)
     score = np.full(n, np.nan)
     grad_left, grad_right = view.gradients
-    h, w = grad_left.shape
+    w = grad_left.shape[1]
     half = _EDGE_HALF_WIDTH
     for i, (x1, y1, x2, y2) in enumerate(np.asarray(edges, dtype=np.float64)):
         if y1 > y2:
@@ -469,12 +470,9 @@ def edge_disparities(
             zncc = (flat @ left) / (norms * norm_left)
         zncc[~np.isfinite(zncc)] = -1.0
         j = int(np.argmax(zncc))
-        shift = 0.0
-        if 0 < j < len(zncc) - 1:
-            a, b, c = zncc[j - 1], zncc[j], zncc[j + 1]
-            den = a - 2.0 * b + c
-            if den < 0:
-                shift = 0.5 * (a - c) / den
-        disparity[i] = d_hi - (j + shift)
+        peak = float(j)
+        if 0 < j < len(zncc) - 1:  # the parabola through the cost 1 - zncc and its neighbours
+            peak = parabola_peak(j, -zncc[j - 1], -zncc[j], -zncc[j + 1])
+        disparity[i] = d_hi - peak
         score[i] = zncc[j]
     return disparity, score

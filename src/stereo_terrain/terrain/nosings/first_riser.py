@@ -90,12 +90,7 @@ class FirstRiser:
 def line_axes(lines: ImageLines) -> list[float]:
     """The yaws (radians, terrain frame) of the stair axes the segments' horizontal
     directions pile up on (module docstring), strongest first."""
-    seg = np.concatenate(
-        [
-            np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4),
-            np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4),
-        ]
-    )
+    seg = lines.every_segment
     if not len(seg):
         return []
     _, bearing, length, ok = horizontal_directions(lines, seg)

@@ -70,12 +70,10 @@ _HEIGHT_SPREAD = 0.3
 @dataclass(frozen=True)
 class SideProfile:
     """The risers' ends a staircase's side shows (:func:`end_steps`): how many, from its
-    first riser on, and the rise and run (along the stair axis) their heights' middles and
-    positions fit."""
+    first riser on, and the rise their heights' middles fit."""
 
     ends: int
     rise_m: float
-    run_m: float
 
 
 def end_steps(
@@ -130,7 +128,7 @@ def end_steps(
         out[-1] = dataclasses.replace(last, run_m=run)
         out.append(inferred_step(u, a_new, last.top_z_m + rise, rise, None))
         added += 1
-    return out, SideProfile(len(ends), rise, run)
+    return out, SideProfile(len(ends), rise)
 
 
 def profile_pitch(ends: list[tuple[np.ndarray, np.ndarray]], u: np.ndarray) -> tuple[float, float, float]:

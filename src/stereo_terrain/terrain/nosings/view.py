@@ -75,6 +75,16 @@ class ImageLines:
     image: np.ndarray | None = field(repr=False, default=None)
     stereo: StereoView | None = field(repr=False, default=None)
 
+    @property
+    def every_segment(self) -> np.ndarray:
+        """``segments`` then ``at_border``, ``(N + M, 4)`` float64."""
+        return np.concatenate(
+            [
+                np.asarray(self.segments, dtype=np.float64).reshape(-1, 4),
+                np.asarray(self.at_border, dtype=np.float64).reshape(-1, 4),
+            ]
+        )
+
     @cached_property
     def vertical_edges(self) -> VerticalEdges:
         """The image's vertical 3D lines placed by both images (:func:`vertical_edges`),
@@ -195,12 +205,11 @@ def parallel_segments(lines: ImageLines, v: np.ndarray) -> Segments | None:
     as likely the horizon or a far wall's foot as a nosing (one made a step beyond a
     landing on a default-profile render). A whole one there is kept: the nosings of a
     staircase whose top is at the cameras' height are such segments."""
-    whole = np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4)
-    border = np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4)
-    d0, d1, n, length, ok = segment_planes(lines, np.concatenate([whole, border]))
+    whole = len(np.asarray(lines.segments).reshape(-1, 4))
+    d0, d1, n, length, ok = segment_planes(lines, lines.every_segment)
     tol = np.sin(np.radians(_PARALLEL_DEG) + 2.0 / np.maximum(length, 1.0))
     ok &= np.abs(n @ v) < tol
-    ok[len(whole) :] &= np.abs(n[len(whole) :, 2]) < math.cos(math.radians(HORIZON_DEG))
+    ok[whole:] &= np.abs(n[whole:, 2]) < math.cos(math.radians(HORIZON_DEG))
     if not ok.any():
         return None
     return Segments(d0[ok], d1[ok], n[ok])
@@ -315,12 +324,7 @@ def vertical_edges(lines: ImageLines) -> VerticalEdges:
     beside it or the room behind (issue 11)."""
     empty = VerticalEdges(np.empty((0, 3)), np.empty((0, 3)))
     stereo = lines.stereo
-    seg = np.concatenate(
-        [
-            np.asarray(lines.segments, dtype=np.float64).reshape(-1, 4),
-            np.asarray(lines.at_border, dtype=np.float64).reshape(-1, 4),
-        ]
-    )
+    seg = lines.every_segment
     if stereo is None or not len(seg):
         return empty
     _, _, n, length, ok = segment_planes(lines, seg)
@@ -340,17 +344,6 @@ def vertical_edges(lines: ImageLines) -> VerticalEdges:
     lower_first = seg[:, 1] > seg[:, 3]  # image rows grow downwards: the foot is the lower end
     foot = np.where(lower_first[:, None], seg[:, :2], seg[:, 2:])
     top = np.where(lower_first[:, None], seg[:, 2:], seg[:, :2])
-    return VerticalEdges(_at_depth(lines, foot, depth), _at_depth(lines, top, depth))
-
-
-def _at_depth(lines: ImageLines, pixels: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """The terrain-frame points of ``pixels`` ``(N, 2)`` at camera ``depth`` ``(N,)``."""
-    X = np.column_stack(
-        [
-            (pixels[:, 0] - lines.cx) / lines.focal_px * depth,
-            (pixels[:, 1] - lines.cy) / lines.focal_px * depth,
-            depth,
-        ]
-    )
-    out: np.ndarray = X @ lines.T_frame_camera[:3, :3].T + lines.centre
-    return out
+    # the rays are scaled to unit camera depth: a point at depth z is z rays out
+    c = lines.centre
+    return VerticalEdges(c + depth[:, None] * lines.rays(foot), c + depth[:, None] * lines.rays(top))
