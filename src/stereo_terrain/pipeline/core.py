@@ -66,6 +66,7 @@ from .second_opinions import (
     redrawn_planes,
     rematch_kept,
     scene_up,
+    staircase_of_ends,
     staircase_of_lines,
     wants_rematch,
     whole_box,
@@ -274,6 +275,9 @@ class Pipeline:
             # opinion, the last: on wooden stairs whose other opinions were turned off it
             # put the staircase a riser's position off (tests/test_far_planes.py).
             result = staircase_of_lines(result, self.config)
+        # A staircase or a step: the staircase its risers' ends show, where it has more
+        # steps and holds a riser the planes measured (issue 11; TerrainConfig.ends_staircase).
+        result = staircase_of_ends(result, self.config)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 

@@ -37,7 +37,13 @@ from ..frames import Transform
 from ..gravity import angle_deg
 from ..planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation, noise_widened
 from ..swing import plan_swing
-from ..terrain import StairModel, build_terrain, estimate_step_sigmas, staircase_from_lines
+from ..terrain import (
+    StairModel,
+    build_terrain,
+    estimate_step_sigmas,
+    staircase_from_ends,
+    staircase_from_lines,
+)
 from ..terrain.model import BOX, NONE, STAIRS, TerrainConfig
 from .config import AGREEING_RISE_RATIO, PipelineConfig
 from .gravity_steps import origin_on_floor
@@ -239,11 +245,36 @@ def staircase_of_lines(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
         return kept
     t0 = time.perf_counter()
     found = staircase_from_lines(kept.planes, config.terrain, kept.image_lines)
+    return _with_staircase(kept, found, config, "lines_staircase", t0)
+
+
+def staircase_of_ends(kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """``kept``, or the staircase its risers' ends show where that holds one of ``kept``'s
+    measured risers and has more steps (:func:`~stereo_terrain.terrain.staircase_from_ends`,
+    ``TerrainConfig.ends_staircase``): asked last, of a result with a staircase or a step
+    whose floor is known. ``timing_ms["ends_staircase"]``: the time it took, where it ran."""
+    if (
+        kept.terrain.obstacle == NONE
+        or not config.terrain.ends_staircase
+        or not kept.floor_known
+        or kept.image_lines is None
+    ):
+        return kept
+    t0 = time.perf_counter()
+    found = staircase_from_ends(kept.terrain, kept.planes, config.terrain, kept.image_lines)
+    return _with_staircase(kept, found, config, "ends_staircase", t0)
+
+
+def _with_staircase(
+    kept: TerrainResult, found: StairModel | None, config: PipelineConfig, timing_key: str, t0: float
+) -> TerrainResult:
+    """``kept``, with ``found`` where there is one as its terrain (its steps' sigmas from
+    ``kept``'s planes, its swing plan); ``timing_ms[timing_key]``: the time since ``t0``."""
     result = kept
     if found is not None:
         terrain = _with_step_sigmas(found, kept.planes, kept, config)
         result = dataclasses.replace(kept, terrain=terrain, swing=plan_swing(terrain, config.swing))
-    result.timing_ms["lines_staircase"] = (time.perf_counter() - t0) * 1000.0
+    result.timing_ms[timing_key] = (time.perf_counter() - t0) * 1000.0
     return result
 
 

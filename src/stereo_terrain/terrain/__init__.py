@@ -20,13 +20,15 @@ rise and run), ``photometric`` (risers moved to where both rectified images of t
 faces agree) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
 first-step rules) -> ``build`` (:func:`build_terrain`, with the safety net for a step too tall to climb),
 ``from_lines`` (:func:`staircase_from_lines`: where no riser formed a plane, the staircase
-of the first riser the image's lines show);
+of the first riser the image's lines show), ``from_ends`` (:func:`staircase_from_ends`:
+the staircase its risers' ends show, where the chain counts fewer steps);
 ``sigmas`` (:func:`estimate_step_sigmas`) needs only ``model``.
 """
 
 from __future__ import annotations
 
 from .build import build_terrain
+from .from_ends import staircase_from_ends
 from .from_lines import staircase_from_lines
 from .model import BOX, NONE, STAIRS, Polytope, RiserMove, StairModel, Step, TerrainConfig
 from .nosings import ImageLines
@@ -46,5 +48,6 @@ __all__ = [
     "TerrainConfig",
     "build_terrain",
     "estimate_step_sigmas",
+    "staircase_from_ends",
     "staircase_from_lines",
 ]

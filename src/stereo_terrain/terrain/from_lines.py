@@ -46,8 +46,6 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
     m). Of the axes, the staircase with most steps."""
     samples = planes.samples
     P = samples.points.astype(np.float64)
-    horizontals = [s for s in planes.segments if s.kind == HORIZONTAL]
-    h_z = [float(median(P[h.indices, 2])) for h in horizontals]
     ground_z = 0.0
     # Not the photometric risers: a painted riser's two images have nothing to agree on.
     finishing = dataclasses.replace(config, photometric_risers=False)
@@ -59,10 +57,8 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
         if segs is None:
             continue
         s_all, v_all = P @ u, P @ v
-        s_h = [s_all[h.indices] for h in horizontals]
-        v_h = [v_all[h.indices] for h in horizontals]
-        h_info = list(zip(horizontals, h_z, s_h, v_h, strict=True))
-        ground = (h_z, s_h, v_h, ground_z)
+        h_info = horizontal_info(planes, P, u, v)
+        ground = ([h[1] for h in h_info], [h[2] for h in h_info], [h[3] for h in h_info], ground_z)
         feet: dict[float, list[FirstRiser]] = {}
         for first in first_risers(lines, segs, u, v, ground_z, config):
             feet.setdefault(first.axis_position_m, []).append(first)
@@ -102,6 +98,18 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
                     best = along
             break  # the first riser's foot: the staircase is its or none
     return best
+
+
+def horizontal_info(planes: PlaneSet, P: np.ndarray, u: np.ndarray, v: np.ndarray) -> list:
+    """Each horizontal plane of ``planes`` with its height (its inliers' median) and its
+    inliers' positions along the stair axis ``u`` and across it ``v`` (``P``: the samples'
+    points), as a chain carries them (``_Chain.h_info``)."""
+    out = []
+    for h in planes.segments:
+        if h.kind == HORIZONTAL:
+            Q = P[h.indices]
+            out.append((h, float(median(Q[:, 2])), Q @ u, Q @ v))
+    return out
 
 
 def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:

@@ -160,6 +160,13 @@ class TerrainConfig:
         vertical edges a rise tall, about a run apart, that both images place
         (:func:`~stereo_terrain.terrain.nosings.end_steps`). Default true (issue 11:
         painted stairs seen at an angle, whose faces and nosings the matcher cannot hold).
+    ends_staircase : bool
+        Where the frame's result is a staircase or a step, the floor is known and the
+        pipeline has the image's line segments: the staircase whose risers' ends both
+        images place, one side of it showing three steps' ends or more from the floor up
+        on one pitch, where it holds a riser the planes measured and has more steps
+        (:func:`~.from_ends.staircase_from_ends`, asked by the pipeline last). Default true
+        (issue 11: painted stairs whose chain of riser planes starts late or stops early).
     nosing_run_tolerance : float
         A nosing counts where the segments put it within this fraction of a step (along
         the staircase's pitch line) from where the median rise and run put it.
@@ -290,6 +297,7 @@ class TerrainConfig:
     nosing_pitch: bool = True
     max_nosing_steps: int = 4
     riser_end_steps: bool = True
+    ends_staircase: bool = True
     nosing_run_tolerance: float = 0.35
     nosing_min_cover: float = 0.4
     nosing_min_foot_cover: float = 0.25

@@ -1,0 +1,160 @@
+"""A staircase from its risers' ends alone (terrain/from_ends.py, TerrainConfig.ends_staircase,
+the pipeline's staircase_of_ends)."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.terrain import STAIRS, TerrainConfig
+from stereo_terrain.terrain.from_ends import MIN_SIDE_STEPS, ends_profile
+from stereo_terrain.terrain.nosings.view import VerticalEdges
+
+from .test_line_frame import _realistic
+
+CONFIG = TerrainConfig()
+
+
+def _staircase_ends(
+    n: int,
+    rise: float,
+    run: float,
+    first: float,
+    yaw: float,
+    sides=(-0.4, 0.5),
+    steps=None,
+    noise: float = 0.0,
+    seed: int = 0,
+) -> VerticalEdges:
+    """The ends of a straight staircase's risers (terrain frame, floor at z = 0): for each
+    step ``k`` (1 the first) in ``steps`` (all ``n`` by default) and each side's lateral
+    position in ``sides``, a vertical edge from ``(k - 1) * rise`` to ``k * rise`` at
+    ``first + (k - 1) * run`` along the axis ``yaw``; the segments' ends a little inside
+    the corners, and ``noise`` metres of it on each coordinate."""
+    rng = np.random.default_rng(seed)
+    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    foot, top = [], []
+    for k in steps or range(1, n + 1):
+        for b in sides:
+            base = (first + (k - 1) * run) * u + b * v
+            foot.append(base + [0.0, 0.0, (k - 1) * rise + 0.01])
+            top.append(base + [0.0, 0.0, k * rise - 0.005])
+    foot_a, top_a = np.array(foot), np.array(top)
+    if noise:
+        foot_a += rng.normal(0.0, noise, foot_a.shape)
+        top_a += rng.normal(0.0, noise, top_a.shape)
+    return VerticalEdges(foot_a, top_a)
+
+
+def _with(edges: VerticalEdges, more: VerticalEdges) -> VerticalEdges:
+    return VerticalEdges(np.concatenate([edges.foot, more.foot]), np.concatenate([edges.top, more.top]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(3, 7),
+    rise=st.floats(0.11, 0.22),
+    run=st.floats(0.22, 0.38),
+    first=st.floats(0.6, 2.2),
+    yaw_deg=st.floats(-45.0, 45.0),
+    both=st.booleans(),
+    seed=st.integers(0, 10_000),
+)
+def test_the_ends_give_the_staircase_its_pitch(n, rise, run, first, yaw_deg, both, seed):
+    sides = (-0.45, 0.55) if both else (0.55,)
+    edges = _staircase_ends(n, rise, run, first, math.radians(yaw_deg), sides, noise=0.005, seed=seed)
+    profile = ends_profile(edges, 0.0, CONFIG)
+    assert profile is not None
+    assert profile.steps == n
+    assert profile.seen == tuple(range(1, n + 1))
+    assert profile.rise_m == pytest.approx(rise, abs=0.01)
+    assert profile.run_m == pytest.approx(run, abs=0.02)
+    assert profile.first_m == pytest.approx(first, abs=0.03)
+    assert math.degrees(abs(math.remainder(profile.yaw_rad - math.radians(yaw_deg), 2 * math.pi))) < 3.0
+    if both:
+        assert profile.lateral[1] - profile.lateral[0] == pytest.approx(1.0, abs=0.05)
+
+
+def test_a_first_step_whose_ends_are_hidden_is_counted_below_the_others():
+    """The lowest riser's ends out of view (the image's bottom edge): the others' tops are
+    2, 3, ... rises above the floor, so the staircase has a step below them."""
+    edges = _staircase_ends(6, 0.2, 0.26, 0.95, 0.1, steps=[2, 3, 4, 5, 6])
+    profile = ends_profile(edges, 0.0, CONFIG)
+    assert profile is not None
+    assert profile.steps == 6
+    assert profile.seen == (2, 3, 4, 5, 6)
+    assert profile.first_m == pytest.approx(0.95, abs=0.01)
+
+
+@pytest.mark.parametrize(
+    "kind",
+    ["two steps a side", "scattered across", "too tall", "behind the cameras", "too far turned", "two below"],
+)
+def test_ends_that_are_no_staircase_side_make_none(kind):
+    """A side needs MIN_SIDE_STEPS steps' ends on one line along the axis; ends that fit a
+    pitch but stand across the room from each other (a plant pot's side, a chair's leg and
+    a shelf's corner, as in the real OAK-D living room) make none, nor door frames, nor
+    a pitch met from behind or beyond 60 deg, nor one missing two steps below its ends."""
+    rise, run = 0.18, 0.28
+    if kind == "two steps a side":
+        assert MIN_SIDE_STEPS == 3
+        edges = _staircase_ends(2, rise, run, 1.2, 0.0, sides=(-0.4, 0.5))
+    elif kind == "scattered across":
+        a = _staircase_ends(3, rise, run, 1.2, 0.0, sides=(0.2,), steps=[1, 2])
+        b = _staircase_ends(3, rise, run, 1.2, 0.0, sides=(0.95,), steps=[3])
+        edges = _with(a, b)
+    elif kind == "too tall":
+        edges = _staircase_ends(4, 0.6, run, 1.2, 0.0)
+    elif kind == "behind the cameras":
+        edges = _staircase_ends(4, rise, run, -1.5, 0.0)
+    elif kind == "too far turned":
+        edges = _staircase_ends(4, rise, run, 1.2, math.radians(75.0))
+    else:
+        edges = _staircase_ends(5, rise, run, 1.0, 0.0, steps=[3, 4, 5])
+    assert ends_profile(edges, 0.0, CONFIG) is None
+
+
+def test_clutter_beside_a_staircase_leaves_its_pitch():
+    """Vertical edges of a room around the staircase (random heights and places) do not
+    change its pitch."""
+    rng = np.random.default_rng(5)
+    stairs = _staircase_ends(5, 0.17, 0.29, 1.3, math.radians(20.0), sides=(0.5,))
+    base = np.column_stack([rng.uniform(0.5, 3.5, 25), rng.uniform(-2.0, 2.0, 25), rng.uniform(0.0, 1.5, 25)])
+    tall = rng.uniform(0.05, 0.4, 25)
+    clutter = VerticalEdges(base, base + np.column_stack([np.zeros(25), np.zeros(25), tall]))
+    profile = ends_profile(_with(stairs, clutter), 0.0, CONFIG)
+    assert profile is not None
+    assert profile.steps == 5
+    assert profile.rise_m == pytest.approx(0.17, abs=0.01)
+    assert profile.run_m == pytest.approx(0.29, abs=0.02)
+
+
+def test_no_edges_make_no_profile():
+    empty = VerticalEdges(np.empty((0, 3)), np.empty((0, 3)))
+    assert ends_profile(empty, 0.0, CONFIG) is None
+
+
+def test_a_painted_staircase_the_chain_starts_late_is_counted_by_its_ends():
+    """Realistic render 48 of seed 57 (six painted steps of 21.8 cm, seen head-on with its
+    rig): the matcher holds nothing on the faces and the chain of riser planes starts at the
+    fifth riser (two steps); both sides show the ends of risers 2 to 6, a centimetre from
+    their places."""
+    scene = _realistic(48, seed=57)
+    truth = [s["distance"] for s in scene.truth["steps"]]
+    assert len(truth) == 6
+    config = PipelineConfig()
+    result = Pipeline(scene.calibration, scene.rig, config, warm_up=False).run(scene.left, scene.right)
+    assert result.terrain.obstacle == STAIRS
+    assert len(result.terrain.steps) == 6
+    assert "risers' ends both images place" in result.terrain.note
+    assert [s.distance_m for s in result.terrain.steps] == pytest.approx(truth, abs=0.03)
+    assert [s.rise_m for s in result.terrain.steps] == pytest.approx([0.218] * 6, abs=0.01)
+    assert "ends_staircase" in result.timing_ms
+    off = dataclasses.replace(config, terrain=dataclasses.replace(config.terrain, ends_staircase=False))
+    before = Pipeline(scene.calibration, scene.rig, off, warm_up=False).run(scene.left, scene.right)
+    assert len(before.terrain.steps) == 2
