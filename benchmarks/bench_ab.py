@@ -40,6 +40,7 @@ import argparse
 import dataclasses
 import json
 import math
+import os
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -314,6 +315,8 @@ def main() -> None:
                 _fail(f"{path}: no such capture (write one with: bench_ab.py capture SET {path})")
         try:
             compare(args.before, args.after)
+        except BrokenPipeError:  # the reader left (``| head``): nothing more to print, no traceback
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as e:
             _fail(f"not a capture of bench_ab.py ({type(e).__name__}: {e}); capture both again")
 

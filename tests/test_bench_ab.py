@@ -108,3 +108,30 @@ def test_the_landings_set_draws_short_landings_ending_at_a_wall():
     planes = {p["name"]: p for p in scene.truth["planes"]}
     last = planes[f"riser_{stairs['n_steps']}"]["offset"]
     assert planes["back_wall"]["offset"] == pytest.approx(last + stairs["landing_m"], abs=0.01)
+
+
+def test_a_reader_that_leaves_early_gets_no_traceback(tmp_path):
+    """``compare ... | head`` : the reader closes the pipe after a line; the script stops
+    quietly (exit status 0, nothing on stderr) instead of a BrokenPipeError traceback."""
+    out = tmp_path / "lab.jsonl"
+    assert _run("capture", "lab:77:1", str(out)).returncode == 0
+    lines = [json.loads(x) for x in out.read_text().splitlines()]
+    many = [dict(x, key=f"{i} {x['mode']}") for i in range(2000) for x in lines]
+    gone = [dict(x, result=dict(x["result"], obstacle="none", steps=[])) for x in many]
+    before, after = tmp_path / "before.jsonl", tmp_path / "after.jsonl"
+    before.write_text("".join(json.dumps(x) + "\n" for x in many))
+    after.write_text("".join(json.dumps(x) + "\n" for x in gone))
+    proc = subprocess.Popen(
+        [sys.executable, str(SCRIPT), "compare", str(before), str(after)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    with proc.stdout, proc.stderr:
+        first = proc.stdout.readline()
+        proc.stdout.close()
+        err = proc.stderr.read().decode()
+        status = proc.wait(timeout=300)
+    assert first.startswith(b"| gravity from |")
+    assert status == 0, err
+    assert "Traceback" not in err
