@@ -9,9 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
-from stereo_terrain.terrain import STAIRS, TerrainConfig
-from stereo_terrain.terrain.from_ends import MIN_SIDE_STEPS, ends_profile
+from stereo_terrain.terrain import BOX, STAIRS, Polytope, StairModel, Step, TerrainConfig
+from stereo_terrain.terrain.from_ends import MIN_SIDE_STEPS, EndsProfile, _holds, ends_profile
 from stereo_terrain.terrain.nosings.view import VerticalEdges
 
 from .test_line_frame import _realistic
@@ -158,3 +159,46 @@ def test_a_painted_staircase_the_chain_starts_late_is_counted_by_its_ends():
     off = dataclasses.replace(config, terrain=dataclasses.replace(config.terrain, ends_staircase=False))
     before = Pipeline(scene.calibration, scene.rig, off, warm_up=False).run(scene.left, scene.right)
     assert len(before.terrain.steps) == 2
+
+
+def _kept(steps: list, yaw: float = 0.0) -> StairModel:
+    return StairModel(
+        STAIRS if len(steps) > 1 else BOX, tuple(steps), yaw, 0.0, Polytope(np.empty((0, 3))), "yaw", ""
+    )
+
+
+def _step(a: float, top: float, tread: bool, inferred: bool = False) -> Step:
+    u = np.array([1.0, 0.0, 0.0])
+    riser = Plane(-u, a)
+    return Step(
+        top,
+        None,
+        a,
+        1.0,
+        top,
+        a,
+        riser,
+        Plane(np.array([0.0, 0.0, 1.0]), -top) if tread else None,
+        rise_inferred=inferred,
+        position_inferred=inferred,
+    )
+
+
+@pytest.mark.parametrize(
+    ("a", "top", "tread", "inferred", "held"),
+    [
+        (1.38, 0.612, True, False, True),  # the third riser, its tread at 3 rises
+        (1.38, 0.556, True, False, False),  # a tread 5.6 cm low is another surface
+        (1.38, 0.556, False, False, True),  # a riser's top edge found low: its place alone
+        (1.25, 0.556, False, False, False),  # half a run off
+        (1.38, 0.612, True, True, False),  # an inferred step measured nothing
+        (2.40, 1.02, True, False, False),  # beyond the profile's last step
+    ],
+)
+def test_a_profile_holds_a_riser_the_planes_measured(a, top, tread, inferred, held):
+    """Realistic 57 scene 27's profile (three steps of 20.4 cm, 25.8 cm runs from 0.86 m)
+    and a result whose one riser is its third (``staircase_from_ends`` asks this)."""
+    profile = EndsProfile(0.0, 0.204, 0.258, 0.86, 3, (1, 2, 3), (-0.5, 0.6))
+    assert _holds(profile, _kept([_step(a, top, tread, inferred)]), 0.0) is held
+    turned = _kept([_step(a, top, tread, inferred)], yaw=math.radians(15.0))
+    assert _holds(profile, turned, 0.0) is False

@@ -83,7 +83,9 @@ _MIN_FIRST_M = 0.3
 
 #: A riser the planes measured lies on the profile where it is within this along the axis
 #: (metres) and its top within ``_KEPT_TOP_M`` of its step's height, the two axes within
-#: ``_KEPT_YAW_DEG``.
+#: ``_KEPT_YAW_DEG``; a riser whose top no tread measured (its riser plane's top edge,
+#: found low: realistic 57 scene 27's third riser, 5.6 cm under its nosing) by its
+#: place alone.
 _KEPT_ALONG_M = 0.10
 _KEPT_TOP_M = 0.05
 _KEPT_YAW_DEG = 10.0
@@ -308,16 +310,20 @@ def staircase_from_ends(
 
 def _holds(profile: EndsProfile, kept: StairModel, ground_z: float) -> bool:
     """Whether one of ``kept``'s risers that the planes measured lies on ``profile`` (the
-    floor at ``ground_z``)."""
+    floor at ``ground_z``; ``_KEPT_ALONG_M``)."""
     turn = abs(math.remainder(profile.yaw_rad - kept.yaw_rad, 2.0 * math.pi))
     if math.degrees(turn) > _KEPT_YAW_DEG:
         return False
     for s in kept.steps:
         if s.rise_inferred or s.position_inferred:
             continue
-        k = round((s.top_z_m - ground_z) / profile.rise_m)
+        if s.tread is None:  # its top is its riser's top edge, found low: its place alone
+            k = round((s.axis_position_m - profile.first_m) / profile.run_m) + 1
+            on_height = True
+        else:
+            k = round((s.top_z_m - ground_z) / profile.rise_m)
+            on_height = abs(s.top_z_m - ground_z - k * profile.rise_m) <= _KEPT_TOP_M
         a_k = profile.first_m + (k - 1) * profile.run_m
-        on_height = abs(s.top_z_m - ground_z - k * profile.rise_m) <= _KEPT_TOP_M
         if 1 <= k <= profile.steps and on_height and abs(s.axis_position_m - a_k) <= _KEPT_ALONG_M:
             return True
     return False
