@@ -476,6 +476,18 @@ class _Chain:
     continued: int
 
 
+def horizontal_info(planes: PlaneSet, P: np.ndarray, u: np.ndarray, v: np.ndarray) -> list:
+    """Each horizontal plane of ``planes`` with its height (its inliers' median) and its
+    inliers' positions along the stair axis ``u`` and across it ``v`` (``P``: the samples'
+    points), as a chain carries them (``_Chain.h_info``)."""
+    out = []
+    for h in planes.segments:
+        if h.kind == HORIZONTAL:
+            Q = P[h.indices]
+            out.append((h, float(median(Q[:, 2])), Q @ u, Q @ v))
+    return out
+
+
 def _finish(
     chain: _Chain, config: TerrainConfig, lines: ImageLines | None = None, *, origin: str | None = None
 ) -> StairModel:

@@ -38,12 +38,11 @@ import numpy as np
 
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .assemble import _Chain, _finish
-from .from_lines import horizontal_info
+from .assemble import _Chain, _finish, horizontal_info
 from .model import NONE, STAIRS, StairModel, Step, TerrainConfig
 from .nosings import ImageLines
 from .nosings.view import VerticalEdges
-from .risers import _Riser, riser_distance
+from .risers import face_riser, riser_distance
 
 #: The rises searched (metres): ordinary stairs' (building codes allow 10-22 cm; older
 #: stairs reach 25).
@@ -280,11 +279,8 @@ def staircase_from_ends(
             )
         )
         if not inferred:
-            # the samples on its face (few or none on a painted riser)
-            on_face = (np.abs(s_all - a) < config.merge_distance_m) & (v_all > lo) & (v_all < hi)
             foot = top - profile.rise_m
-            on_face &= (P[:, 2] > foot) & (P[:, 2] < top)
-            ordered.append(_Riser(plane, np.flatnonzero(on_face), a, foot, top, lo, hi, False))
+            ordered.append(face_riser(P, s_all, v_all, plane, a, foot, top, lateral, config.merge_distance_m))
     below = profile.seen[0] - 1
     chain = _Chain(
         planes,

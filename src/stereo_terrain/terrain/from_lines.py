@@ -14,14 +14,13 @@ import math
 
 import numpy as np
 
-from .._numeric import median
 from ..msac import Plane
-from ..planes.orientation import HORIZONTAL, PlaneSet
-from .assemble import _Chain, _finish, _samples_at
+from ..planes.orientation import PlaneSet
+from .assemble import _Chain, _finish, _samples_at, horizontal_info
 from .model import STAIRS, StairModel, Step, TerrainConfig
 from .nosings import FirstRiser, ImageLines, first_risers, line_axes
 from .nosings.view import parallel_segments
-from .risers import _Riser, riser_distance
+from .risers import face_riser, riser_distance
 
 #: The fewest steps a staircase from the lines must have: a lone pair of edges, or two, is
 #: any box's or shelf's.
@@ -70,16 +69,12 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
             if _ground_holds(ground, (s_lo, a0 + config.continue_min_run_m), lateral, config):
                 continue  # the floor goes on just beyond it: a line on the floor (no chain needed)
             plane = Plane(-u, a0)  # vertical, facing the robot, u . x = a0
-            # the samples on its face, within merge_distance_m of it (few or none on a painted riser)
-            on_face = (
-                (np.abs(s_all - a0) < config.merge_distance_m) & (v_all > lateral[0]) & (v_all < lateral[1])
-            )
-            on_face &= P[:, 2] > ground_z
             models = []
             for first in over:
                 top = first.top_z_m
-                idx = np.flatnonzero(on_face & (P[:, 2] < top))
-                riser = _Riser(plane, idx, a0, ground_z, top, lateral[0], lateral[1], False)
+                riser = face_riser(
+                    P, s_all, v_all, plane, a0, ground_z, top, lateral, config.merge_distance_m
+                )
                 width = lateral[1] - lateral[0]
                 step = Step(top - ground_z, None, riser_distance(plane, a0, u), width, top, a0, plane)
                 chain = _Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
@@ -98,18 +93,6 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
                     best = along
             break  # the first riser's foot: the staircase is its or none
     return best
-
-
-def horizontal_info(planes: PlaneSet, P: np.ndarray, u: np.ndarray, v: np.ndarray) -> list:
-    """Each horizontal plane of ``planes`` with its height (its inliers' median) and its
-    inliers' positions along the stair axis ``u`` and across it ``v`` (``P``: the samples'
-    points), as a chain carries them (``_Chain.h_info``)."""
-    out = []
-    for h in planes.segments:
-        if h.kind == HORIZONTAL:
-            Q = P[h.indices]
-            out.append((h, float(median(Q[:, 2])), Q @ u, Q @ v))
-    return out
 
 
 def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:

@@ -31,6 +31,26 @@ class _Riser:
     in_wall: bool = False  # the part of a taller plane in line with a wall (_riser_beside_wall)
 
 
+def face_riser(
+    P: np.ndarray,
+    along: np.ndarray,
+    across: np.ndarray,
+    plane: Plane,
+    a: float,
+    z_lo: float,
+    z_hi: float,
+    lateral: tuple[float, float],
+    merge_distance_m: float,
+) -> _Riser:
+    """A riser that formed no plane of its own, placed at ``a`` along the stair axis
+    (``plane``), from ``z_lo`` to ``z_hi`` and across ``lateral``: its inliers are the
+    samples ``P`` on its face (``along``, ``across``: their positions along the axis and
+    across it), within ``merge_distance_m`` of it (few or none on a painted riser)."""
+    on_face = (np.abs(along - a) < merge_distance_m) & (across > lateral[0]) & (across < lateral[1])
+    on_face &= (P[:, 2] > z_lo) & (P[:, 2] < z_hi)
+    return _Riser(plane, np.flatnonzero(on_face), a, z_lo, z_hi, lateral[0], lateral[1], False)
+
+
 def _riser_edges(
     P: np.ndarray, plane: Plane, v: np.ndarray, v_lo: float, v_hi: float, *, thr: float, seed_z: float
 ) -> tuple[float, float] | None:
