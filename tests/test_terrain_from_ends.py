@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from stereo_terrain.msac import Plane
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.terrain import BOX, STAIRS, Polytope, StairModel, Step, TerrainConfig
-from stereo_terrain.terrain.from_ends import MIN_SIDE_STEPS, EndsProfile, _holds, ends_profile
+from stereo_terrain.terrain.from_ends import MIN_SIDE_STEPS, EndsProfile, _holds, _mends_rises, ends_profile
 from stereo_terrain.terrain.nosings.view import VerticalEdges
 
 from .test_line_frame import _realistic
@@ -202,3 +202,67 @@ def test_a_profile_holds_a_riser_the_planes_measured(a, top, tread, inferred, he
     assert _holds(profile, _kept([_step(a, top, tread, inferred)]), 0.0) is held
     turned = _kept([_step(a, top, tread, inferred)], yaw=math.radians(15.0))
     assert _holds(profile, turned, 0.0) is False
+
+
+def _measured_steps(tops: list[float], reported: float, first: float = 1.0, run: float = 0.28) -> list[Step]:
+    """A result's steps whose treads measured ``tops`` (m above the floor), each riser a
+    ``run`` on from ``first``, all reporting the common rise ``reported``."""
+    u = np.array([1.0, 0.0, 0.0])
+    steps, below = [], 0.0
+    for k, top in enumerate(tops):
+        a = first + k * run
+        steps.append(
+            Step(
+                reported,
+                run,
+                a,
+                1.0,
+                top,
+                a,
+                Plane(-u, a),
+                Plane(np.array([0.0, 0.0, 1.0]), -top),
+                measured_rise_m=top - below,
+            )
+        )
+        below = top
+    return steps
+
+
+@pytest.mark.parametrize(
+    ("tops", "reported", "ends_rise", "first", "mended"),
+    [
+        # realistic 57 scene 23 without a rig: measured rises 14.5 and 17.9 cm disagree,
+        # the reported 15.9 is 2.2 cm off the ends' 18.1 (truth 18.6)
+        ([0.145, 0.324, 0.505], 0.159, 0.181, 1.0, True),
+        # the treads lie on the ends' pitch; only the reported rise (from elsewhere) is off
+        ([0.18, 0.365, 0.545], 0.155, 0.181, 1.0, True),
+        # treads that agree with each other at 17 cm, ends at 15.3 (a side wall's): kept
+        ([0.17, 0.34, 0.51], 0.17, 0.153, 1.0, False),
+        # rises within 2 cm of the ends': nothing to mend
+        ([0.145, 0.324, 0.505], 0.168, 0.181, 1.0, False),
+        # the profile starts a riser away from the result's first
+        ([0.145, 0.324, 0.505], 0.159, 0.181, 1.28, False),
+    ],
+)
+def test_a_profile_of_as_many_steps_mends_rises_the_treads_do_not_hold(
+    tops, reported, ends_rise, first, mended
+):
+    """``staircase_from_ends`` keeps a profile of as many steps as the result where it
+    mends the result's rises (``_mends_rises``)."""
+    profile = EndsProfile(0.0, ends_rise, 0.28, first, 3, (1, 2, 3), (-0.5, 0.5))
+    assert _mends_rises(profile, _kept(_measured_steps(tops, reported)), 0.0, CONFIG) is mended
+
+
+def test_a_staircase_whose_rises_its_treads_do_not_agree_on_takes_the_ends_rise():
+    """Realistic render 43 of seed 23 (six steps of 20.4 cm, with its rig): the chain's
+    measured rises are 24.6, 20.0 and 19.3 cm; the ends of its risers give the staircase's
+    rise to half a centimetre, for as many steps from the same first riser."""
+    scene = _realistic(43, seed=23)
+    truth = [s["rise"] for s in scene.truth["steps"]]
+    assert len(truth) == 6
+    result = Pipeline(scene.calibration, scene.rig, PipelineConfig(), warm_up=False).run(
+        scene.left, scene.right
+    )
+    assert result.terrain.obstacle == STAIRS
+    assert "risers' ends both images place" in result.terrain.note
+    assert [s.rise_m for s in result.terrain.steps] == pytest.approx(truth, abs=0.01)

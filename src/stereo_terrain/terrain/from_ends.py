@@ -25,7 +25,9 @@ the real OAK-D living room four of them fit a three-step pitch, scattered across
 those on one line along the axis never did. The profile is taken only where it also
 holds a riser the planes measured (:func:`staircase_from_ends`): the pipeline asks it
 last, of a frame whose result already has a staircase or a step, and keeps it only where
-it has more steps (docs/benchmarks.md, "Forty-third session").
+it has more steps (docs/benchmarks.md, "Forty-third session"), or as many from the same
+first riser where the result's rises are off and its own treads do not agree on them
+("Forty-fourth session").
 """
 
 from __future__ import annotations
@@ -87,6 +89,16 @@ _MIN_FIRST_M = 0.3
 #: place alone.
 _KEPT_ALONG_M = 0.10
 _KEPT_TOP_M = 0.05
+
+#: A profile of as many steps as the result, from its first riser (``_KEPT_ALONG_M``),
+#: mends its rises where one of them is this far (metres) or more off the profile's
+#: (:func:`_mends_rises`) ...
+_RISE_OFF_M = 0.02
+
+#: ... and either every top a tread measured lies within this (metres) of its step's
+#: height on the profile, or the result's own measured rises spread more than
+#: ``TerrainConfig.common_rise_tolerance_m``.
+_MENDED_TOP_M = 0.025
 _KEPT_YAW_DEG = 10.0
 
 #: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
@@ -238,7 +250,8 @@ def staircase_from_ends(
 ) -> StairModel | None:
     """The staircase of the risers' ends (:func:`ends_profile`), finished as a chain is
     (the nosings beyond, the common rise, the polytope, the note), where it holds a riser
-    of ``kept`` that the planes measured and has more steps than ``kept``; else None. The
+    of ``kept`` that the planes measured and has more steps than ``kept``, or as many and
+    better rises (:func:`_mends_rises`); else None. The
     frame's origin is on the floor (``floor_known``); ``planes``: ``kept``'s (their
     samples, in the same frame).
 
@@ -247,7 +260,10 @@ def staircase_from_ends(
         return None
     ground_z = 0.0
     profile = ends_profile(lines.vertical_edges, ground_z, config)
-    if profile is None or profile.steps <= len(kept.steps) or not _holds(profile, kept, ground_z):
+    if profile is None or profile.steps < len(kept.steps) or not _holds(profile, kept, ground_z):
+        return None
+    as_many = profile.steps == len(kept.steps)
+    if as_many and not _mends_rises(profile, kept, ground_z, config):
         return None
     u = np.array([math.cos(profile.yaw_rad), math.sin(profile.yaw_rad), 0.0])
     v = np.array([-u[1], u[0], 0.0])
@@ -299,7 +315,9 @@ def staircase_from_ends(
     # nor the ends again.
     finishing = dataclasses.replace(config, photometric_risers=False, riser_end_steps=False)
     model = _finish(chain, finishing, lines, origin=ORIGIN)
-    if model.obstacle != STAIRS or len(model.steps) <= len(kept.steps):
+    if model.obstacle != STAIRS or len(model.steps) < len(kept.steps):
+        return None
+    if len(model.steps) == len(kept.steps) and not as_many:
         return None
     return model
 
@@ -323,3 +341,29 @@ def _holds(profile: EndsProfile, kept: StairModel, ground_z: float) -> bool:
         if 1 <= k <= profile.steps and on_height and abs(s.axis_position_m - a_k) <= _KEPT_ALONG_M:
             return True
     return False
+
+
+def _mends_rises(profile: EndsProfile, kept: StairModel, ground_z: float, config: TerrainConfig) -> bool:
+    """Whether ``profile``, of as many steps as ``kept``, gives ``kept`` better rises: it
+    starts at ``kept``'s first riser (within ``_KEPT_ALONG_M``), one of ``kept``'s
+    rises is ``_RISE_OFF_M`` or more off its rise, and ``kept``'s own measure is the weaker:
+    its measured rises disagree among themselves (by more than
+    ``config.common_rise_tolerance_m``), or every top a tread measured lies on the
+    profile (within ``_MENDED_TOP_M``), so that only the rise ``kept`` reports is off.
+
+    Where ``kept``'s treads agree with each other and not with the profile, they are the
+    better measure: a staircase along a side wall, whose risers' ends against the wall
+    gave a rise of 15.3 cm for 17 (tests/test_terrain.py), where the treads measured it
+    within 1.5."""
+    if abs(kept.steps[0].axis_position_m - profile.first_m) > _KEPT_ALONG_M:
+        return False
+    if max(abs(s.rise_m - profile.rise_m) for s in kept.steps) < _RISE_OFF_M:
+        return False
+    own = [s.own_rise_m for s in kept.steps if not s.rise_inferred]
+    if len(own) >= 2 and max(own) - min(own) > config.common_rise_tolerance_m:
+        return True
+    return all(
+        abs(s.top_z_m - ground_z - k * profile.rise_m) <= _MENDED_TOP_M
+        for k, s in enumerate(kept.steps, start=1)
+        if not s.rise_inferred and s.tread is not None
+    )

@@ -164,7 +164,9 @@ class TerrainConfig:
         Where the frame's result is a staircase or a step, the floor is known and the
         pipeline has the image's line segments: the staircase whose risers' ends both
         images place, one side of it showing three steps' ends or more from the floor up
-        on one pitch, where it holds a riser the planes measured and has more steps
+        on one pitch, where it holds a riser the planes measured and has more steps, or as
+        many from the same first riser with better rises (the result's off by 2 cm or more,
+        its own treads disagreeing among themselves or lying on the ends' pitch)
         (:func:`~.from_ends.staircase_from_ends`, asked by the pipeline last). Default true
         (issue 11: painted stairs whose chain of riser planes starts late or stops early).
     nosing_run_tolerance : float
