@@ -3,15 +3,20 @@ riser the image's lines show (``--step lines``, the default; ``TerrainConfig.lin
 :func:`stereo_terrain.terrain.staircase_from_lines`, where every pass found nothing and the
 floor is known), or that of the risers' ends (``--step ends``;
 ``TerrainConfig.ends_staircase``, :func:`stereo_terrain.terrain.staircase_from_ends`, where
-the result is a staircase or a step and the floor is known). Results are recorded in
-docs/benchmarks.md ("Forty-first session", "Forty-third session"); their accuracy is
-``bench_ab.py``'s (the same draws with and without them).
+the result is a staircase or a step and the floor is known), or, without a rig, that of
+the staircase found again with the floor a rise lower (``--step floor``;
+``PipelineConfig.floor_a_step_below``, where the result is a staircase standing on its
+"floor"; the frames it ran in are those where it looked for the first riser's samples
+under that floor). Results are recorded in docs/benchmarks.md ("Forty-first session",
+"Forty-third session", "Forty-fourth session"); their accuracy is ``bench_ab.py``'s (the
+same draws with and without them).
 
-    .venv/bin/python benchmarks/bench_lines_staircase.py [--seed 23] [--n 60] [--no-rig] [--step ends]
+    .venv/bin/python benchmarks/bench_lines_staircase.py [--seed 23] [--n 60] [--no-rig] [--step ends|floor]
 
 Runs the pipeline (default settings) on the realistic profile's draws and prints, over
 the frames where the step ran: how many, how many it found a staircase in, the step's time
-(``timing_ms["lines_staircase"]`` or ``timing_ms["ends_staircase"]``, ms, median / p90 /
+(``timing_ms["lines_staircase"]``, ``timing_ms["ends_staircase"]`` or
+``timing_ms["floor_below"]``, ms, median / p90 /
 max) and the whole frame's (median / p90), side by side in the same run.
 """
 
@@ -28,6 +33,7 @@ from stereo_terrain.synthetic import random_scene_spec, render_scene
 STEPS = {
     "lines": ("lines_staircase", "from the image's lines"),
     "ends": ("ends_staircase", "from the risers' ends both images place"),
+    "floor": ("floor_below", "(floor_a_step_below)"),
 }
 
 

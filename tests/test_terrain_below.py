@@ -1,4 +1,6 @@
-"""Steps below a chain that starts above a known floor (terrain/below.py, issue 11)."""
+"""Steps below a chain that starts above a known floor (terrain/below.py, issue 11), and
+without a rig the floor put a rise lower under a first tread taken for it (the pipeline's
+floor_a_step_below)."""
 
 import dataclasses
 
@@ -7,9 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
-from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain
+from stereo_terrain.frames import Transform
+from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, transform_planes
+from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain, samples_below_floor
 
+from .test_line_frame import _realistic
 from .test_terrain import _stairs
 
 
@@ -136,3 +141,60 @@ def test_off_without_steps_below():
     planes = _without(_stairs(n_steps=4), risers=[1.3])
     model = build_terrain(planes, TerrainConfig(max_steps_below_chain=0), floor_known=True)
     assert len(model.steps) == 3
+
+
+def _on_first_tread(planes: PlaneSet, rise: float) -> PlaneSet:
+    """``planes`` without the floor's and the first riser's planes (their samples stay, in
+    none), in a frame whose floor is the first tread: as a frame without a rig puts its
+    origin where the floor before the stairs formed no plane."""
+    first = min(s.plane.offset for s in planes.segments if s.kind == VERTICAL)
+    dropped = _without(planes, risers=[first])
+    shift = Transform.from_rt(np.eye(3), [0.0, 0.0, -rise], dropped.frame, dropped.frame)
+    return transform_planes(dropped, shift)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    n=st.integers(2, 5),
+    rise=st.floats(0.12, 0.21),
+    run=st.floats(0.24, 0.36),
+    yaw_deg=st.floats(-40.0, 40.0),
+    distance=st.floats(1.0, 1.8),
+)
+def test_a_first_tread_taken_for_the_floor_has_its_riser_under_it(n, rise, run, yaw_deg, distance):
+    """A floor has nothing under it; a first tread taken for the floor has its riser's
+    samples under it, in front of the chain (``samples_below_floor``), a riser's worth."""
+    config = TerrainConfig()
+    full = _stairs(n_steps=n, rise=rise, run=run, yaw=np.radians(yaw_deg), distance=distance)
+    model = build_terrain(full, config, floor_known=True)
+    assert len(model.steps) == n
+    assert samples_below_floor(full, model, config)[0] == 0
+    on_tread = _on_first_tread(full, rise)
+    late = build_terrain(on_tread, config, floor_known=True)
+    assert late.obstacle != "none" and len(late.steps) == n - 1
+    count, position = samples_below_floor(on_tread, late, config)
+    assert count >= config.min_riser_points
+    # the first riser's samples (and the floor's before it), a run or more in front of the chain
+    assert late.steps[0].axis_position_m - position >= config.min_run_m
+
+
+def test_without_a_rig_a_staircase_on_its_first_tread_is_found_again_a_rise_lower():
+    """Realistic render 54 of seed 41 without a rig (six steps of 19.5 cm, no floor plane
+    before them): the lowest horizontal plane is the first tread, and the chain counted
+    five steps from the second riser. The first riser's samples under that "floor" put
+    it a rise lower (``PipelineConfig.floor_a_step_below``): six steps, the first where
+    the truth has it."""
+    scene = _realistic(54, seed=41)
+    truth = scene.truth["steps"]
+    assert len(truth) == 6
+    config = PipelineConfig()
+    result = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
+    assert result.gravity_source == "scene"
+    assert "floor_a_step_below" in result.terrain.note and "floor_below" in result.timing_ms
+    assert len(result.terrain.steps) == 6
+    assert result.terrain.steps[0].distance_m == pytest.approx(truth[0]["distance"], abs=0.08)
+    assert [s.rise_m for s in result.terrain.steps] == pytest.approx([truth[0]["rise"]] * 6, abs=0.015)
+    off = dataclasses.replace(config, floor_a_step_below=False)
+    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
+    assert len(before.terrain.steps) == 5
+    assert "floor_below" not in before.timing_ms

@@ -216,6 +216,15 @@ class PipelineConfig:
         (issue 11; docs/benchmarks.md, "Thirty-seventh session": a denoised pass's far
         planes 13 deg off became 0.4 deg; 1 of 240 rendered runs and 2 of 187 real room
         runs changed).
+    floor_a_step_below : bool
+        Without a rig, where the frame's floor (the lowest large horizontal plane) is the
+        staircase's first tread: its first riser has ``terrain.min_riser_points`` samples
+        or more under that floor, in front of the chain. The terrain is found again with
+        the floor the first rise lower (with the floor known, as with a rig), and kept
+        where it has more steps, the first in front of the one before; the result keeps
+        that frame and its note says so (:func:`~.second_opinions.floor_a_step_below`;
+        ``timing_ms["floor_below"]``). Default true (issue 11: a level camera that sees
+        no floor before the stairs; docs/benchmarks.md, "Forty-fourth session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -264,6 +273,7 @@ class PipelineConfig:
     agreed_lone_step: bool = True  # issue 11
     whole_box: bool = True  # issue 11
     corroborated_frame: bool = True  # issue 11
+    floor_a_step_below: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

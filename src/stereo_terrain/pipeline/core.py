@@ -63,6 +63,7 @@ from .second_opinions import (
     corroborated_frame,
     corroborated_up,
     far_planes,
+    floor_a_step_below,
     redrawn_planes,
     rematch_kept,
     scene_up,
@@ -277,7 +278,16 @@ class Pipeline:
             result = staircase_of_lines(result, self.config)
         # A staircase or a step: the staircase its risers' ends show, where it has more
         # steps and holds a riser the planes measured (issue 11; TerrainConfig.ends_staircase).
-        result = staircase_of_ends(result, self.config)
+        ended = staircase_of_ends(result, self.config)
+        if len(ended.terrain.steps) <= len(result.terrain.steps):
+            # Without a rig, a staircase whose "floor" is its first tread: found again with
+            # the floor a rise lower, and its ends asked there (issue 11;
+            # PipelineConfig.floor_a_step_below). Not where the ends found more steps from
+            # the floor they were given: lowered, their heights would fit no pitch.
+            lowered = floor_a_step_below(result, self.config)
+            if lowered.terrain is not result.terrain:
+                ended = staircase_of_ends(lowered, self.config)
+        result = ended
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 

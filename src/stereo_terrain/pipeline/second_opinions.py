@@ -21,6 +21,10 @@ their results here:
   it;
 - :func:`staircase_of_lines`: last, where nothing was found and the floor is known, the
   staircase whose first riser the image's lines show (no riser formed a plane);
+- :func:`staircase_of_ends`: last of all, the staircase its risers' ends show;
+- :func:`floor_a_step_below`: without a rig, where those found no more steps, the
+  staircase found again with the floor a rise lower, where the "floor" it stands on is
+  its first tread (the ends then asked again, in that frame);
 - :func:`kept_staircase`: what every one of them asks of a staircase before it is kept.
 """
 
@@ -35,12 +39,20 @@ import numpy as np
 from ..cloud import GridSample, transform_sample
 from ..frames import Transform
 from ..gravity import angle_deg
-from ..planes.orientation import OrientationConfig, PlaneSet, extract_planes_orientation, noise_widened
+from ..planes.orientation import (
+    OrientationConfig,
+    PlaneSet,
+    extract_planes_orientation,
+    noise_widened,
+    transform_planes,
+)
 from ..swing import plan_swing
 from ..terrain import (
+    ImageLines,
     StairModel,
     build_terrain,
     estimate_step_sigmas,
+    samples_below_floor,
     staircase_from_ends,
     staircase_from_lines,
 )
@@ -252,7 +264,8 @@ def staircase_of_ends(kept: TerrainResult, config: PipelineConfig) -> TerrainRes
     """``kept``, or the staircase its risers' ends show where that holds one of ``kept``'s
     measured risers and has more steps (:func:`~stereo_terrain.terrain.staircase_from_ends`,
     ``TerrainConfig.ends_staircase``): asked last, of a result with a staircase or a step
-    whose floor is known. ``timing_ms["ends_staircase"]``: the time it took, where it ran."""
+    whose floor is known. ``timing_ms["ends_staircase"]``: the time it took, where it ran
+    (the sum, where it ran twice: :func:`floor_a_step_below`)."""
     if (
         kept.terrain.obstacle == NONE
         or not config.terrain.ends_staircase
@@ -274,7 +287,7 @@ def _with_staircase(
     if found is not None:
         terrain = _with_step_sigmas(found, kept.planes, kept, config)
         result = dataclasses.replace(kept, terrain=terrain, swing=plan_swing(terrain, config.swing))
-    result.timing_ms[timing_key] = (time.perf_counter() - t0) * 1000.0
+    result.timing_ms[timing_key] = result.timing_ms.get(timing_key, 0.0) + (time.perf_counter() - t0) * 1000.0
     return result
 
 
@@ -519,12 +532,7 @@ def _found_in_frame(
     up = np.array([0.0, 0.0, 1.0])  # the samples' frame is levelled
     planes = extract_planes_orientation(samples, plane_config, up=up, camera_position=samples.camera_position)
     planes, T, floor_known = origin_on_floor(planes, T_levelled, config.gravity.min_floor_drop_m)
-    lines = kept.image_lines
-    if lines is not None:  # the camera in the new frame
-        stereo = lines.stereo
-        if stereo is not None:
-            stereo = dataclasses.replace(stereo, T_frame_camera=T.matrix)
-        lines = dataclasses.replace(lines, T_frame_camera=T.matrix, stereo=stereo)
+    lines = _lines_in_frame(kept.image_lines, T)
     terrain = build_terrain(planes, config.terrain, floor_known=floor_known, lines=lines)
     if terrain.obstacle == NONE:
         return None
@@ -534,6 +542,80 @@ def _found_in_frame(
     return dataclasses.replace(
         kept, terrain=terrain, planes=planes, T_yaw_camera_rect=T, floor_known=floor_known, image_lines=lines
     )
+
+
+def _lines_in_frame(lines: ImageLines | None, T: Transform) -> ImageLines | None:
+    """``lines`` with the camera in the frame of ``T`` (``T_yaw_camera_rect``)."""
+    if lines is None:
+        return None
+    stereo = lines.stereo
+    if stereo is not None:
+        stereo = dataclasses.replace(stereo, T_frame_camera=T.matrix)
+    return dataclasses.replace(lines, T_frame_camera=T.matrix, stereo=stereo)
+
+
+def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
+    """Without a rig: ``kept``, or its planes' terrain found again with the floor a rise
+    lower, where the floor its frame stands on is its staircase's first tread
+    (``PipelineConfig.floor_a_step_below``).
+
+    Without a rig the floor is the lowest large horizontal plane
+    (:func:`~.gravity_steps.origin_on_floor`); where the floor before the stairs formed
+    none (a level camera sees a strip of it, or none), that is the first tread, and the
+    chain counts the steps from the second riser on, their rises from the wrong floor.
+    Asked of a staircase whose first riser stands on that floor (its rise measured: a
+    first riser whose foot is out of view stands on no floor seen).
+    The first riser shows under that "floor": ``terrain.min_riser_points`` samples or
+    more (a riser's worth) in front of the chain, a run (``terrain.min_run_m``) or more
+    in front of its first riser (:func:`~stereo_terrain.terrain.samples_below_floor`;
+    where the floor is the floor, the strays under it lie at the chain's first riser, or
+    spread). The frame's floor is then put the staircase's first rise lower and the
+    terrain found again, there with the floor known: the steps between it and the chain
+    are placed as with a rig (:mod:`stereo_terrain.terrain.below`). Kept where that finds
+    more steps, the first of them in front of ``kept``'s first riser by
+    ``terrain.merge_distance_m`` to ``terrain.continue_max_run_m``; the result keeps the
+    lowered frame and its note says so. ``timing_ms["floor_below"]``: the time it took,
+    where it ran."""
+    terrain = kept.terrain
+    if (
+        not config.floor_a_step_below
+        or kept.gravity_source == "rig"
+        or not kept.floor_known
+        or terrain.obstacle != STAIRS
+        or terrain.steps[0].rise_inferred
+    ):
+        return kept
+    t0 = time.perf_counter()
+    result = kept
+    tc = config.terrain
+    under, position = samples_below_floor(kept.planes, terrain, tc)
+    if under >= tc.min_riser_points and terrain.steps[0].axis_position_m - position >= tc.min_run_m:
+        rise = terrain.steps[0].rise_m
+        shift = Transform.from_rt(np.eye(3), [0.0, 0.0, rise], "yaw", "yaw")
+        planes = transform_planes(kept.planes, shift)
+        T = shift @ kept.T_yaw_camera_rect
+        lines = _lines_in_frame(kept.image_lines, T)
+        lowered = build_terrain(planes, config.terrain, floor_known=True, lines=lines)
+        ahead = terrain.steps[0].axis_position_m - (
+            lowered.steps[0].axis_position_m if lowered.steps else 0.0
+        )
+        if (
+            lowered.obstacle == STAIRS
+            and len(lowered.steps) > len(terrain.steps)
+            and tc.merge_distance_m <= ahead <= tc.continue_max_run_m
+        ):
+            why = (
+                f"the floor put {100.0 * rise:.1f} cm lower (the first rise): the lowest horizontal "
+                f"plane is the first tread, {under} samples of the first riser under it (floor_a_step_below)"
+            )
+            lowered = dataclasses.replace(lowered, note=f"{lowered.note}; {why}")
+            lowered = _with_step_sigmas(lowered, planes, kept, config)
+            swing = plan_swing(lowered, config.swing)
+            result = dataclasses.replace(
+                kept, terrain=lowered, swing=swing, planes=planes, T_yaw_camera_rect=T, image_lines=lines
+            )
+    result.timing_ms["floor_below"] = (time.perf_counter() - t0) * 1000.0
+    return result
 
 
 def scene_up(result: TerrainResult) -> tuple[np.ndarray, float] | None:

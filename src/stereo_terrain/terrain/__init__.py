@@ -14,7 +14,8 @@ Package layout (data flows one way, each module imports only those before it):
 ``_kernels`` (compiled inner loop of the riser edges, Numba) -> ``risers`` (riser
 candidates and their edges) -> ``polytope`` (box or stairs, the polytope's vertices),
 ``continuation`` (steps beyond the last riser plane) -> ``below`` (steps between a known
-floor and a chain that starts above it), ``nosings`` (steps beyond those
+floor and a chain that starts above it, and the samples under a floor that is a first
+tread), ``nosings`` (steps beyond those
 whose nosings the image's line segments show), ``uniform`` (the staircase's common
 rise and run), ``photometric`` (risers moved to where both rectified images of their
 faces agree) -> ``assemble`` (stair-axis families, the ground, the chain of steps and the
@@ -27,6 +28,7 @@ the staircase its risers' ends show, where the chain counts fewer steps);
 
 from __future__ import annotations
 
+from .below import samples_below_floor
 from .build import build_terrain
 from .from_ends import staircase_from_ends
 from .from_lines import staircase_from_lines
@@ -48,6 +50,7 @@ __all__ = [
     "TerrainConfig",
     "build_terrain",
     "estimate_step_sigmas",
+    "samples_below_floor",
     "staircase_from_ends",
     "staircase_from_lines",
 ]

@@ -19,6 +19,13 @@ and, for a second step below, a run before that. The steps' rises split the heig
 must be a whole number of them within ``chain_tolerance_m``. Nothing is added where the
 position is not seen: a step reported a run away from where it is would be worse than the
 one reported late.
+
+Without a rig the floor is the lowest large horizontal plane the scene shows
+(``pipeline.gravity_steps.origin_on_floor``); where the floor before the stairs formed no
+plane, that is the first tread, and nothing tells the chain it starts a step up.
+:func:`samples_below_floor` counts what does: the first riser's samples, below that
+"floor" and in front of the chain (``pipeline.second_opinions.floor_a_step_below``
+then puts the floor a rise lower and builds the terrain again).
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ from .._numeric import median
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
 from .continuation import free_samples, riser_band
-from .model import TerrainConfig
+from .model import StairModel, TerrainConfig
 from .risers import _Riser, _tread_front
 
 #: A link of the chain of steps: (riser candidate or None, top height, riser plane, tread
@@ -126,3 +133,28 @@ def _front(
     heights = (ground_z - step_rise, ground_z)
     found = riser_band(free, s_all, v_all, z_all, thr, samples, (lo, hi), heights, step_rise, lateral, config)
     return None if found is None else found[1]
+
+
+def samples_below_floor(planes: PlaneSet, model: StairModel, config: TerrainConfig) -> tuple[int, float]:
+    """The samples of ``planes`` (their frame's floor at height 0) that lie under the
+    floor, in front of ``model``'s first riser, across its extent (its polytope's): how
+    many, and their median position along the stair axis (NaN where none). Under: more
+    than ``edge_margin_m`` below the floor and less than the first rise and
+    ``edge_margin_m`` below; in front: from ``merge_distance_m`` to ``continue_max_run_m``
+    before the riser. A floor has nothing under it but the matcher's strays; a first
+    tread taken for it has its riser there, a run in front of the chain."""
+    if not model.steps or not model.polytope.vertices.size:
+        return 0, float("nan")
+    P = planes.samples.points.astype(np.float64)
+    u = np.array([np.cos(model.yaw_rad), np.sin(model.yaw_rad), 0.0])
+    v = np.array([-u[1], u[0], 0.0])
+    across = model.polytope.vertices @ v
+    first = model.steps[0]
+    along = P @ u
+    ahead = first.axis_position_m - along
+    w, z = P @ v, P[:, 2]
+    under = (z < -config.edge_margin_m) & (z > -first.rise_m - config.edge_margin_m)
+    under &= (ahead > config.merge_distance_m) & (ahead < config.continue_max_run_m)
+    under &= (w >= across.min()) & (w <= across.max())
+    count = int(np.count_nonzero(under))
+    return count, float(median(along[under])) if count else float("nan")
