@@ -12,7 +12,13 @@ from hypothesis import strategies as st
 from stereo_terrain.frames import Transform
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSet, transform_planes
-from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain, samples_below_floor
+from stereo_terrain.terrain import (
+    STAIRS,
+    TerrainConfig,
+    build_terrain,
+    floor_to_view_bottom,
+    samples_below_floor,
+)
 
 from .test_line_frame import _realistic
 from .test_terrain import _stairs
@@ -198,3 +204,24 @@ def test_without_a_rig_a_staircase_on_its_first_tread_is_found_again_a_rise_lowe
     before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
     assert len(before.terrain.steps) == 5
     assert "floor_below" not in before.timing_ms
+
+
+def _rows_by_height(planes: PlaneSet) -> PlaneSet:
+    """``planes`` with each sample's image row from its height (a level camera above the
+    floor: lower is further down the image, 5 px grid rows)."""
+    z = planes.samples.points[:, 2]
+    rows = (5 * np.round((400.0 - 300.0 * z) / 5)).astype(np.int32)
+    return dataclasses.replace(planes, samples=dataclasses.replace(planes.samples, rows=rows))
+
+
+@settings(max_examples=15, deadline=None)
+@given(n=st.integers(2, 5), rise=st.floats(0.12, 0.21), yaw_deg=st.floats(-40.0, 40.0))
+def test_a_floor_runs_to_the_view_bottom_a_first_tread_ends_above_its_riser(n, rise, yaw_deg):
+    """``floor_to_view_bottom``: the floor under the cameras is the lowest thing in view; a
+    first tread taken for it has its riser on the image rows below it."""
+    config = TerrainConfig()
+    full = _rows_by_height(_stairs(n_steps=n, rise=rise, yaw=np.radians(yaw_deg)))
+    assert floor_to_view_bottom(full, config)
+    assert not floor_to_view_bottom(_on_first_tread(full, rise), config)
+    no_floor = _without(full)  # no floor plane at all: nothing runs to the bottom
+    assert not floor_to_view_bottom(no_floor, config)

@@ -219,7 +219,9 @@ class PipelineConfig:
     floor_a_step_below : bool
         Without a rig, where the frame's floor (the lowest large horizontal plane) is the
         staircase's first tread: its first riser has ``terrain.min_riser_points`` samples
-        or more under that floor, in front of the chain. The terrain is found again with
+        or more under that floor, a run or more in front of the chain, and that floor
+        does not run to the view's bottom (a floor that does is the one under the
+        cameras). The terrain is found again with
         the floor the first rise lower (with the floor known, as with a rig), and kept
         where it has more steps, the first in front of the one before; the result keeps
         that frame and its note says so (:func:`~.second_opinions.floor_a_step_below`;

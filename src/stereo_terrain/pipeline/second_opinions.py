@@ -52,6 +52,7 @@ from ..terrain import (
     StairModel,
     build_terrain,
     estimate_step_sigmas,
+    floor_to_view_bottom,
     samples_below_floor,
     staircase_from_ends,
     staircase_from_lines,
@@ -569,13 +570,15 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     more (a riser's worth) in front of the chain, a run (``terrain.min_run_m``) or more
     in front of its first riser (:func:`~stereo_terrain.terrain.samples_below_floor`;
     where the floor is the floor, the strays under it lie at the chain's first riser, or
-    spread). The frame's floor is then put the staircase's first rise lower and the
-    terrain found again, there with the floor known: the steps between it and the chain
-    are placed as with a rig (:mod:`stereo_terrain.terrain.below`). Kept where that finds
-    more steps, the first of them in front of ``kept``'s first riser by
-    ``terrain.merge_distance_m`` to ``terrain.continue_max_run_m``; the result keeps the
-    lowered frame and its note says so. ``timing_ms["floor_below"]``: the time it took,
-    where it ran."""
+    spread), and the "floor" does not run to the view's bottom
+    (:func:`~stereo_terrain.terrain.floor_to_view_bottom`: a floor that does is the one
+    under the cameras; a tread ends above its riser in the image). The frame's floor is
+    then put the staircase's first rise lower and the terrain found again, there with
+    the floor known: the steps between it and the chain are placed as with a rig
+    (:mod:`stereo_terrain.terrain.below`). Kept where that finds more steps, the first
+    of them in front of ``kept``'s first riser by ``terrain.merge_distance_m`` to
+    ``terrain.continue_max_run_m``; the result keeps the lowered frame and its note says
+    so. ``timing_ms["floor_below"]``: the time it took, where it ran."""
     terrain = kept.terrain
     if (
         not config.floor_a_step_below
@@ -589,7 +592,8 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     result = kept
     tc = config.terrain
     under, position = samples_below_floor(kept.planes, terrain, tc)
-    if under >= tc.min_riser_points and terrain.steps[0].axis_position_m - position >= tc.min_run_m:
+    ahead_of_chain = terrain.steps[0].axis_position_m - position >= tc.min_run_m
+    if under >= tc.min_riser_points and ahead_of_chain and not floor_to_view_bottom(kept.planes, tc):
         rise = terrain.steps[0].rise_m
         shift = Transform.from_rt(np.eye(3), [0.0, 0.0, rise], "yaw", "yaw")
         planes = transform_planes(kept.planes, shift)

@@ -24,7 +24,8 @@ Without a rig the floor is the lowest large horizontal plane the scene shows
 (``pipeline.gravity_steps.origin_on_floor``); where the floor before the stairs formed no
 plane, that is the first tread, and nothing tells the chain it starts a step up.
 :func:`samples_below_floor` counts what does: the first riser's samples, below that
-"floor" and in front of the chain (``pipeline.second_opinions.floor_a_step_below``
+"floor" and in front of the chain, where the "floor" does not run out of the view's
+bottom (:func:`floor_to_view_bottom`; ``pipeline.second_opinions.floor_a_step_below``
 then puts the floor a rise lower and builds the terrain again).
 """
 
@@ -34,7 +35,7 @@ import numpy as np
 
 from .._numeric import median
 from ..msac import Plane
-from ..planes.orientation import PlaneSet
+from ..planes.orientation import HORIZONTAL, PlaneSet
 from .continuation import free_samples, riser_band
 from .model import StairModel, TerrainConfig
 from .risers import _Riser, _tread_front
@@ -158,3 +159,28 @@ def samples_below_floor(planes: PlaneSet, model: StairModel, config: TerrainConf
     under &= (w >= across.min()) & (w <= across.max())
     count = int(np.count_nonzero(under))
     return count, float(median(along[under])) if count else float("nan")
+
+
+def floor_to_view_bottom(planes: PlaneSet, config: TerrainConfig) -> bool:
+    """Whether the floor's plane (the horizontal planes within ``tread_height_tolerance_m``
+    of height 0) runs to the bottom of the view: it holds samples on the lowest grid row
+    any sample has (within one grid step). Such a floor is the one under the cameras,
+    nothing nearer in view; a first tread taken for the floor ends above its riser in
+    the image, the riser's samples on the rows below it (on the realistic renders it ended
+    two to forty grid rows above the bottom, where a real floor with the matcher's strays
+    under it ran to the bottom)."""
+    samples = planes.samples
+    rows = np.asarray(samples.rows)
+    if not len(rows):
+        return False
+    P = samples.points
+    floor_rows = [
+        rows[seg.indices]
+        for seg in planes.segments
+        if seg.kind == HORIZONTAL
+        and len(seg.indices)
+        and abs(float(median(P[seg.indices, 2]))) <= config.tread_height_tolerance_m
+    ]
+    if not floor_rows:
+        return False
+    return int(max(r.max() for r in floor_rows)) >= int(rows.max()) - samples.stride_px
