@@ -600,13 +600,11 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
         T = shift @ kept.T_yaw_camera_rect
         lines = _lines_in_frame(kept.image_lines, T)
         lowered = build_terrain(planes, config.terrain, floor_known=True, lines=lines)
-        ahead = terrain.steps[0].axis_position_m - (
-            lowered.steps[0].axis_position_m if lowered.steps else 0.0
-        )
-        if (
-            lowered.obstacle == STAIRS
-            and len(lowered.steps) > len(terrain.steps)
-            and tc.merge_distance_m <= ahead <= tc.continue_max_run_m
+        more = lowered.obstacle == STAIRS and len(lowered.steps) > len(terrain.steps)
+        if more and (
+            tc.merge_distance_m
+            <= terrain.steps[0].axis_position_m - lowered.steps[0].axis_position_m
+            <= tc.continue_max_run_m
         ):
             why = (
                 f"the floor put {100.0 * rise:.1f} cm lower (the first rise): the lowest horizontal "

@@ -89,6 +89,7 @@ _MIN_FIRST_M = 0.3
 #: place alone.
 _KEPT_ALONG_M = 0.10
 _KEPT_TOP_M = 0.05
+_KEPT_YAW_DEG = 10.0
 
 #: A profile of as many steps as the result, from its first riser (``_KEPT_ALONG_M``),
 #: mends its rises where one of them is this far (metres) or more off the profile's
@@ -99,7 +100,6 @@ _RISE_OFF_M = 0.02
 #: height on the profile, or the result's own measured rises spread more than
 #: ``TerrainConfig.common_rise_tolerance_m``.
 _MENDED_TOP_M = 0.025
-_KEPT_YAW_DEG = 10.0
 
 #: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
 ORIGIN = "from the risers' ends both images place (the staircase's side, step by step from the floor)"
