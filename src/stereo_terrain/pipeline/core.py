@@ -277,7 +277,8 @@ class Pipeline:
             # put the staircase a riser's position off (tests/test_far_planes.py).
             result = staircase_of_lines(result, self.config)
         # A staircase or a step: the staircase its risers' ends show, where it has more
-        # steps and holds a riser the planes measured (issue 11; TerrainConfig.ends_staircase).
+        # steps and holds a riser the planes measured, or holds none and outweighs their
+        # staircase (issue 11; TerrainConfig.ends_staircase, ends_over_planes).
         ended = staircase_of_ends(result, self.config)
         if len(ended.terrain.steps) <= len(result.terrain.steps):
             # Without a rig, a staircase whose "floor" is its first tread: found again with

@@ -263,8 +263,9 @@ def staircase_of_lines(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
 
 def staircase_of_ends(kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
     """``kept``, or the staircase its risers' ends show where that holds one of ``kept``'s
-    measured risers and has more steps (:func:`~stereo_terrain.terrain.staircase_from_ends`,
-    ``TerrainConfig.ends_staircase``): asked last, of a result with a staircase or a step
+    measured risers and has more steps, or holds none and outweighs ``kept``'s staircase
+    (:func:`~stereo_terrain.terrain.staircase_from_ends`, ``TerrainConfig.ends_staircase``,
+    ``ends_over_planes``): asked last, of a result with a staircase or a step
     whose floor is known. ``timing_ms["ends_staircase"]``: the time it took, where it ran
     (the sum, where it ran twice: :func:`floor_a_step_below`)."""
     if (

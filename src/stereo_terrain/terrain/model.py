@@ -169,6 +169,12 @@ class TerrainConfig:
         its own treads disagreeing among themselves or lying on the ends' pitch)
         (:func:`~.from_ends.staircase_from_ends`, asked by the pipeline last). Default true
         (issue 11: painted stairs whose chain of riser planes starts late or stops early).
+    ends_over_planes : bool
+        With ``ends_staircase``: where the ends' staircase holds none of the riser planes'
+        staircase's measured risers, it replaces that staircase where it shows its own
+        first step's ends or has more steps, and it has as many steps or more
+        (:func:`~.from_ends._outweighs`). Default true (issue 11: the planes' staircase
+        put 13-42 deg off its axis, or a step late, where the ends lay within 2-5 deg).
     nosing_run_tolerance : float
         A nosing counts where the segments put it within this fraction of a step (along
         the staircase's pitch line) from where the median rise and run put it.
@@ -300,6 +306,7 @@ class TerrainConfig:
     max_nosing_steps: int = 4
     riser_end_steps: bool = True
     ends_staircase: bool = True
+    ends_over_planes: bool = True
     nosing_run_tolerance: float = 0.35
     nosing_min_cover: float = 0.4
     nosing_min_foot_cover: float = 0.25
