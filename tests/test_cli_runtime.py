@@ -63,6 +63,8 @@ def test_replay_status_line_goes_to_stderr(recording, capsys, monkeypatch):
         (["record", "--left", "98", "--right", "99", "--out", "{tmp}/r"], "cannot open left camera/video 98"),
         (["replay", "{rec}", "--max-skew-ms", "-3"], "expected a finite number >= 0"),
         (["replay", "{rec}", "--no-lcm", "--denoised-every", "0"], "--denoised-every"),
+        (["run", "--left", "98", "--right", "99", "--calib", "{rec}/calib.yaml", "--no-lcm", "--as-fast"],
+         "--as-fast needs two video files"),
     ],
 )  # fmt: skip
 def test_mistakes_are_one_line_exit_2(recording, tmp_path, capsys, argv, match):

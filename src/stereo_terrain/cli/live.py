@@ -69,6 +69,12 @@ def add_parsers(sub: Any) -> None:
     run.add_argument("--calib", type=Path, required=True)
     run.add_argument("--rig", type=Path, help="rig YAML; body attitude from here unless --state-channel")
     run.add_argument("--state-channel", help="LCM channel of body_state_t (body pose and odometry)")
+    run.add_argument(
+        "--as-fast",
+        action="store_true",
+        help="video files: every pair, as fast as it goes (default: played in real time, the"
+        " newest pair each time)",
+    )
     loop_options(run)
 
     rp = sub.add_parser("replay", help="live loop on a recorded folder of pairs")
@@ -238,8 +244,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             got = listener.latest()
             return (None, pipeline.rig.body_rpy if pipeline.rig else None) if got is None else got[:2]
 
-    source = open_devices(args.left, args.right)
     try:
+        source = open_devices(args.left, args.right, realtime=not args.as_fast)
         return _run_loop(args, source, pipeline, pose)
     finally:
         if listener is not None:

@@ -186,16 +186,23 @@ class VideoPair:
             cap.release()
 
 
-def open_devices(left: str, right: str, *, clock: Clock = time.monotonic) -> PairSource:
-    """Two cameras, or two video files (played in real time) from command-line strings."""
+def open_devices(
+    left: str, right: str, *, clock: Clock = time.monotonic, realtime: bool = True
+) -> PairSource:
+    """Two cameras, or two video files (played in real time, or with ``realtime=False``
+    every pair as fast as the loop takes them) from command-line strings. Cameras give
+    their frames at their own rate: ``realtime=False`` with them is an
+    :class:`InputError`."""
     dl, dr = parse_device(left), parse_device(right)
     files = [isinstance(d, str) and not d.startswith("/dev/") and Path(d).is_file() for d in (dl, dr)]
     if all(files):
-        return Paced(VideoPair(str(dl), str(dr)), clock=clock)
+        return Paced(VideoPair(str(dl), str(dr)), clock=clock, realtime=realtime)
     if any(files):
         side, other = ("right", dr) if files[0] else ("left", dl)
         if isinstance(other, str) and not other.startswith("/dev/"):
             what = "is a folder" if Path(other).is_dir() else "does not exist"
             raise InputError(f"{side} video {other} {what}; give two video files or two cameras")
         raise InputError("give two cameras or two video files, not one of each")
+    if not realtime:
+        raise InputError("--as-fast needs two video files: cameras give their frames at their own rate")
     return CameraPair(dl, dr, clock=clock)
