@@ -1,8 +1,10 @@
 """The polytope stage on hand-made plane sets with exact geometry."""
 
+import math
+
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_terrain.cloud import GridSample
@@ -433,3 +435,16 @@ def test_a_step_too_tall_for_a_stair_needs_its_top_seen():
     assert len(no_top) == len(boxed.segments) - 1
     model = build_terrain(PlaneSet(tuple(no_top), boxed.samples, boxed.up, "test", CAM))
     assert model.obstacle == NONE, model.note
+
+
+@settings(max_examples=50, deadline=None)
+@given(yaw=st.floats(-math.pi, math.pi))
+def test_stair_axes_are_a_horizontal_right_handed_pair(yaw):
+    """``u`` points along the yaw, ``v`` is ``u`` turned +90 deg about z (z x u)."""
+    from stereo_terrain.terrain.model import stair_axes
+
+    u, v = stair_axes(yaw)
+    assert u @ u == pytest.approx(1.0) and v @ v == pytest.approx(1.0)
+    assert u @ v == pytest.approx(0.0, abs=1e-12) and u[2] == v[2] == 0.0
+    assert np.allclose(np.cross([0.0, 0.0, 1.0], u), v)
+    assert math.remainder(math.atan2(u[1], u[0]) - yaw, 2.0 * math.pi) == pytest.approx(0.0, abs=1e-9)

@@ -15,7 +15,7 @@ from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
 from .below import Link as _Link
 from .below import steps_below
 from .continuation import continue_steps
-from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig
+from .model import NONE, STAIRS, Polytope, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import ImageLines, axis_from_nosings, end_steps, nosing_heights, nosing_steps, pitched_steps
 from .photometric import refine_risers
 from .polytope import _classify_single_step, _polytope
@@ -209,8 +209,7 @@ def _assemble_along(
     samples = planes.samples
     P = samples.points.astype(np.float64)
     cam = planes.camera_position
-    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
-    v = np.array([-u[1], u[0], 0.0])
+    u, v = stair_axes(yaw)
     risers = [dataclasses.replace(r, s=float(median(P[r.idx] @ u))) for r in family]
     risers.sort(key=lambda r: r.s)
 
@@ -495,8 +494,7 @@ def _finish(
     (``lines``, :mod:`.nosings`), the staircase's common rise and run, a single step
     classified, the polytope and the note (whose steps are "from N riser plane(s)", or
     from ``origin`` where given)."""
-    u = np.array([math.cos(chain.yaw), math.sin(chain.yaw), 0.0])
-    v = np.array([-u[1], u[0], 0.0])
+    u, v = stair_axes(chain.yaw)
     steps = list(chain.steps)
     from_lines = split = pitched = refined = 0
     if lines is not None and lines.stereo is not None and config.photometric_risers:

@@ -37,7 +37,7 @@ from .._numeric import median
 from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, PlaneSet
 from .continuation import free_samples, riser_band
-from .model import StairModel, TerrainConfig
+from .model import StairModel, TerrainConfig, stair_axes
 from .risers import _Riser, _tread_front
 
 #: A link of the chain of steps: (riser candidate or None, top height, riser plane, tread
@@ -147,8 +147,7 @@ def samples_below_floor(planes: PlaneSet, model: StairModel, config: TerrainConf
     if not model.steps or not model.polytope.vertices.size:
         return 0, float("nan")
     P = planes.samples.points.astype(np.float64)
-    u = np.array([np.cos(model.yaw_rad), np.sin(model.yaw_rad), 0.0])
-    v = np.array([-u[1], u[0], 0.0])
+    u, v = stair_axes(model.yaw_rad)
     across = model.polytope.vertices @ v
     first = model.steps[0]
     along = P @ u

@@ -43,7 +43,7 @@ import numpy as np
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
 from .assemble import _Chain, _finish, horizontal_info
-from .model import NONE, STAIRS, StairModel, Step, TerrainConfig
+from .model import NONE, STAIRS, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import ImageLines
 from .nosings.view import VerticalEdges
 from .risers import face_riser, riser_distance
@@ -272,8 +272,7 @@ def staircase_from_ends(
     as_many = profile.steps == len(kept.steps)
     if held and as_many and not _mends_rises(profile, kept, ground_z, config):
         return None
-    u = np.array([math.cos(profile.yaw_rad), math.sin(profile.yaw_rad), 0.0])
-    v = np.array([-u[1], u[0], 0.0])
+    u, v = stair_axes(profile.yaw_rad)
     lo, hi = profile.lateral
     if kept.polytope.vertices.size:
         across = kept.polytope.vertices @ v

@@ -10,14 +10,13 @@ none and changes no other.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
 from .assemble import _Chain, _finish, _samples_at, horizontal_info
-from .model import STAIRS, StairModel, Step, TerrainConfig
+from .model import STAIRS, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import FirstRiser, ImageLines, first_risers, line_axes
 from .nosings.view import parallel_segments
 from .risers import face_riser, riser_distance
@@ -50,8 +49,7 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
     finishing = dataclasses.replace(config, photometric_risers=False)
     best: StairModel | None = None
     for yaw in line_axes(lines):
-        u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
-        v = np.array([-u[1], u[0], 0.0])
+        u, v = stair_axes(yaw)
         segs = parallel_segments(lines, v)
         if segs is None:
             continue

@@ -22,6 +22,14 @@ STAIRS, BOX, NONE = "stairs", "box", "none"
 AGREEING_RISE_RATIO = 1.5
 
 
+def stair_axes(yaw_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """The stair axis ``u`` (horizontal unit vector up the stairs, ``yaw_rad`` from the
+    frame's x axis) and the lateral direction ``v`` (``u`` turned +90 deg about z): a
+    step's position is ``u . x``, its place across the staircase ``v . x``."""
+    u = np.array([math.cos(yaw_rad), math.sin(yaw_rad), 0.0])
+    return u, np.array([-u[1], u[0], 0.0])
+
+
 @dataclass(frozen=True)
 class TerrainConfig:
     """What counts as a step.

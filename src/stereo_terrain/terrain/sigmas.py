@@ -13,7 +13,7 @@ from .._numeric import median, percentile, wrap_angle  # NumPy's bits, a fractio
 from ..errors import ConfigError
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .model import StairModel, Step, TerrainConfig
+from .model import StairModel, Step, TerrainConfig, stair_axes
 
 #: How much the rises (runs) of one staircase may differ (1-sigma): building codes allow
 #: about a centimetre between the largest and the smallest.
@@ -167,8 +167,7 @@ def estimate_step_sigmas(
     fb = float(focal_px * baseline_m)
     stride = float(samples.stride_px)
     n_factor = min(1.0, (stride / config.matching_window_px) ** 2)
-    u = np.array([math.cos(model.yaw_rad), math.sin(model.yaw_rad), 0.0])
-    v = np.array([-u[1], u[0], 0.0])
+    u, v = stair_axes(model.yaw_rad)
     s_all, v_all = P @ u, P @ v
     band = config.edge_band_m
 

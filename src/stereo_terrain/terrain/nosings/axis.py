@@ -26,7 +26,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..model import Step
+from ..model import Step, stair_axes
 from .view import ImageLines, horizontal_directions
 
 #: The lateral directions searched: this far (deg) either side of the risers'.
@@ -99,8 +99,7 @@ def _on_steps(
 ) -> np.ndarray:
     """Which rays ``mid`` (a segment's middle) meet a step's nosing height, or its riser's
     foot height, near the step's position along the axis and within the chain's width."""
-    u = np.array([math.cos(yaw), math.sin(yaw), 0.0])
-    v = np.array([-u[1], u[0], 0.0])
+    u, v = stair_axes(yaw)
     c = lines.centre
     lo, hi = lateral[0] - _LATERAL_MARGIN_M, lateral[1] + _LATERAL_MARGIN_M
     on = np.zeros(len(mid), dtype=bool)
