@@ -312,3 +312,24 @@ def test_a_staircase_the_planes_put_off_its_axis_is_found_by_its_ends():
     off = dataclasses.replace(config, terrain=dataclasses.replace(config.terrain, ends_over_planes=False))
     before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
     assert len(before.terrain.steps) == 2
+
+
+def test_the_top_risers_short_ends_count_its_last_step():
+    """Realistic render 47 of seed 41 with its rig (five white steps of 12.8 cm between two
+    walls, cameras 0.70 m up): the fifth riser's ends, 3.1 m away, are 20-25 px tall in
+    the image; with the segments gravity takes (20 px and more) the ends show four steps,
+    with the terrain's shorter ones (``vanishing.terrain_min_length_px``) all five."""
+    scene = _realistic(47, seed=41)
+    truth = scene.truth["steps"]
+    assert len(truth) == 5
+    config = PipelineConfig()
+    result = Pipeline(scene.calibration, scene.rig, config, warm_up=False).run(scene.left, scene.right)
+    assert "risers' ends both images place" in result.terrain.note
+    assert [s.distance_m for s in result.terrain.steps] == pytest.approx(
+        [s["distance"] for s in truth], abs=0.03
+    )
+    long_only = dataclasses.replace(config.vanishing, terrain_min_length_px=config.vanishing.min_length_px)
+    before = Pipeline(
+        scene.calibration, scene.rig, dataclasses.replace(config, vanishing=long_only), warm_up=False
+    )
+    assert len(before.run(scene.left, scene.right).terrain.steps) == 4

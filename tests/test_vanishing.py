@@ -164,6 +164,8 @@ def test_combine_the_lines_overrule_a_conflicting_planes_estimate_unless_told_no
         {"detect_scale": 1.5},
         {"structure_sigma_deg": -0.1},
         {"hypotheses": 0},
+        {"terrain_min_length_px": 0.0},
+        {"terrain_min_length_px": 25.0},
     ],
 )
 def test_bad_config_raises(kw):
@@ -218,6 +220,21 @@ def test_segments_reaching_the_border_are_clipped_for_the_nosings_only():
     assert border[:, [0, 2]].min() == pytest.approx(150, abs=4)
     # The vertical bar is whole, and only there.
     assert np.all(np.abs(whole[:, [0, 2]] - 100) < 4)
+
+
+def test_segments_shorter_than_gravity_takes_go_to_the_terrain_alone():
+    """A 16-px bar (a riser's end at the top of a staircase 3 m away) is among the short
+    segments the terrain's vertical edges take, not among those gravity, the horizontal
+    direction and the nosings use; a bar 40 px long is among those, as with the terrain's
+    own length at gravity's."""
+    img = _bar_image([(300, 200, 300, 216), (100, 250, 100, 290)])
+    found = scene_lines(img, _rectification(), VerticalLinesConfig())  # at detect_scale 1
+    assert len(found.short) >= 1 and np.all(np.abs(found.short[:, [0, 2]] - 300) < 4)
+    assert len(found.segments) >= 1 and np.all(np.abs(found.segments[:, [0, 2]] - 100) < 4)
+    same = VerticalLinesConfig(terrain_min_length_px=20.0)
+    alone = scene_lines(img, _rectification(), same)
+    assert len(alone.short) == 0
+    assert np.array_equal(alone.segments, found.segments)
 
 
 @settings(max_examples=25, deadline=None)

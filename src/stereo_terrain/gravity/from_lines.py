@@ -58,6 +58,14 @@ class VerticalLinesConfig:
     min_length_px : float
         Shortest segment used, in pixels of a 640-pixel-wide raw image (scaled with the
         raw width).
+    terrain_min_length_px : float
+        Shortest segment the terrain stage's vertical edges take (the risers' ends,
+        :func:`stereo_terrain.terrain.nosings.view.vertical_edges`), as ``min_length_px``:
+        the segments between the two lengths go to them alone (:attr:`SceneLines.short`);
+        gravity, the horizontal direction and the nosings keep to ``min_length_px``. The
+        end of a riser at the top of a staircase 3 m away is 20-25 px tall; the shorter
+        segments for the nosings too made as many counts wrong as right without a rig
+        (docs/benchmarks.md, "Forty-fifth session").
     max_tilt_deg : float
         Segments within this angle of the image's vertical are candidates.
     inlier_deg : float
@@ -142,6 +150,7 @@ class VerticalLinesConfig:
     enabled: bool = True
     detect_scale: float = 1.0
     min_length_px: float = 20.0
+    terrain_min_length_px: float = 14.0
     max_tilt_deg: float = 30.0
     inlier_deg: float = 1.0
     hypotheses: int = 300
@@ -183,6 +192,11 @@ class VerticalLinesConfig:
             raise ConfigError(
                 "need 0 < frame_inlier_deg <= frame_start_deg < 45, got "
                 f"{self.frame_inlier_deg} and {self.frame_start_deg}"
+            )
+        if not 0 < self.terrain_min_length_px <= self.min_length_px:
+            raise ConfigError(
+                "need 0 < terrain_min_length_px <= min_length_px, got "
+                f"{self.terrain_min_length_px} and {self.min_length_px}"
             )
         for name in (
             "min_length_px",
@@ -611,12 +625,18 @@ class SceneLines:
         (``frame_at_border``). The estimates above keep to whole segments: with these too,
         the Manhattan fill and the rematches moved and lost as many staircases as the
         nosings gained (docs/benchmarks.md, "Sixteenth session").
+    short, short_at_border : (K, 4), (L, 4) float64
+        The same pass's segments shorter than ``min_length_px`` and at least
+        ``terrain_min_length_px`` long, whole and at the border: for the terrain's
+        vertical edges alone (``VerticalLinesConfig.terrain_min_length_px``).
     """
 
     up: GravityEstimate | None
     horizontal: np.ndarray | None
     segments: np.ndarray
     at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
+    short: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
+    short_at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
 
     @property
     def every_segment(self) -> np.ndarray:
@@ -640,20 +660,36 @@ def scene_lines(
     the given up, else with the lines' when they fix it), from one LSD pass."""
     up_est = None
     length = _min_length(rectification, config)
+    shortest = config.terrain_min_length_px * rectification.raw_size[0] / 640.0
     found, whole = np.empty((0, 4)), np.zeros(0, dtype=bool)
     if known_up is None and want_up:
-        found, whole = _segments(image, rectification.valid_left, length, config.detect_scale)
-        segments = found[whole]
+        found, whole, long = _long_and_short(image, rectification, shortest, length, config.detect_scale)
+        segments = found[whole & long]
         up_est = up_from_vertical_lines(
             image, rectification, config, prior_cone_deg=prior_cone_deg, segments=segments
         )
         up = up_est.up if up_est.ok else None
     else:
         up = known_up
+        long = np.zeros(0, dtype=bool)
         if want_horizontal and up is not None:
-            found, whole = _segments(image, rectification.valid_left, length, config.horizontal_scale)
-        segments = found[whole]
+            scale = config.horizontal_scale
+            found, whole, long = _long_and_short(image, rectification, shortest, length, scale)
+        segments = found[whole & long]
     horizontal = None
     if want_horizontal and up is not None:
         horizontal = horizontal_direction(segments, rectification, up, config)
-    return SceneLines(up_est, horizontal, segments, found[~whole])
+    return SceneLines(
+        up_est, horizontal, segments, found[~whole & long], found[whole & ~long], found[~whole & ~long]
+    )
+
+
+def _long_and_short(
+    image: np.ndarray, rectification: Rectification, shortest: float, length: float, scale: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One LSD pass's segments at least ``shortest`` long (:func:`_segments`), which of
+    them are whole, and which are ``length`` long or more: the same segments that pass
+    would give at ``length`` (a clipped segment's length is its clipped part's)."""
+    found, whole = _segments(image, rectification.valid_left, shortest, scale)
+    long = np.hypot(found[:, 2] - found[:, 0], found[:, 3] - found[:, 1]) >= length
+    return found, whole, long

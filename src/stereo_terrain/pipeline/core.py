@@ -606,9 +606,11 @@ def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageL
         rect.valid_left,
         rect.valid_right,
     )
-    return ImageLines(
-        lines.segments, rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix, lines.at_border, pair.left, stereo
-    )
+    # The vertical edges (the risers' ends) take the shorter segments too
+    # (VerticalLinesConfig.terrain_min_length_px).
+    short = np.concatenate([lines.short, lines.short_at_border])
+    camera = (rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix)
+    return ImageLines(lines.segments, *camera, lines.at_border, pair.left, stereo, short)
 
 
 def _band_planes(

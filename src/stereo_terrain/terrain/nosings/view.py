@@ -63,6 +63,11 @@ class ImageLines:
     stereo : StereoView or None
         The rectified pair, where the risers found are moved to where both images put them
         (``TerrainConfig.photometric_risers``, :mod:`..photometric`). None: not done.
+    short : (K, 4) float64
+        Segments shorter than ``segments`` and ``at_border`` (the lines' job's
+        ``VerticalLinesConfig.terrain_min_length_px``), for the vertical edges alone
+        (:func:`vertical_edges`): the end of a riser at the top of a staircase 3 m away
+        is 20-25 px tall.
     """
 
     segments: np.ndarray = field(repr=False)
@@ -74,6 +79,7 @@ class ImageLines:
     at_border: np.ndarray = field(repr=False, default_factory=lambda: np.empty((0, 4)))
     image: np.ndarray | None = field(repr=False, default=None)
     stereo: StereoView | None = field(repr=False, default=None)
+    short: np.ndarray = field(repr=False, default_factory=lambda: np.empty((0, 4)))
 
     @property
     def every_segment(self) -> np.ndarray:
@@ -324,7 +330,7 @@ def vertical_edges(lines: ImageLines) -> VerticalEdges:
     beside it or the room behind (issue 11)."""
     empty = VerticalEdges(np.empty((0, 3)), np.empty((0, 3)))
     stereo = lines.stereo
-    seg = lines.every_segment
+    seg = np.concatenate([lines.every_segment, np.asarray(lines.short, dtype=np.float64).reshape(-1, 4)])
     if stereo is None or not len(seg):
         return empty
     _, _, n, length, ok = segment_planes(lines, seg)
