@@ -298,13 +298,14 @@ def line_segments(
     image) found at ``scale``, at least ``config.min_length_px`` long (in pixels of a
     640-pixel-wide raw image), away from the border of the valid region (whole ones: not
     those that reach it)."""
-    s, whole = _segments(image, rectification.valid_left, _min_length(rectification, config), scale)
+    length = _in_raw_px(rectification, config.min_length_px)
+    s, whole = _segments(image, rectification.valid_left, length, scale)
     return s[whole]
 
 
-def _min_length(rectification: Rectification, config: VerticalLinesConfig) -> float:
-    """``config.min_length_px`` in pixels of this raw image (it is given for 640 wide)."""
-    return config.min_length_px * rectification.raw_size[0] / 640.0
+def _in_raw_px(rectification: Rectification, length_px: float) -> float:
+    """A length given in pixels of a 640-pixel-wide raw image, in pixels of this one."""
+    return length_px * rectification.raw_size[0] / 640.0
 
 
 def up_from_vertical_lines(
@@ -625,10 +626,10 @@ class SceneLines:
         (``frame_at_border``). The estimates above keep to whole segments: with these too,
         the Manhattan fill and the rematches moved and lost as many staircases as the
         nosings gained (docs/benchmarks.md, "Sixteenth session").
-    short, short_at_border : (K, 4), (L, 4) float64
+    short : (K, 4) float64
         The same pass's segments shorter than ``min_length_px`` and at least
-        ``terrain_min_length_px`` long, whole and at the border: for the terrain's
-        vertical edges alone (``VerticalLinesConfig.terrain_min_length_px``).
+        ``terrain_min_length_px`` long, the whole ones then those at the border: for the
+        terrain's vertical edges alone (``VerticalLinesConfig.terrain_min_length_px``).
     """
 
     up: GravityEstimate | None
@@ -636,7 +637,6 @@ class SceneLines:
     segments: np.ndarray
     at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
     short: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
-    short_at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
 
     @property
     def every_segment(self) -> np.ndarray:
@@ -659,8 +659,8 @@ def scene_lines(
     ``want_up`` is False) and the dominant horizontal direction (``want_horizontal``; with
     the given up, else with the lines' when they fix it), from one LSD pass."""
     up_est = None
-    length = _min_length(rectification, config)
-    shortest = config.terrain_min_length_px * rectification.raw_size[0] / 640.0
+    length = _in_raw_px(rectification, config.min_length_px)
+    shortest = _in_raw_px(rectification, config.terrain_min_length_px)
     found, whole = np.empty((0, 4)), np.zeros(0, dtype=bool)
     if known_up is None and want_up:
         found, whole, long = _long_and_short(image, rectification, shortest, length, config.detect_scale)
@@ -679,9 +679,8 @@ def scene_lines(
     horizontal = None
     if want_horizontal and up is not None:
         horizontal = horizontal_direction(segments, rectification, up, config)
-    return SceneLines(
-        up_est, horizontal, segments, found[~whole & long], found[whole & ~long], found[~whole & ~long]
-    )
+    short = np.concatenate([found[whole & ~long], found[~whole & ~long]])
+    return SceneLines(up_est, horizontal, segments, found[~whole & long], short)
 
 
 def _long_and_short(

@@ -608,9 +608,8 @@ def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageL
     )
     # The vertical edges (the risers' ends) take the shorter segments too
     # (VerticalLinesConfig.terrain_min_length_px).
-    short = np.concatenate([lines.short, lines.short_at_border])
     camera = (rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix)
-    return ImageLines(lines.segments, *camera, lines.at_border, pair.left, stereo, short)
+    return ImageLines(lines.segments, *camera, lines.at_border, pair.left, stereo, lines.short)
 
 
 def _band_planes(
