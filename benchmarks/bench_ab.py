@@ -16,10 +16,11 @@ rise taken otherwise), those are added.
 Another version of the package (a worktree, a patched copy) is captured by putting its
 ``src`` first on ``PYTHONPATH``; the captures themselves are compared here.
 
-    .venv/bin/python benchmarks/bench_ab.py capture SET OUT.jsonl [--config CFG.yaml]
+    .venv/bin/python benchmarks/bench_ab.py capture SET OUT.jsonl [--config CFG.yaml] [--rig-only]
     .venv/bin/python benchmarks/bench_ab.py compare BEFORE.jsonl AFTER.jsonl
 
-Sets (every rendered scene is run with its true rig and without one):
+Sets (every rendered scene is run with its true rig and without one; ``--rig-only``, a
+change that only the rig's runs see, with its rig alone):
 
 - ``realistic:SEED:N``, ``default:SEED:N``: the profile's own mix of staircases, boxes
   and empty views, as ``random_scene_spec(rng, profile=...)`` draws them from ``SEED``;
@@ -136,8 +137,11 @@ def parse_set(set_name: str) -> tuple[str, list[int]]:
     return kind, numbers
 
 
-def _runs(kind: str, numbers: list[int], config: PipelineConfig) -> Iterator[dict[str, Any]]:
-    """Each run's line of a set (module docstring)."""
+def _runs(
+    kind: str, numbers: list[int], config: PipelineConfig, rig_only: bool = False
+) -> Iterator[dict[str, Any]]:
+    """Each run's line of a set (module docstring); ``rig_only``: a rendered scene's run
+    with its rig alone."""
     if kind in ("rooms", "staircase"):
         from stereo_terrain.rectify import to_grey
 
@@ -149,20 +153,20 @@ def _runs(kind: str, numbers: list[int], config: PipelineConfig) -> Iterator[dic
                 yield _record(pipeline.run(lf, rt), key=f"{name} | {degradation} | {seed}", mode="no rig")
         return
     for i, scene in _rendered(kind, numbers[0], numbers[1]):
-        for mode, rig in (("rig", scene.rig), ("no rig", None)):
+        for mode, rig in (("rig", scene.rig), ("no rig", None))[: 1 if rig_only else 2]:
             pipeline = Pipeline(scene.calibration, rig, config, warm_up=False)
             result = pipeline.run(scene.left, scene.right)
             yield _record(result, key=f"{i} {mode}", mode=mode, truth=scene.truth)
 
 
-def capture(kind: str, numbers: list[int], out: Path, config: PipelineConfig) -> int:
+def capture(kind: str, numbers: list[int], out: Path, config: PipelineConfig, rig_only: bool = False) -> int:
     """Write the set's lines to ``out`` (through a temporary file: a capture cut short
-    leaves none); how many runs."""
+    leaves none); how many runs. ``rig_only``: as :func:`_runs`."""
     tmp = out.with_name(out.name + ".part")
     count = 0
     try:
         with tmp.open("w") as fh:
-            for line in _runs(kind, numbers, config):
+            for line in _runs(kind, numbers, config, rig_only):
                 fh.write(json.dumps(line) + "\n")
                 count += 1
     except BaseException:  # (an interrupt too: no half-written capture is left)
@@ -234,6 +238,12 @@ def compare(before_path: Path, after_path: Path) -> None:
     before, after = _read(before_path), _read(after_path)
     if not before or not after:
         _fail(f"{before_path if not before else after_path} holds no runs: capture it again")
+    # a rig-only capture (``--rig-only``) is compared on the runs it shares with the other
+    modes = [{x["mode"] for x in lines} for lines in (before, after)]
+    if modes[0] != modes[1]:
+        shared = modes[0] & modes[1]
+        before = [b for b in before if b["mode"] in shared]
+        after = [a for a in after if a["mode"] in shared]
     if [b["key"] for b in before] != [a["key"] for a in after]:
         _fail("the two captures are not of the same set (their runs differ)")
     rendered = "truth" in before[0]
@@ -249,11 +259,15 @@ def compare(before_path: Path, after_path: Path) -> None:
         )
         print("| --- | --- | --- | --- | --- | --- | --- | --- |")
         for mode in ("rig", "no rig"):
+            if not any(x["mode"] == mode for x in before):
+                continue
             for name, lines in (("before", before), ("after", after)):
                 print(f"| {mode} | {name} | {_columns([x for x in lines if x['mode'] == mode])} |")
         print()
         for mode in ("rig", "no rig"):
             pairs = [c for c, b in zip(counts, before, strict=True) if b["mode"] == mode]
+            if not pairs:
+                continue
             won = sum(after_right and not before_right for before_right, after_right in pairs)
             lost = sum(before_right and not after_right for before_right, after_right in pairs)
             print(f"Step count, {mode}, scene by scene: {won} made right, {lost} made wrong.")
@@ -298,6 +312,14 @@ def main() -> None:
     )
     cap.add_argument("out", type=Path, help="JSON lines file to write")
     cap.add_argument("--config", type=Path, help="pipeline config YAML (default settings without)")
+    cap.add_argument(
+        "--rig-only",
+        action="store_true",
+        help=(
+            "rendered sets: only the runs with the scene's rig (half the time; "
+            "compare takes the runs both share)"
+        ),
+    )
     cmp = sub.add_parser("compare", help="compare two captures of the same set")
     cmp.add_argument("before", type=Path)
     cmp.add_argument("after", type=Path)
@@ -308,7 +330,7 @@ def main() -> None:
         except ValueError as e:
             ap.error(str(e))
         config = PipelineConfig.from_yaml(args.config) if args.config else PipelineConfig()
-        print(f"{capture(kind, numbers, args.out, config)} runs written to {args.out}")
+        print(f"{capture(kind, numbers, args.out, config, args.rig_only)} runs written to {args.out}")
     else:
         for path in (args.before, args.after):
             if not path.is_file():

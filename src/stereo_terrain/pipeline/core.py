@@ -505,7 +505,7 @@ class Pipeline:
         gravity = _gravity_report(source, T, before_planes, fine, cfg.gravity, cfg.orientation.angle_tol_deg)
         image_lines = None
         if lines_job is not None and (cfg.terrain.nosing_steps or cfg.terrain.nosing_rise):
-            image_lines = _image_lines(lines_job.result(), pair, T)
+            image_lines = _image_lines(lines_job.result(), pair, T, cfg.terrain.plumb_edges)
         planes, terrain, choice = self._planes_and_terrain(planes, pair.left, lap, floor_known, image_lines)
         rect = pair.rectification  # issue 14: a 1-sigma for every step and the yaw
         terrain = estimate_step_sigmas(
@@ -589,9 +589,10 @@ class Pipeline:
         return planes, terrain, f"orientation: the {added} new contour plane(s) added no step"
 
 
-def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageLines:
+def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform, plumb_edges: bool) -> ImageLines:
     """The lines' job's segments with the rectified left camera in the yaw frame ``T``
-    (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11)."""
+    (``T_yaw_camera_rect``), for the terrain stage's steps beyond the last (issue 11);
+    ``plumb_edges``: ``TerrainConfig.plumb_edges``."""
     rect = pair.rectification
     h, w = pair.left.shape[:2]
     stereo = StereoView(
@@ -609,7 +610,7 @@ def _image_lines(lines: SceneLines, pair: RectifiedPair, T: Transform) -> ImageL
     # The vertical edges (the risers' ends) take the shorter segments too
     # (VerticalLinesConfig.terrain_min_length_px).
     camera = (rect.focal_px, rect.cx, rect.cy, (w, h), T.matrix)
-    return ImageLines(lines.segments, *camera, lines.at_border, pair.left, stereo, lines.short)
+    return ImageLines(lines.segments, *camera, lines.at_border, pair.left, stereo, lines.short, plumb_edges)
 
 
 def _band_planes(

@@ -183,6 +183,13 @@ class TerrainConfig:
         first step's ends or has more steps, and it has as many steps or more
         (:func:`~.from_ends._outweighs`). Default true (issue 11: the planes' staircase
         put 13-42 deg off its axis, or a step late, where the ends lay within 2-5 deg).
+    plumb_edges : bool
+        The risers' ends (the vertical edges of ``riser_end_steps`` and ``ends_staircase``)
+        are looked for in the grey levels too, where the line segments miss them: the
+        horizontal gradient averaged along the rows, near-vertical lines where it peaks
+        (:func:`~stereo_terrain.terrain.nosings.plumb.plumb_segments`). Default true
+        (issue 11: painted risers ending against a wall of nearly their grey, whose ends LSD
+        finds in pieces or not at all).
     nosing_run_tolerance : float
         A nosing counts where the segments put it within this fraction of a step (along
         the staircase's pitch line) from where the median rise and run put it.
@@ -315,6 +322,7 @@ class TerrainConfig:
     riser_end_steps: bool = True
     ends_staircase: bool = True
     ends_over_planes: bool = True
+    plumb_edges: bool = True
     nosing_run_tolerance: float = 0.35
     nosing_min_cover: float = 0.4
     nosing_min_foot_cover: float = 0.25

@@ -11,6 +11,7 @@ from functools import cached_property
 import numpy as np
 
 from ..photometric import StereoView, edge_disparities
+from .plumb import plumb_segments
 
 #: A segment is parallel to the nosings when its plane through the camera is within this
 #: of containing ``v``, plus the angle one pixel of end error makes over its length.
@@ -68,6 +69,10 @@ class ImageLines:
         ``VerticalLinesConfig.terrain_min_length_px``), for the vertical edges alone
         (:func:`vertical_edges`): the end of a riser at the top of a staircase 3 m away
         is 20-25 px tall.
+    plumb_edges : bool
+        Whether :func:`vertical_edges` also takes the near-vertical edges the grey levels
+        show where no segment does (:func:`~.plumb.plumb_segments`; the pipeline sets it
+        from ``TerrainConfig.plumb_edges``).
     """
 
     segments: np.ndarray = field(repr=False)
@@ -80,6 +85,7 @@ class ImageLines:
     image: np.ndarray | None = field(repr=False, default=None)
     stereo: StereoView | None = field(repr=False, default=None)
     short: np.ndarray = field(repr=False, default_factory=lambda: np.empty((0, 4)))
+    plumb_edges: bool = False
 
     @property
     def every_segment(self) -> np.ndarray:
@@ -330,8 +336,12 @@ def vertical_edges(lines: ImageLines) -> VerticalEdges:
     beside it or the room behind (issue 11)."""
     empty = VerticalEdges(np.empty((0, 3)), np.empty((0, 3)))
     stereo = lines.stereo
+    if stereo is None:
+        return empty
     seg = np.concatenate([lines.every_segment, np.asarray(lines.short, dtype=np.float64).reshape(-1, 4)])
-    if stereo is None or not len(seg):
+    if lines.plumb_edges:
+        seg = np.concatenate([seg, plumb_segments(stereo.left, stereo.valid_left)])
+    if not len(seg):
         return empty
     _, _, n, length, ok = segment_planes(lines, seg)
     tol = np.sin(np.radians(_VERTICAL_DEG) + 1.5 / np.maximum(length, 1.0))
