@@ -112,7 +112,8 @@ def _local_noise(a: np.ndarray) -> np.ndarray:
     """The local noise around each pixel: the median of ``a`` (the vertical gradient
     averaged along the rows, as the horizontal one is along the columns: the same noise,
     but a vertical edge has none of it) over each ``_BLOCK_PX`` block (every other row and
-    column of it), spread smoothly. A textured face (speckled paint, carpet) is noise to
+    column of it), the least of it and its eight neighbours' (a horizontal edge raises a
+    block's own), spread smoothly. A textured face (speckled paint, carpet) is noise to
     this search: its grains line up in near-vertical streaks a rise tall often enough that
     the ends' profile fitted a pitch to them (the default profile's scene 4, the demo's
     staircase), where a painted riser's end stands between flat greys."""
@@ -125,6 +126,9 @@ def _local_noise(a: np.ndarray) -> np.ndarray:
     tiles = sub[: rows * b, : cols * b].reshape(rows, b, cols, b).transpose(0, 2, 1, 3)
     blocks = tiles.reshape(rows, cols, -1)
     med = (np.median(blocks, axis=2) / 0.6745).astype(np.float32)
+    # the quietest of each block's neighbours: a nosing's or a floor's horizontal edge in
+    # a block raises its median, and a riser's end meets one at each of its corners
+    med = cv2.erode(med, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
     out: np.ndarray = cv2.resize(med, (w, h), interpolation=cv2.INTER_LINEAR)
     return out
 
