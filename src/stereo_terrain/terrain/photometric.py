@@ -106,11 +106,15 @@ class StereoView:
     def gradients(self) -> tuple[np.ndarray, np.ndarray]:
         """Horizontal gradients (Sobel after a 3x3 Gaussian) of the left and right images,
         float32."""
-        out = []
-        for img in (self.left, self.right):
-            smooth = cv2.GaussianBlur(np.asarray(img, dtype=np.float32), (3, 3), 0)
-            out.append(cv2.Sobel(smooth, cv2.CV_32F, 1, 0))
-        return out[0], out[1]
+        left, right = (cv2.Sobel(smoothed(img), cv2.CV_32F, 1, 0) for img in (self.left, self.right))
+        return left, right
+
+
+def smoothed(image: np.ndarray) -> np.ndarray:
+    """``image`` as float32 after the 3x3 Gaussian the gradients are taken after
+    (:attr:`StereoView.gradients`, :func:`~.nosings.plumb.plumb_segments`)."""
+    out: np.ndarray = cv2.GaussianBlur(np.asarray(image, dtype=np.float32), (3, 3), 0)
+    return out
 
 
 @dataclass(frozen=True)

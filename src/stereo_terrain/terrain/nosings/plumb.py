@@ -30,6 +30,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..photometric import smoothed
+
 #: Rows the horizontal gradient is averaged over (pixels).
 _ROWS = 9
 
@@ -62,7 +64,11 @@ _ERODE_PX = 7
 
 
 def plumb_segments(
-    image: np.ndarray, valid: np.ndarray | None = None, *, min_length_px: float = 14.0
+    image: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    grad_x: np.ndarray | None = None,
+    min_length_px: float = 14.0,
 ) -> np.ndarray:
     """The near-vertical edges of an image (the module docstring).
 
@@ -72,6 +78,10 @@ def plumb_segments(
     valid : (H, W) bool, optional
         Pixels with a source pixel (a rectified image's); the lines stay inside, away
         from its outline.
+    grad_x : (H, W) float32, optional
+        The image's horizontal gradient where already taken (:attr:`~..photometric.
+        StereoView.gradients`, which the edges' stereo match takes too); else taken here
+        the same way.
     min_length_px : float
         Shortest line kept (rows).
 
@@ -79,9 +89,9 @@ def plumb_segments(
     -------
     (N, 4) float64: ``x1, y1, x2, y2`` (pixel centres), the top end first.
     """
-    # the gradients the edges' stereo match takes (StereoView.gradients), and the vertical one
-    smooth = cv2.GaussianBlur(np.asarray(image, dtype=np.float32), (3, 3), 0)
-    grad_x = cv2.Sobel(smooth, cv2.CV_32F, 1, 0)
+    smooth = smoothed(image)
+    if grad_x is None:
+        grad_x = cv2.Sobel(smooth, cv2.CV_32F, 1, 0)
     grad_y = cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
     g = cv2.blur(np.asarray(grad_x, dtype=np.float32), (1, _ROWS))
     h, w = g.shape

@@ -340,7 +340,8 @@ def vertical_edges(lines: ImageLines) -> VerticalEdges:
         return empty
     seg = np.concatenate([lines.every_segment, np.asarray(lines.short, dtype=np.float64).reshape(-1, 4)])
     if lines.plumb_edges:
-        seg = np.concatenate([seg, plumb_segments(stereo.left, stereo.valid_left)])
+        plumb = plumb_segments(stereo.left, stereo.valid_left, grad_x=stereo.gradients[0])
+        seg = np.concatenate([seg, plumb])
     if not len(seg):
         return empty
     _, _, n, length, ok = segment_planes(lines, seg)
