@@ -38,25 +38,10 @@ import numpy as np
 
 from stereo_terrain.evaluation import score_result, summarize
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
-from stereo_terrain.synthetic import random_scene_spec, render_scene
+from stereo_terrain.synthetic import oakd_overrides, random_scene_spec, render_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_oracle_disparity import print_scores  # noqa: E402
-
-
-def _oakd_sensor(rng: np.random.Generator) -> dict:
-    """Overrides of the realistic profile for ``--oakd``: the camera's height and an OAK-D
-    Lite's sensor (both images alike)."""
-    noise, blur = float(rng.uniform(1.0, 2.0)), float(rng.uniform(0.2, 0.5))
-    return {
-        "camera_height_m": float(rng.uniform(0.5, 1.4)),
-        "noise_sigma": (noise, noise),
-        "shot_noise": 0.01,
-        "blur_sigma_px": blur,
-        "right_blur_sigma_px": blur,
-        "jpeg_quality": None,
-    }
-
 
 #: ``--lab``'s preset: the profile, first riser distances, baseline, fixed dimensions, wood.
 LAB = ("realistic", (1.5, 2.5), 0.07, {"rise_m": 0.2, "run_m": 0.31, "n_steps": 3}, True)
@@ -76,7 +61,7 @@ def staircase_spec(
     ``wood``, drawn again until its treads are planks, not carpet)."""
     while True:
         distance = float(rng.uniform(*near_far))
-        sensor = _oakd_sensor(rng) if oakd else {}
+        sensor = oakd_overrides(rng) if oakd else {}
         spec = random_scene_spec(
             rng,
             profile=profile,

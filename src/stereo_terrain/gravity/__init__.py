@@ -57,6 +57,7 @@ from .from_lines import (
     horizontal_direction,
     line_segments,
     scene_lines,
+    scene_segments,
     up_from_vertical_lines,
 )
 from .from_normals import estimate_up, floor_up, load_gravity_kernels
@@ -82,6 +83,7 @@ __all__ = [
     "refine_up_from_planes",
     "rotation_between",
     "scene_lines",
+    "scene_segments",
     "up_from_line_frame",
     "up_from_lines_and_planes",
     "up_from_vertical_lines",

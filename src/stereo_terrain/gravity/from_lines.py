@@ -95,6 +95,15 @@ class VerticalLinesConfig:
         found on the image resized by this (long lines are enough for a direction; LSD at
         half size costs a fifth). Without a rig the full-size segments of the vertical
         lines are used again.
+    finer_scale : float
+        Where a frame's lines were found at another scale (``horizontal_scale``, with a
+        rig) and it found no obstacle, the terrain stage looks once more for a staircase
+        in the lines found at this scale (``pipeline.second_opinions.staircase_of_finer_lines``;
+        set it to ``horizontal_scale`` to turn that off). A staircase 2-4 m ahead loses its
+        nosings and risers' ends at half size (docs/benchmarks.md, "Forty-seventh
+        session"); nearer ones keep more of theirs there, where the full-size segments
+        break a faint line into pieces and add the floor's, so the frame keeps its own
+        lines wherever it finds anything.
     horizontal_window_deg : float
         Segments whose horizontal direction is within this angle of the histogram's peak
         (modulo 90 deg) support it.
@@ -161,6 +170,7 @@ class VerticalLinesConfig:
     seed: int = 0
     overrule_planes: bool = True
     horizontal_scale: float = 0.5
+    finer_scale: float = 1.0
     horizontal_window_deg: float = 4.0
     horizontal_max_slope_deg: float = 20.0
     frame: bool = True
@@ -179,7 +189,7 @@ class VerticalLinesConfig:
         check_min(self, 0, "structure_sigma_deg")
         if not 0 < self.max_tilt_deg < 90:
             raise ConfigError(f"max_tilt_deg must be in (0, 90), got {self.max_tilt_deg}")
-        for name in ("detect_scale", "horizontal_scale"):
+        for name in ("detect_scale", "horizontal_scale", "finer_scale"):
             if not 0 < getattr(self, name) <= 1:
                 raise ConfigError(f"{name} must be in (0, 1], got {getattr(self, name)}")
         if not 0 <= self.horizontal_max_slope_deg < 90:
@@ -630,6 +640,9 @@ class SceneLines:
         The same pass's segments shorter than ``min_length_px`` and at least
         ``terrain_min_length_px`` long, the whole ones then those at the border: for the
         terrain's vertical edges alone (``VerticalLinesConfig.terrain_min_length_px``).
+    scale : float or None
+        The scale the LSD pass ran at (``detect_scale`` or ``horizontal_scale``); None
+        where no pass ran.
     """
 
     up: GravityEstimate | None
@@ -637,6 +650,7 @@ class SceneLines:
     segments: np.ndarray
     at_border: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
     short: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
+    scale: float | None = None
 
     @property
     def every_segment(self) -> np.ndarray:
@@ -659,11 +673,13 @@ def scene_lines(
     ``want_up`` is False) and the dominant horizontal direction (``want_horizontal``; with
     the given up, else with the lines' when they fix it), from one LSD pass."""
     up_est = None
+    scale = None  # the pass's, where one ran
     length = _in_raw_px(rectification, config.min_length_px)
     shortest = _in_raw_px(rectification, config.terrain_min_length_px)
     found, whole = np.empty((0, 4)), np.zeros(0, dtype=bool)
     if known_up is None and want_up:
-        found, whole, long = _long_and_short(image, rectification, shortest, length, config.detect_scale)
+        scale = config.detect_scale
+        found, whole, long = _long_and_short(image, rectification, shortest, length, scale)
         segments = found[whole & long]
         up_est = up_from_vertical_lines(
             image, rectification, config, prior_cone_deg=prior_cone_deg, segments=segments
@@ -679,8 +695,31 @@ def scene_lines(
     horizontal = None
     if want_horizontal and up is not None:
         horizontal = horizontal_direction(segments, rectification, up, config)
+    return _sorted(found, whole, long, scale, up_est, horizontal)
+
+
+def scene_segments(
+    image: np.ndarray, rectification: Rectification, config: VerticalLinesConfig, scale: float
+) -> SceneLines:
+    """One LSD pass at ``scale`` sorted as :func:`scene_lines` sorts its segments (whole,
+    at the border, short), with neither up nor a horizontal direction: the terrain's lines
+    at another scale than the frame's (``finer_scale``)."""
+    length = _in_raw_px(rectification, config.min_length_px)
+    shortest = _in_raw_px(rectification, config.terrain_min_length_px)
+    return _sorted(*_long_and_short(image, rectification, shortest, length, scale), scale)
+
+
+def _sorted(
+    found: np.ndarray,
+    whole: np.ndarray,
+    long: np.ndarray,
+    scale: float | None,
+    up: GravityEstimate | None = None,
+    horizontal: np.ndarray | None = None,
+) -> SceneLines:
+    """One pass's segments (:func:`_long_and_short`) as :class:`SceneLines` holds them."""
     short = np.concatenate([found[whole & ~long], found[~whole & ~long]])
-    return SceneLines(up_est, horizontal, segments, found[~whole & long], short)
+    return SceneLines(up, horizontal, found[whole & long], found[~whole & long], short, scale)
 
 
 def _long_and_short(

@@ -63,11 +63,13 @@ from .second_opinions import (
     corroborated_frame,
     corroborated_up,
     far_planes,
+    finer_lines_noted,
     floor_a_step_below,
     redrawn_planes,
     rematch_kept,
     scene_up,
     staircase_of_ends,
+    staircase_of_finer_lines,
     staircase_of_lines,
     wants_rematch,
     whole_box,
@@ -270,12 +272,19 @@ class Pipeline:
             # not corroborate, found again in the frame they do (issue 11;
             # PipelineConfig.corroborated_frame).
             result = corroborated_frame(tried, result, self.config)
+        finer_lines = None  # the frame's lines, where the full-size image's found the staircase
         if rematch:
             # Nothing found: the staircase whose first riser the image's lines show, where
             # the floor is known (issue 11; TerrainConfig.lines_first_riser). A second
             # opinion, the last: on wooden stairs whose other opinions were turned off it
             # put the staircase a riser's position off (tests/test_far_planes.py).
             result = staircase_of_lines(result, self.config)
+            # Still nothing, the frame's lines found at half size (a rig's): the lines of the
+            # full-size image (issue 11; VerticalLinesConfig.finer_scale).
+            lines = None if image_jobs.lines is None else image_jobs.lines.result()
+            nothing = result
+            result = staircase_of_finer_lines(result, pair.left, lines, self.config)
+            finer_lines = lines if result is not nothing else None
         # A staircase or a step: the staircase its risers' ends show, where it has more
         # steps and holds a riser the planes measured, or holds none and outweighs their
         # staircase (issue 11; TerrainConfig.ends_staircase, ends_over_planes).
@@ -289,6 +298,8 @@ class Pipeline:
             if lowered.terrain is not result.terrain:
                 ended = staircase_of_ends(lowered, self.config)
         result = ended
+        if finer_lines is not None:  # (the ends, asked in those lines, gave a note of their own)
+            result = finer_lines_noted(result, finer_lines, self.config)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0
         return result
 

@@ -21,6 +21,8 @@ their results here:
   it;
 - :func:`staircase_of_lines`: last, where nothing was found and the floor is known, the
   staircase whose first riser the image's lines show (no riser formed a plane);
+- :func:`staircase_of_finer_lines`: then, with a rig (whose frame's lines are found at
+  half size), the same with the lines of the full-size image;
 - :func:`staircase_of_ends`: last of all, the staircase its risers' ends show;
 - :func:`floor_a_step_below`: without a rig, where those found no more steps, the
   staircase found again with the floor a rise lower, where the "floor" it stands on is
@@ -38,7 +40,7 @@ import numpy as np
 
 from ..cloud import GridSample, transform_sample
 from ..frames import Transform
-from ..gravity import angle_deg
+from ..gravity import SceneLines, angle_deg, scene_segments
 from ..planes.orientation import (
     OrientationConfig,
     PlaneSet,
@@ -259,6 +261,61 @@ def staircase_of_lines(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     t0 = time.perf_counter()
     found = staircase_from_lines(kept.planes, config.terrain, kept.image_lines)
     return _with_staircase(kept, found, config, "lines_staircase", t0)
+
+
+def staircase_of_finer_lines(
+    kept: TerrainResult, image: np.ndarray, lines: SceneLines | None, config: PipelineConfig
+) -> TerrainResult:
+    """``kept`` (every pass and second opinion found nothing, the lines' staircase too), or
+    :func:`staircase_of_lines` of the segments of a pass at ``vanishing.finer_scale``,
+    where the frame's own ``lines`` ran at another scale (with a rig, ``horizontal_scale``:
+    half size). ``image``: the rectified left image the frame's lines were found on. The
+    result carries those finer image lines, for the risers' ends asked next
+    (:func:`staircase_of_ends`). ``timing_ms["finer_lines"]``: the time it took, where it
+    ran.
+
+    A staircase 2-4 m ahead has nosings 1-3 px thick and risers' ends 15-50 px tall: at
+    half size LSD misses most of them. Asked only where nothing was found: on nearer
+    staircases the full-size segments break a faint nosing into pieces and add the
+    floor's lines, and the first riser's foot the lines' staircase takes is the nearest
+    line (docs/benchmarks.md, "Forty-seventh session")."""
+    scale = config.vanishing.finer_scale
+    if (
+        kept.terrain.obstacle != NONE
+        or lines is None
+        or lines.scale is None
+        or lines.scale == scale
+        or kept.image_lines is None
+    ):
+        return kept
+    t0 = time.perf_counter()
+    rect = kept.rectified.rectification
+    finer = scene_segments(image, rect, config.vanishing, scale)
+    image_lines = dataclasses.replace(
+        kept.image_lines, segments=finer.segments, at_border=finer.at_border, short=finer.short
+    )
+    found = staircase_of_lines(dataclasses.replace(kept, image_lines=image_lines), config)
+    result = finer_lines_noted(found, lines, config) if found.terrain.obstacle != NONE else kept
+    result.timing_ms["finer_lines"] = (time.perf_counter() - t0) * 1000.0
+    return result
+
+
+def finer_lines_noted(result: TerrainResult, lines: SceneLines, config: PipelineConfig) -> TerrainResult:
+    """``result`` (found in the lines of :func:`staircase_of_finer_lines`, or the risers'
+    ends of those lines asked next), its note saying so once."""
+    how = (
+        f"in the lines of the image at {_size(config.vanishing.finer_scale)} "
+        f"(the frame's at {_size(lines.scale)}: finer_scale)"
+    )
+    if how in result.terrain.note:
+        return result
+    terrain = dataclasses.replace(result.terrain, note=f"{result.terrain.note}; {how}")
+    return dataclasses.replace(result, terrain=terrain)
+
+
+def _size(scale: float | None) -> str:
+    """An image scale in words."""
+    return "full size" if scale == 1.0 else f"{scale:g} of full size"
 
 
 def staircase_of_ends(kept: TerrainResult, config: PipelineConfig) -> TerrainResult:

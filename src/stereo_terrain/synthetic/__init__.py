@@ -52,7 +52,7 @@ Examples
 from __future__ import annotations
 
 from .camera import _undistort as _undistort  # private, imported by the tests
-from .random_scenes import random_scene_spec
+from .random_scenes import oakd_overrides, random_scene_spec
 from .render import SyntheticScene, render_scene
 from .spec import (
     TEXTURE_KINDS,
@@ -74,6 +74,7 @@ __all__ = [
     "SurfaceSpec",
     "SyntheticScene",
     "default_scene_spec",
+    "oakd_overrides",
     "random_scene_spec",
     "render_scene",
     "render_scenes",

@@ -154,6 +154,23 @@ def _random_box(
     return BoxSpec(**{**params, **ob_over})
 
 
+def oakd_overrides(rng: np.random.Generator) -> dict:
+    """Overrides of the realistic profile (``random_scene_spec(..., **overrides)``) for an
+    OAK-D Lite held 0.5-1.4 m above the floor: its sensor, both images alike (Gaussian
+    noise of 1-2 grey levels with a small shot part, 0.2-0.5 px of blur, no JPEG) instead
+    of a cheap webcam's (1.5-3.5 grey, 0.5-1.5 px, JPEG 60-85). Draws three numbers from
+    ``rng`` (``benchmarks/bench_far_stairs.py --oakd``)."""
+    noise, blur = float(rng.uniform(1.0, 2.0)), float(rng.uniform(0.2, 0.5))
+    return {
+        "camera_height_m": float(rng.uniform(0.5, 1.4)),
+        "noise_sigma": (noise, noise),
+        "shot_noise": 0.01,
+        "blur_sigma_px": blur,
+        "right_blur_sigma_px": blur,
+        "jpeg_quality": None,
+    }
+
+
 def random_scene_spec(
     rng: np.random.Generator,
     *,
