@@ -29,6 +29,8 @@ change that only the rig's runs see, with its rig alone):
   wall at its end: the wall stands in the image of the riser a step beyond the top would
   have, where the terrain stage asks whether a landing goes on;
 - ``lab:SEED:N``: the wooden lab stairs of ``bench_far_stairs.py --lab``;
+- ``far:SEED:N``: the OAK-D-like stairs 2-4 m ahead of ``bench_far_stairs.py --oakd``
+  (the same draws for the same seed);
 - ``rooms:SEEDS``: the 11 real rooms without stairs at webcam quality
   (``bench_staircase_webcam.py --rooms``'s degradations, ``SEEDS`` noise seeds a row);
 - ``staircase:SEEDS``: the real Middlebury `Staircase` at webcam quality (the same
@@ -53,7 +55,7 @@ from stereo_terrain.evaluation import score_result, summarize
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_far_stairs import lab_spec  # noqa: E402
+from bench_far_stairs import lab_spec, oakd_spec  # noqa: E402
 from bench_real_stairs import real_pairs  # noqa: E402
 from bench_staircase_webcam import _degraded_pairs, passes  # noqa: E402
 
@@ -105,6 +107,8 @@ def _rendered(kind: str, seed: int, n: int) -> Iterator[tuple[int, Any]]:
             spec = random_scene_spec(rng, profile="realistic", kind="box")
         elif kind == "landings":
             spec = _short_landing(random_scene_spec(rng, profile="realistic", kind="stairs"), rng)
+        elif kind == "far":  # bench_far_stairs.py --oakd's draw
+            spec = oakd_spec(rng)
         else:  # lab: bench_far_stairs.py --lab's draw
             spec = lab_spec(rng)
         yield i, render_scene(spec)
@@ -117,6 +121,7 @@ SETS = {
     "boxes": "SEED:N",
     "landings": "SEED:N",
     "lab": "SEED:N",
+    "far": "SEED:N",
     "rooms": "SEEDS",
     "staircase": "SEEDS",
 }
@@ -307,7 +312,7 @@ def main() -> None:
         "set",
         help=(
             "realistic:SEED:N, default:SEED:N, boxes:SEED:N, landings:SEED:N, lab:SEED:N, "
-            "rooms:SEEDS, staircase:SEEDS"
+            "far:SEED:N, rooms:SEEDS, staircase:SEEDS"
         ),
     )
     cap.add_argument("out", type=Path, help="JSON lines file to write")

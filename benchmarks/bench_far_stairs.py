@@ -43,6 +43,10 @@ from stereo_terrain.synthetic import oakd_overrides, random_scene_spec, render_s
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_oracle_disparity import print_scores  # noqa: E402
 
+#: ``--oakd``'s first riser distances (metres) and baseline.
+OAKD_NEAR_FAR = (2.0, 4.0)
+OAKD_BASELINE_M = 0.075
+
 #: ``--lab``'s preset: the profile, first riser distances, baseline, fixed dimensions, wood.
 LAB = ("realistic", (1.5, 2.5), 0.07, {"rise_m": 0.2, "run_m": 0.31, "n_steps": 3}, True)
 
@@ -76,6 +80,11 @@ def staircase_spec(
             return distance, spec
 
 
+def oakd_spec(rng: np.random.Generator):
+    """The next of ``--oakd``'s staircases (:func:`staircase_spec` with its preset)."""
+    return staircase_spec(rng, "realistic", OAKD_NEAR_FAR, OAKD_BASELINE_M, {}, oakd=True)[1]
+
+
 def lab_spec(rng: np.random.Generator):
     """The next of ``--lab``'s staircases (:func:`staircase_spec` with :data:`LAB`)."""
     profile, near_far, baseline, fixed, wood = LAB
@@ -102,7 +111,7 @@ def main() -> None:
     if args.lab and args.oakd:
         ap.error("--lab and --oakd are two presets: choose one")
     if args.oakd:
-        args.profile, args.near, args.far, args.baseline = "realistic", 2.0, 4.0, 0.075
+        args.profile, (args.near, args.far), args.baseline = "realistic", OAKD_NEAR_FAR, OAKD_BASELINE_M
     if args.lab:
         args.profile, (args.near, args.far), args.baseline, lab_fixed, args.wood = LAB
         args.rise, args.run, args.steps = lab_fixed["rise_m"], lab_fixed["run_m"], lab_fixed["n_steps"]

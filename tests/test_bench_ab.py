@@ -97,17 +97,35 @@ def test_bad_arguments_get_one_line_and_exit_2(tmp_path, args, says):
     assert not (tmp_path / "x.jsonl").exists()
 
 
-def test_the_landings_set_draws_short_landings_ending_at_a_wall():
+def _bench_ab():
+    """The script, imported as a module."""
     spec = importlib.util.spec_from_file_location("bench_ab", SCRIPT)
     assert spec is not None and spec.loader is not None
     bench_ab = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench_ab)
-    ((_, scene),) = list(bench_ab._rendered("landings", 5, 1))
+    return bench_ab
+
+
+def test_the_landings_set_draws_short_landings_ending_at_a_wall():
+    ((_, scene),) = list(_bench_ab()._rendered("landings", 5, 1))
     stairs = scene.truth["spec"]["obstacle"]
     assert 0.25 <= stairs["landing_m"] <= 0.45
     planes = {p["name"]: p for p in scene.truth["planes"]}
     last = planes[f"riser_{stairs['n_steps']}"]["offset"]
     assert planes["back_wall"]["offset"] == pytest.approx(last + stairs["landing_m"], abs=0.01)
+
+
+def test_the_far_set_draws_the_oakd_staircases_of_bench_far_stairs():
+    """``far:SEED:N`` is ``bench_far_stairs.py --oakd``'s draw: stairs 2-4 m ahead, a
+    7.5 cm baseline, an OAK-D's sensor (no JPEG, both images alike)."""
+    scenes = [scene for _, scene in _bench_ab()._rendered("far", 77, 2)]
+    for scene in scenes:
+        spec = scene.truth["spec"]
+        assert 2.0 <= spec["obstacle"]["distance_m"] <= 4.0
+        assert spec["baseline_m"] == pytest.approx(0.075)
+        assert spec["jpeg_quality"] is None and spec["blur_sigma_px"] == spec["right_blur_sigma_px"]
+    first, second = (scene.truth["spec"]["obstacle"]["distance_m"] for scene in scenes)
+    assert first != second
 
 
 def test_a_reader_that_leaves_early_gets_no_traceback(tmp_path):
