@@ -4,7 +4,7 @@ import pytest
 
 from stereo_terrain.calibration import StereoCalibration, read_calibration
 from stereo_terrain.errors import InputError
-from stereo_terrain.rectify import compute_rectification, read_image, rectify, to_grey
+from stereo_terrain.rectify import compute_rectification, read_image, rectify, to_grey, valid_interior
 
 
 def _calib(size=(640, 480)):
@@ -169,3 +169,20 @@ def test_keep_passes_an_already_rectified_calibration_through():
     assert rect.maps is None and rect.size is None and rect.image_size == rect.raw_size == (640, 480)
     img = np.random.default_rng(1).integers(0, 255, (480, 640), dtype=np.uint8)
     assert rectify(img, img, rect).left is img
+
+
+def test_valid_interior_keeps_off_the_border_and_the_valid_regions_outline():
+    """3 px of the image's border and 3 px more (a 7 px erosion) inside the valid region's
+    outline are left out; the caller's mask, bool or uint8, is left as it was."""
+    whole = valid_interior(None, (40, 60))
+    assert whole.dtype == bool and whole.shape == (40, 60)
+    rows, cols = np.nonzero(whole)
+    assert (rows.min(), rows.max(), cols.min(), cols.max()) == (6, 33, 6, 53)
+    for dtype in (bool, np.uint8):
+        valid = np.ones((40, 60), dtype=dtype)
+        valid[:, 30:] = 0  # the right half has no source pixel
+        before = valid.copy()
+        inside = valid_interior(valid, valid.shape)
+        assert np.array_equal(valid, before)
+        cols = np.nonzero(inside)[1]
+        assert (cols.min(), cols.max()) == (6, 26)

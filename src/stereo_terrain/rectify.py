@@ -376,6 +376,23 @@ def _keep_cameras(
     return P1, P2, Q, (x1 - x0 + 1, y1 - y0 + 1)
 
 
+def valid_interior(
+    valid: np.ndarray | None, shape: tuple[int, int], border_px: int = 3, erode_px: int = 7
+) -> np.ndarray:
+    """``(H, W)`` bool: the pixels of a rectified image of ``shape`` that lie inside its
+    valid region (``valid``, e.g. :attr:`Rectification.valid_left`; None: all of it) and
+    away from that region's outline: ``border_px`` rows and columns at the image's border
+    left out, then the region eroded by an ``erode_px`` square. The outline is a straight
+    edge of the rectified image, not of the scene: line searches keep off it (the LSD
+    segments of :mod:`.gravity.from_lines`, the near-vertical edges of
+    :mod:`.terrain.nosings.plumb`). ``valid`` is not modified."""
+    inside = np.ones(shape, np.uint8) if valid is None else np.array(valid, dtype=np.uint8)
+    inside[:border_px, :] = inside[-border_px:, :] = 0
+    inside[:, :border_px] = inside[:, -border_px:] = 0
+    eroded: np.ndarray = cv2.erode(inside, np.ones((erode_px, erode_px), np.uint8)).astype(bool)
+    return eroded
+
+
 def _with_source(mx: np.ndarray, my: np.ndarray, raw_size: tuple[int, int]) -> np.ndarray | None:
     """Pixels of a rectified image whose (float) map lands inside the raw image of
     ``raw_size`` (width, height), shrunk by :data:`SOURCE_MARGIN_PX`; None when every pixel

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..checks import check_fields, check_min
 from ..errors import ConfigError
-from ..rectify import Rectification
+from ..rectify import Rectification, valid_interior
 from .config import GravityEstimate
 from .geometry import CAMERA_UP, angle_deg
 
@@ -241,10 +241,7 @@ def _segments(
     s = (found.reshape(-1, 4).astype(np.float64) + 0.5) / scale - 0.5
     s = s[np.hypot(s[:, 2] - s[:, 0], s[:, 3] - s[:, 1]) >= min_length_px]
     h, w = image.shape
-    inside = np.ones((h, w), np.uint8) if valid is None else valid.astype(np.uint8)
-    inside[:3, :] = inside[-3:, :] = 0
-    inside[:, :3] = inside[:, -3:] = 0
-    inside = cv2.erode(inside, np.ones((7, 7), np.uint8)).astype(bool)
+    inside = valid_interior(valid, (h, w))
 
     def on(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         xi = np.clip(np.round(x).astype(int), 0, w - 1)

@@ -30,6 +30,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ...rectify import valid_interior
 from ..photometric import smoothed
 
 #: Rows the horizontal gradient is averaged over (pixels).
@@ -56,11 +57,6 @@ _MAX_RMS_PX = 1.0
 
 #: A line ends where its averaged gradient falls below this share of its mean.
 _END_SHARE = 0.5
-
-#: Pixels along the valid region's outline left out (its border is a straight edge of the
-#: rectified image, not of the scene), as for the line segments.
-_BORDER_PX = 3
-_ERODE_PX = 7
 
 
 def plumb_segments(
@@ -95,10 +91,7 @@ def plumb_segments(
     grad_y = cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
     g = cv2.blur(np.asarray(grad_x, dtype=np.float32), (1, _ROWS))
     h, w = g.shape
-    inside = np.ones((h, w), np.uint8) if valid is None else np.asarray(valid, dtype=np.uint8)
-    inside[:_BORDER_PX, :] = inside[-_BORDER_PX:, :] = 0
-    inside[:, :_BORDER_PX] = inside[:, -_BORDER_PX:] = 0
-    inside = cv2.erode(inside, np.ones((_ERODE_PX, _ERODE_PX), np.uint8)).astype(bool)
+    inside = valid_interior(valid, (h, w))  # off the valid region's outline, as the segments
     a = np.abs(g)
     if not inside.any():
         return np.empty((0, 4))
