@@ -7,16 +7,20 @@ the result is a staircase or a step and the floor is known), or, without a rig, 
 the staircase found again with the floor a rise lower (``--step floor``;
 ``PipelineConfig.floor_a_step_below``, where the result is a staircase standing on its
 "floor"; the frames it ran in are those where it looked for the first riser's samples
-under that floor). Results are recorded in docs/benchmarks.md ("Forty-first session",
-"Forty-third session", "Forty-fourth session"); their accuracy is ``bench_ab.py``'s (the
-same draws with and without them).
+under that floor), or that of the first riser standing where the floor the matcher holds
+ends (``--step edge``; ``TerrainConfig.floor_edge_foot``, where nothing else, the risers'
+ends included, found anything and the floor is known). Results are recorded in
+docs/benchmarks.md ("Forty-first session", "Forty-third session", "Forty-fourth session",
+"Forty-eighth session"); their accuracy is ``bench_ab.py``'s (the same draws with and
+without them).
 
-    .venv/bin/python benchmarks/bench_lines_staircase.py [--seed 23] [--n 60] [--no-rig] [--step ends|floor]
+    .venv/bin/python benchmarks/bench_lines_staircase.py [--seed 23] [--n 60] [--no-rig] \
+        [--step ends|floor|edge]
 
 Runs the pipeline (default settings) on the realistic profile's draws and prints, over
 the frames where the step ran: how many, how many it found a staircase in, the step's time
-(``timing_ms["lines_staircase"]``, ``timing_ms["ends_staircase"]`` or
-``timing_ms["floor_below"]``, ms, median / p90 /
+(``timing_ms["lines_staircase"]``, ``timing_ms["ends_staircase"]``,
+``timing_ms["floor_below"]`` or ``timing_ms["floor_edge_staircase"]``, ms, median / p90 /
 max) and the whole frame's (median / p90), side by side in the same run.
 """
 
@@ -34,6 +38,7 @@ STEPS = {
     "lines": ("lines_staircase", "from the image's lines"),
     "ends": ("ends_staircase", "from the risers' ends both images place"),
     "floor": ("floor_below", "(floor_a_step_below)"),
+    "edge": ("floor_edge_staircase", "from the floor's edge"),
 }
 
 

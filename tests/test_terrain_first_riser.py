@@ -11,8 +11,10 @@ from hypothesis import strategies as st
 
 from stereo_terrain.evaluation import score_result
 from stereo_terrain.pipeline import Pipeline, PipelineConfig
+from stereo_terrain.pipeline.second_opinions import staircase_at_floor_edge, staircase_of_lines
 from stereo_terrain.synthetic import random_scene_spec, render_scene
 from stereo_terrain.terrain import NONE, STAIRS, TerrainConfig
+from stereo_terrain.terrain.from_lines import floor_edge
 from stereo_terrain.terrain.nosings import first_risers, line_axes
 from stereo_terrain.terrain.nosings.view import parallel_segments
 
@@ -128,3 +130,75 @@ def test_a_staircase_found_from_its_risers_is_not_asked_of_the_lines():
     assert result.terrain.obstacle == STAIRS
     assert "lines_staircase" not in result.timing_ms
     assert "from the image's lines" not in result.terrain.note
+
+
+def _ground(floor_along: np.ndarray, lateral: float = 0.4):
+    """:func:`floor_edge`'s ``ground``: one floor plane at height 0 whose inliers lie at
+    ``floor_along`` along the axis, spread across ``+-lateral``."""
+    across = np.linspace(-lateral, lateral, len(floor_along))
+    return [0.0], [np.asarray(floor_along, dtype=np.float64)], [across], 0.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    height=st.floats(0.3, 0.7),
+    foot=st.floats(0.9, 2.5),
+    line_beyond=st.floats(0.15, 0.8),
+    per_row=st.integers(8, 60),
+    stray_share=st.floats(0.0, 0.015),
+)
+def test_the_floor_edge_is_where_the_floor_the_matcher_holds_ends(
+    height, foot, line_beyond, per_row, stray_share
+):
+    """The floor's samples come row by row (a grid row every 5 px, sparser along the axis
+    the farther it is) from the view's bottom to the first riser's foot; a few strays (a
+    painted riser's samples along their rays, 1-2% on realistic 41 scenes 1 and 48) lie
+    beyond it. The edge found in front of a line farther on (the first nosing met with the
+    floor) is the foot, within a row or so."""
+    f, cy, stride, bottom = 550.0, 240.0, 5.0, 475.0
+    rows = np.arange(cy + height * f / foot, bottom, stride)
+    along = np.repeat(height * f / (rows - cy), per_row)
+    rng = np.random.default_rng(per_row)
+    strays = foot + rng.uniform(0.0, 0.3, int(stray_share * len(along)))
+    edge = floor_edge(_ground(np.concatenate([along, strays])), foot + line_beyond, (-0.5, 0.5), CONFIG)
+    if len(along) < 4 * CONFIG.min_tread_points:
+        assert edge is None
+        return
+    spacing = foot**2 * stride / (f * height)  # metres between the grid rows at the foot
+    assert edge is not None
+    assert foot - 1.5 * spacing - 0.01 <= edge <= foot + 0.01
+
+
+def test_no_floor_edge_without_floor_or_next_to_the_line():
+    """Too few floor samples give no edge, and an edge within half a short run of the line
+    is the line's own foot (the line is the foot then)."""
+    rng = np.random.default_rng(0)
+    few = rng.uniform(0.5, 1.2, 4 * CONFIG.min_tread_points - 1)
+    assert floor_edge(_ground(few), 1.6, (-0.5, 0.5), CONFIG) is None
+    many = rng.uniform(0.5, 1.2, 400)
+    assert floor_edge(_ground(many), 1.25, (-0.5, 0.5), CONFIG) is None
+    assert floor_edge(_ground(many), 1.6, (-0.5, 0.5), CONFIG) == pytest.approx(1.2, abs=0.03)
+    # Only the floor across the line's width counts (here a twelfth of it: too few).
+    assert floor_edge(_ground(many, lateral=3.0), 1.6, (2.5, 3.0), CONFIG) is None
+
+
+def test_a_painted_staircase_on_a_plank_floor_stands_where_the_floor_ends():
+    """Realistic 41 scene 48 with its rig: two painted steps of 12.4 / 34.1 cm, 1.22 m
+    ahead, on a plank floor. No pass found a riser; the first long line on the floor is the
+    first nosing (met with the floor at 1.57 m), the riser's foot against the planks no
+    line. The floor the matcher holds ends at the foot, and the nosings over it make the
+    staircase (docs/benchmarks.md, "Forty-eighth session")."""
+    scene = _realistic(48, 41)
+    config = PipelineConfig()
+    off = dataclasses.replace(config, terrain=dataclasses.replace(config.terrain, floor_edge_foot=False))
+    kept = Pipeline(scene.calibration, scene.rig, off, warm_up=False).run(scene.left, scene.right)
+    assert kept.terrain.obstacle == NONE, kept.terrain.note
+    assert staircase_of_lines(kept, config).terrain.obstacle == NONE  # the lines' feet alone: none
+    assert staircase_at_floor_edge(kept, off).terrain.obstacle == NONE  # turned off
+    result = staircase_at_floor_edge(kept, config)
+    assert "from the floor's edge and the image's lines" in result.terrain.note
+    assert "floor_edge_staircase" in result.timing_ms
+    score = score_result(result.to_json_dict(), scene.truth)
+    assert score.count_right, result.terrain.note
+    assert max(score.rise_errors_m) <= 0.015
+    assert result.terrain.steps[0].distance_m == pytest.approx(scene.truth["steps"][0]["distance"], abs=0.05)

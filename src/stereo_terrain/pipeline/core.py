@@ -68,6 +68,7 @@ from .second_opinions import (
     redrawn_planes,
     rematch_kept,
     scene_up,
+    staircase_at_floor_edge,
     staircase_of_ends,
     staircase_of_finer_lines,
     staircase_of_lines,
@@ -298,6 +299,11 @@ class Pipeline:
             if lowered.terrain is not result.terrain:
                 ended = staircase_of_ends(lowered, self.config)
         result = ended
+        if rematch:
+            # Still nothing: the staircase whose first riser stands where the floor the
+            # matcher holds ends, in front of the lines on the floor (issue 11;
+            # TerrainConfig.floor_edge_foot). After the ends: its foot is a grid row or so off.
+            result = staircase_at_floor_edge(result, self.config)
         if finer_lines is not None:  # (the ends, asked in those lines, gave a note of their own)
             result = finer_lines_noted(result, finer_lines, self.config)
         result.timing_ms["total"] = (time.perf_counter() - t0) * 1000.0

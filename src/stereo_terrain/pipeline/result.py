@@ -55,7 +55,9 @@ class TerrainResult:
         those did (each the sum over the frame's passes), ``timing_ms["denoise"]``
         whenever the pair was denoised, ``timing_ms["lines_staircase"]`` whenever the
         staircase of the first riser the image's lines show was looked for (nothing else
-        found, ``TerrainConfig.lines_first_riser``).
+        found, ``TerrainConfig.lines_first_riser``), ``timing_ms["floor_edge_staircase"]``
+        whenever the one whose first riser stands where the floor ends was (nothing found
+        after that either, ``TerrainConfig.floor_edge_foot``).
     floor_known, image_lines
         What the terrain stage was given besides the planes (the frame's origin is on the
         floor; the image's line segments), so that it can run again on other planes

@@ -17,22 +17,42 @@ from ..msac import Plane
 from ..planes.orientation import PlaneSet
 from .assemble import _Chain, _finish, _samples_at, horizontal_info
 from .model import STAIRS, StairModel, Step, TerrainConfig, stair_axes
-from .nosings import FirstRiser, ImageLines, first_risers, line_axes
-from .nosings.view import parallel_segments
+from .nosings import FirstRiser, ImageLines, first_risers, line_axes, nosings_over
+from .nosings.view import Segments, parallel_segments
 from .risers import face_riser, riser_distance
 
 #: The fewest steps a staircase from the lines must have: a lone pair of edges, or two, is
 #: any box's or shelf's.
 MIN_STEPS = 3
 
+#: The fewest where the first riser's foot is the floor's far edge (:func:`floor_edge`):
+#: the floor the matcher holds ends there, and the nosings over it rise by a stair's rise
+#: twice (one more nosing at the second rise allowed with a line's foot made a 9 cm
+#: "staircase" of an empty realistic render's floor lines; docs/benchmarks.md,
+#: "Forty-eighth session").
+MIN_STEPS_AT_FLOOR_EDGE = 2
+
+#: The floor's far edge in front of a foot's line: this percentile of the floor's inliers'
+#: positions along the axis there (the last few per cent are the strays of a painted
+#: riser's samples, which lie along their rays beyond its foot).
+FLOOR_EDGE_PCT = 98.0
+
 #: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
 ORIGIN = "from the image's lines (no riser formed a plane: the first riser's foot and nosing are lines)"
+ORIGIN_AT_FLOOR_EDGE = (
+    "from the floor's edge and the image's lines (no riser formed a plane: the first riser's foot "
+    "is where the floor the matcher holds ends, its nosing a line)"
+)
 
 
-def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLines) -> StairModel | None:
+def staircase_from_lines(
+    planes: PlaneSet, config: TerrainConfig, lines: ImageLines, *, at_floor_edge: bool = False
+) -> StairModel | None:
     """The staircase of the first riser the image's lines show (:mod:`.nosings.first_riser`),
     finished as a one-riser chain, where it has ``MIN_STEPS`` or more; None where none does.
-    The frame's origin is on the floor (``floor_known``).
+    The frame's origin is on the floor (``floor_known``). With ``at_floor_edge``, the first
+    risers whose feet are where the floor ends in front of those lines instead
+    (:func:`floor_edge_feet`), where they make ``MIN_STEPS_AT_FLOOR_EDGE`` or more.
 
     Along each stair axis the lines show, the feet are taken nearest first. A foot without
     the ground's plane a run's length in front of it is no first riser's; one with the
@@ -59,6 +79,9 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
         feet: dict[float, list[FirstRiser]] = {}
         for first in first_risers(lines, segs, u, v, ground_z, config):
             feet.setdefault(first.axis_position_m, []).append(first)
+        if at_floor_edge:
+            feet = floor_edge_feet(feet, ground, lines, segs, u, v, samples.stride_px, config)
+        fewest = MIN_STEPS_AT_FLOOR_EDGE if at_floor_edge else MIN_STEPS
         for a0, over in feet.items():  # nearest first
             lateral = over[0].lateral
             if not _ground_holds(ground, (a0 - config.continue_max_run_m, a0), lateral, config):
@@ -76,14 +99,15 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
                 width = lateral[1] - lateral[0]
                 step = Step(top - ground_z, None, riser_distance(plane, a0, u), width, top, a0, plane)
                 chain = _Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
-                models.append(_finish(chain, finishing, lines, origin=ORIGIN))
+                origin = ORIGIN_AT_FLOOR_EDGE if at_floor_edge else ORIGIN
+                models.append(_finish(chain, finishing, lines, origin=origin))
             beyond = [_ground_holds(ground, (s_lo, _far_end(a0, m, config)), lateral, config) for m in models]
             if all(beyond):
                 continue  # a line on the floor, or a box's front: the floor goes on beyond it
             found = [
                 m
                 for m, b in zip(models, beyond, strict=True)
-                if m.obstacle == STAIRS and len(m.steps) >= MIN_STEPS and not b
+                if m.obstacle == STAIRS and len(m.steps) >= fewest and not b
             ]
             if found:
                 along = max(found, key=lambda m: len(m.steps))
@@ -91,6 +115,79 @@ def staircase_from_lines(planes: PlaneSet, config: TerrainConfig, lines: ImageLi
                     best = along
             break  # the first riser's foot: the staircase is its or none
     return best
+
+
+def floor_edge_feet(
+    feet: dict[float, list[FirstRiser]],
+    ground: tuple[list[float], list[np.ndarray], list[np.ndarray], float],
+    lines: ImageLines,
+    segs: Segments,
+    u: np.ndarray,
+    v: np.ndarray,
+    stride_px: int,
+    config: TerrainConfig,
+) -> dict[float, list[FirstRiser]]:
+    """The first risers whose feet the floor's far edge shows in front of the feet of
+    ``feet`` (foot position along the axis -> its first risers, nearest first;
+    :func:`floor_edge`), with the nosings over each, nearest first. Not one within two
+    ``merge_distance_m`` of a foot's line (that line is the foot), nor one where the
+    samples' grid rows (``stride_px`` apart) lie more than half a short run
+    (``continue_min_run_m``) apart on the floor (a level camera's ``depth**2 * stride /
+    (focal * height)``): the edge is placed to a row, the nosing's height over it with it,
+    and there the floor's samples end at the cloud's far limit as often as at a foot
+    (OAK-D-like stairs 4 m ahead without a rig: an edge at 3.2 m, four steps of 27.4 cm
+    for five of 18.4).
+
+    A painted riser on a textured floor: its foot is a shading edge against the floor's
+    grain and joints, which breaks into short segments, and the first long line on the
+    floor is the first nosing, seen where its ray meets the floor (on realistic 41 scene
+    48, 1.57 m for a riser at 1.22 m). The floor the matcher holds in front of that line
+    ends at the true foot, and the nosing's line, met with the riser plane there, is at
+    the stair's rise."""
+    added: dict[float, list[FirstRiser]] = {}
+    c = lines.centre
+    height = float(c[2]) - ground[3]
+    if height <= 0.0:
+        return added
+    for a0, over in feet.items():
+        lateral = over[0].lateral
+        edge = floor_edge(ground, a0, lateral, config)
+        if edge is None or any(abs(edge - a) < 2.0 * config.merge_distance_m for a in [*feet, *added]):
+            continue
+        middle = edge * u + 0.5 * (lateral[0] + lateral[1]) * v + [0.0, 0.0, ground[3]]
+        depth = float((middle - c) @ lines.T_frame_camera[:3, 2])  # along the optical axis
+        if depth**2 * stride_px / (lines.focal_px * height) > 0.5 * config.continue_min_run_m:
+            continue
+        tops = nosings_over(lines, segs, u, v, edge, lateral, ground[3], config)
+        if tops:
+            added[edge] = [FirstRiser(edge, top, lateral) for top in tops]
+    return dict(sorted(added.items()))
+
+
+def floor_edge(
+    ground: tuple[list[float], list[np.ndarray], list[np.ndarray], float],
+    a0: float,
+    lateral: tuple[float, float],
+    config: TerrainConfig,
+) -> float | None:
+    """Where the floor the matcher holds ends in front of ``a0`` (metres along the stair
+    axis) within ``lateral``: the :data:`FLOOR_EDGE_PCT` percentile of the positions of
+    the floor planes' inliers there (``ground`` as :func:`_ground_holds` takes it). None
+    where they are fewer than four treads' worth (``min_tread_points``), or the edge is
+    within half a short run (``continue_min_run_m``) of ``a0``: there the line is the
+    foot."""
+    h_z, s_h, v_h, ground_z = ground
+    tol = config.tread_height_tolerance_m
+    parts = [
+        sh[(vh > lateral[0]) & (vh < lateral[1]) & (sh < a0)]
+        for hz, sh, vh in zip(h_z, s_h, v_h, strict=True)
+        if abs(hz - ground_z) <= tol
+    ]
+    along = np.concatenate(parts) if parts else np.zeros(0)
+    if len(along) < 4 * config.min_tread_points:
+        return None
+    edge = float(np.percentile(along, FLOOR_EDGE_PCT))
+    return edge if edge < a0 - 0.5 * config.continue_min_run_m else None
 
 
 def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:

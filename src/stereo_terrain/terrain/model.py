@@ -156,6 +156,14 @@ class TerrainConfig:
         nosings beyond), kept where that makes three steps or more
         (:func:`~.from_lines.staircase_from_lines`, asked by the pipeline last). Default
         true (issue 11: painted stairs, whose risers form no plane).
+    floor_edge_foot : bool
+        With ``lines_first_riser``, where that and the risers' ends found nothing too: the
+        first riser's foot is looked for where the floor the matcher holds ends, in front
+        of each foot's line (a painted riser's foot on a textured floor breaks into short
+        segments, and the first long line on the floor is the first nosing), with the
+        nosings over it; kept where that makes two steps or more
+        (:func:`~.from_lines.floor_edge_feet`, asked by the pipeline after every other
+        opinion). Default true (issue 11).
     nosing_pitch : bool
         With ``nosing_steps``: a chain that stands on one riser plane is rebuilt on the
         pitch (rise and run) that puts the most nosings, from the first on, on the image's
@@ -317,6 +325,7 @@ class TerrainConfig:
     nosing_steps: bool = True
     nosing_axis: bool = True
     lines_first_riser: bool = True
+    floor_edge_foot: bool = True
     nosing_pitch: bool = True
     max_nosing_steps: int = 4
     riser_end_steps: bool = True

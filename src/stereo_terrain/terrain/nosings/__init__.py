@@ -90,7 +90,7 @@ and nosing as lines).
 """
 
 from .axis import axis_from_nosings
-from .first_riser import FirstRiser, first_risers, line_axes
+from .first_riser import FirstRiser, first_risers, line_axes, nosings_over
 from .riser_ends import end_steps
 from .steps import nosing_heights, nosing_steps, pitched_steps
 from .view import ImageLines
@@ -104,5 +104,6 @@ __all__ = [
     "line_axes",
     "nosing_heights",
     "nosing_steps",
+    "nosings_over",
     "pitched_steps",
 ]

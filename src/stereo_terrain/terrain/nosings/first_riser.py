@@ -149,12 +149,12 @@ def first_risers(
             continue
         feet += 1
         a0 = float(np.median(a[group]))
-        for top in _nosings_over(lines, segs, u, v, a0, span, ground_z, config):
+        for top in nosings_over(lines, segs, u, v, a0, span, ground_z, config):
             out.append(FirstRiser(a0, top, span))
     return out
 
 
-def _nosings_over(
+def nosings_over(
     lines: ImageLines,
     segs: Segments,
     u: np.ndarray,
