@@ -4,7 +4,9 @@ show (issue 11; :mod:`.nosings.first_riser`), finished as a chain of one riser p
 
 The pipeline asks for it last, where every pass and second opinion found nothing and the
 floor is known (``TerrainConfig.lines_first_riser``): it adds staircases to frames that had
-none and changes no other.
+none and changes no other. After the risers' ends, where those found nothing either, it
+asks once more with the first riser's foot where the floor the matcher holds ends in front
+of the lines (:func:`floor_edge_feet`, ``TerrainConfig.floor_edge_foot``).
 """
 
 from __future__ import annotations
@@ -36,6 +38,11 @@ MIN_STEPS_AT_FLOOR_EDGE = 2
 #: positions along the axis there (the last few per cent are the strays of a painted
 #: riser's samples, which lie along their rays beyond its foot).
 FLOOR_EDGE_PCT = 98.0
+
+#: The ground's planes as :func:`_ground_holds` and :func:`floor_edge` take them: the
+#: horizontal planes' heights, their inliers' positions along the stair axis and across
+#: it, and the ground's height.
+Ground = tuple[list[float], list[np.ndarray], list[np.ndarray], float]
 
 #: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
 ORIGIN = "from the image's lines (no riser formed a plane: the first riser's foot and nosing are lines)"
@@ -119,7 +126,7 @@ def staircase_from_lines(
 
 def floor_edge_feet(
     feet: dict[float, list[FirstRiser]],
-    ground: tuple[list[float], list[np.ndarray], list[np.ndarray], float],
+    ground: Ground,
     lines: ImageLines,
     segs: Segments,
     u: np.ndarray,
@@ -165,7 +172,7 @@ def floor_edge_feet(
 
 
 def floor_edge(
-    ground: tuple[list[float], list[np.ndarray], list[np.ndarray], float],
+    ground: Ground,
     a0: float,
     lateral: tuple[float, float],
     config: TerrainConfig,
@@ -201,7 +208,7 @@ def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:
 
 
 def _ground_holds(
-    ground: tuple[list[float], list[np.ndarray], list[np.ndarray], float],
+    ground: Ground,
     along: tuple[float, float],
     lateral: tuple[float, float],
     config: TerrainConfig,
