@@ -202,3 +202,16 @@ def test_a_painted_staircase_on_a_plank_floor_stands_where_the_floor_ends():
     assert score.count_right, result.terrain.note
     assert max(score.rise_errors_m) <= 0.015
     assert result.terrain.steps[0].distance_m == pytest.approx(scene.truth["steps"][0]["distance"], abs=0.05)
+
+
+def test_a_plank_floors_joints_are_no_staircase_where_its_samples_stay_on_the_floor():
+    """Realistic 37 scene 48 with its rig: an empty corridor with a plank floor. The floor
+    formed two small planes only, so the floor's planes did not show it going on beyond a
+    joint taken for a first riser's foot, and the joints beyond fit a pitch of three 15 cm
+    steps. Every sample where those steps would stand lies at the floor's height: no
+    staircase (docs/benchmarks.md, "Forty-eighth session")."""
+    scene = _realistic(48, 37)
+    assert scene.truth["obstacle"] == NONE
+    result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
+    assert "lines_staircase" in result.timing_ms  # the lines were asked
+    assert result.terrain.obstacle == NONE, result.terrain.note

@@ -39,6 +39,10 @@ MIN_STEPS_AT_FLOOR_EDGE = 2
 #: riser's samples, which lie along their rays beyond its foot).
 FLOOR_EDGE_PCT = 98.0
 
+#: Of the samples where a lines' staircase would stand, fewer than this share higher than
+#: half its first rise is a floor's (:func:`_flat_where_it_stands`).
+RISING_SHARE = 0.25
+
 #: The ground's planes as :func:`_ground_holds` and :func:`floor_edge` take them: the
 #: horizontal planes' heights, their inliers' positions along the stair axis and across
 #: it, and the ground's height.
@@ -114,7 +118,10 @@ def staircase_from_lines(
             found = [
                 m
                 for m, b in zip(models, beyond, strict=True)
-                if m.obstacle == STAIRS and len(m.steps) >= fewest and not b
+                if m.obstacle == STAIRS
+                and len(m.steps) >= fewest
+                and not b
+                and not _flat_where_it_stands(m, a0, s_all, v_all, P[:, 2] - ground_z, lateral, config)
             ]
             if found:
                 along = max(found, key=lambda m: len(m.steps))
@@ -195,6 +202,36 @@ def floor_edge(
         return None
     edge = float(np.percentile(along, FLOOR_EDGE_PCT))
     return edge if edge < a0 - 0.5 * config.continue_min_run_m else None
+
+
+def _flat_where_it_stands(
+    model: StairModel,
+    a0: float,
+    s_all: np.ndarray,
+    v_all: np.ndarray,
+    height: np.ndarray,
+    lateral: tuple[float, float],
+    config: TerrainConfig,
+) -> bool:
+    """Whether the samples where ``model`` (first riser at ``a0``) would stand, beyond its
+    foot to its last tread's end (:func:`_far_end`) and across ``lateral``, lie at the
+    floor's height: two treads' worth (``min_tread_points``) or more of them, and under
+    :data:`RISING_SHARE` of them higher than half its first rise (``height``: each
+    sample's above the ground). The floor's planes may hold few of a plank floor's
+    samples (realistic 37 scene 48 with its rig, an empty corridor: two planes of about
+    100 inliers, and 203 samples beyond a plank joint taken for a foot, none of them half a
+    rise up, made three steps of the joints beyond). A staircase's samples there, however
+    badly a painted face is matched, lie along rays that meet its risers and treads: of
+    the 18 true staircases the lines found on the rendered sets, the 14 with 30 samples
+    or more there had 72-100% of them higher (docs/benchmarks.md, "Forty-eighth
+    session")."""
+    far = _far_end(a0, model, config)
+    inside = (s_all > a0 + config.merge_distance_m) & (s_all < far)
+    inside &= (v_all > lateral[0]) & (v_all < lateral[1])
+    if np.count_nonzero(inside) < 2 * config.min_tread_points:
+        return False
+    rising = float(np.mean(height[inside] > 0.5 * model.steps[0].rise_m))
+    return rising < RISING_SHARE
 
 
 def _far_end(a0: float, model: StairModel, config: TerrainConfig) -> float:

@@ -153,7 +153,8 @@ class TerrainConfig:
         line segments: the staircase whose first riser's foot and nosing the segments show
         as lines (the floor the matcher holds in front of the foot, and not most of the
         samples beyond it), finished as a one-riser chain is (the nosings' pitch and the
-        nosings beyond), kept where that makes three steps or more
+        nosings beyond), kept where that makes three steps or more and the samples where
+        they would stand do not all lie at the floor's height
         (:func:`~.from_lines.staircase_from_lines`, asked by the pipeline last). Default
         true (issue 11: painted stairs, whose risers form no plane).
     floor_edge_foot : bool
