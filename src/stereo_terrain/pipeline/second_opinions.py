@@ -253,16 +253,19 @@ def staircase_of_lines(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     risers' samples are anywhere along their rays), and where a riser plane was found the
     chain from it is the better measure. ``timing_ms["lines_staircase"]``: the time it
     took, where it ran."""
-    if (
-        kept.terrain.obstacle != NONE
-        or not config.terrain.lines_first_riser
-        or not kept.floor_known
-        or kept.image_lines is None
-    ):
+    lines = _lines_asked(kept, config)
+    if lines is None:
         return kept
     t0 = time.perf_counter()
-    found = staircase_from_lines(kept.planes, config.terrain, kept.image_lines)
+    found = staircase_from_lines(kept.planes, config.terrain, lines)
     return _with_staircase(kept, found, config, "lines_staircase", t0)
+
+
+def _lines_asked(kept: TerrainResult, config: PipelineConfig) -> ImageLines | None:
+    """The image's lines where the lines' staircase is asked of ``kept`` (nothing found,
+    the floor known, ``TerrainConfig.lines_first_riser``), else None."""
+    asked = kept.terrain.obstacle == NONE and config.terrain.lines_first_riser and kept.floor_known
+    return kept.image_lines if asked else None
 
 
 def staircase_at_floor_edge(kept: TerrainResult, config: PipelineConfig) -> TerrainResult:
@@ -276,16 +279,11 @@ def staircase_at_floor_edge(kept: TerrainResult, config: PipelineConfig) -> Terr
     realistic 57 scene 19 without a rig, five steps with runs 0.1 cm off), they are the
     better measure. ``timing_ms["floor_edge_staircase"]``: the time it took, where it
     ran."""
-    if (
-        kept.terrain.obstacle != NONE
-        or not config.terrain.lines_first_riser
-        or not config.terrain.floor_edge_foot
-        or not kept.floor_known
-        or kept.image_lines is None
-    ):
+    lines = _lines_asked(kept, config) if config.terrain.floor_edge_foot else None
+    if lines is None:
         return kept
     t0 = time.perf_counter()
-    found = staircase_from_lines(kept.planes, config.terrain, kept.image_lines, at_floor_edge=True)
+    found = staircase_from_lines(kept.planes, config.terrain, lines, at_floor_edge=True)
     return _with_staircase(kept, found, config, "floor_edge_staircase", t0)
 
 

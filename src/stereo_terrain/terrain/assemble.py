@@ -669,12 +669,25 @@ def _samples_at(
     """How many inliers the horizontal planes within ``tol`` of height ``z`` hold strictly
     between ``along`` (metres along the stair axis) and ``lateral`` (along the lateral
     direction); ``h_z``, ``s_h``, ``v_h``: each plane's height and its inliers' positions."""
-    count = 0
-    for hz, sh, vh in zip(h_z, s_h, v_h, strict=True):
-        if abs(hz - z) <= tol:
-            inside = (sh > along[0]) & (sh < along[1]) & (vh > lateral[0]) & (vh < lateral[1])
-            count += int(np.sum(inside))
-    return count
+    return len(samples_along(h_z, s_h, v_h, z, tol, along, lateral))
+
+
+def samples_along(
+    h_z: list[float],
+    s_h: list[np.ndarray],
+    v_h: list[np.ndarray],
+    z: float,
+    tol: float,
+    along: tuple[float, float],
+    lateral: tuple[float, float],
+) -> np.ndarray:
+    """The positions along the stair axis of the inliers :func:`_samples_at` counts."""
+    parts = [
+        sh[(sh > along[0]) & (sh < along[1]) & (vh > lateral[0]) & (vh < lateral[1])]
+        for hz, sh, vh in zip(h_z, s_h, v_h, strict=True)
+        if abs(hz - z) <= tol
+    ]
+    return np.concatenate(parts) if parts else np.zeros(0)
 
 
 def _tread_between(horizontals, h_z, s_h, z: float, s_lo: float, s_hi: float) -> Plane | None:

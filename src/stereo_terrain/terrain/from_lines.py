@@ -17,7 +17,7 @@ import numpy as np
 
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .assemble import _Chain, _finish, _samples_at, horizontal_info
+from .assemble import _Chain, _finish, _samples_at, horizontal_info, samples_along
 from .model import STAIRS, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import FirstRiser, ImageLines, first_risers, line_axes, nosings_over
 from .nosings.view import Segments, parallel_segments
@@ -78,6 +78,8 @@ def staircase_from_lines(
     ground_z = 0.0
     # Not the photometric risers: a painted riser's two images have nothing to agree on.
     finishing = dataclasses.replace(config, photometric_risers=False)
+    fewest, origin = (MIN_STEPS_AT_FLOOR_EDGE, ORIGIN_AT_FLOOR_EDGE) if at_floor_edge else (MIN_STEPS, ORIGIN)
+    height = P[:, 2] - ground_z  # each sample's above the ground
     best: StairModel | None = None
     for yaw in line_axes(lines):
         u, v = stair_axes(yaw)
@@ -92,7 +94,6 @@ def staircase_from_lines(
             feet.setdefault(first.axis_position_m, []).append(first)
         if at_floor_edge:
             feet = floor_edge_feet(feet, ground, lines, segs, u, v, samples.stride_px, config)
-        fewest = MIN_STEPS_AT_FLOOR_EDGE if at_floor_edge else MIN_STEPS
         for a0, over in feet.items():  # nearest first
             lateral = over[0].lateral
             if not _ground_holds(ground, (a0 - config.continue_max_run_m, a0), lateral, config):
@@ -110,7 +111,6 @@ def staircase_from_lines(
                 width = lateral[1] - lateral[0]
                 step = Step(top - ground_z, None, riser_distance(plane, a0, u), width, top, a0, plane)
                 chain = _Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
-                origin = ORIGIN_AT_FLOOR_EDGE if at_floor_edge else ORIGIN
                 models.append(_finish(chain, finishing, lines, origin=origin))
             beyond = [_ground_holds(ground, (s_lo, _far_end(a0, m, config)), lateral, config) for m in models]
             if all(beyond):
@@ -121,7 +121,7 @@ def staircase_from_lines(
                 if m.obstacle == STAIRS
                 and len(m.steps) >= fewest
                 and not b
-                and not _flat_where_it_stands(m, a0, s_all, v_all, P[:, 2] - ground_z, lateral, config)
+                and not _flat_where_it_stands(m, a0, s_all, v_all, height, lateral, config)
             ]
             if found:
                 along = max(found, key=lambda m: len(m.steps))
@@ -191,13 +191,7 @@ def floor_edge(
     within half a short run (``continue_min_run_m``) of ``a0``: there the line is the
     foot."""
     h_z, s_h, v_h, ground_z = ground
-    tol = config.tread_height_tolerance_m
-    parts = [
-        sh[(vh > lateral[0]) & (vh < lateral[1]) & (sh < a0)]
-        for hz, sh, vh in zip(h_z, s_h, v_h, strict=True)
-        if abs(hz - ground_z) <= tol
-    ]
-    along = np.concatenate(parts) if parts else np.zeros(0)
+    along = samples_along(h_z, s_h, v_h, ground_z, config.tread_height_tolerance_m, (-np.inf, a0), lateral)
     if len(along) < 4 * config.min_tread_points:
         return None
     edge = float(np.percentile(along, FLOOR_EDGE_PCT))
