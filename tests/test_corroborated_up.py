@@ -1,5 +1,5 @@
 """Where every pass of a frame without a rig finds nothing, the up the other passes
-corroborate (pipeline/second_opinions.py ``corroborated_up``, issue 11): a first matcher's junk plane
+corroborate (pipeline/second_opinions/frames.py ``corroborated_up``, issue 11): a first matcher's junk plane
 can tilt its frame by degrees where the two rematches agree. Where a pass finds an obstacle
 in a frame the others do not corroborate, the obstacle found again in the frame they do
 (``corroborated_frame``)."""
@@ -110,7 +110,7 @@ def test_the_chosen_up_is_corroborated_at_least_as_well_as_the_first(tilts, sigm
 
 
 # Without a rig, an obstacle found in a frame the passes do not corroborate, found again in
-# the frame they do (pipeline/second_opinions.py ``corroborated_frame``, issue 11).
+# the frame they do (pipeline/second_opinions/frames.py ``corroborated_frame``, issue 11).
 
 
 def test_a_staircase_found_in_a_frame_the_other_passes_do_not_corroborate_is_found_in_theirs():
@@ -187,7 +187,7 @@ def test_the_denoised_passes_corroborate_too_where_nothing_is_found():
 def test_the_frame_is_found_again_only_by_the_orientation_method(monkeypatch):
     """The planes are found again by the orientation method: with ``method: contour`` (or
     ``auto``) the result is left as it is, where the same passes would move it."""
-    import stereo_terrain.pipeline.second_opinions as opinions
+    import stereo_terrain.pipeline.second_opinions.frames as opinions
 
     r = _empty_result()
     stairs = _tilted(r, 0.0, 0.7, obstacle="stairs")

@@ -13,6 +13,7 @@ import pytest
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.pipeline import Pipeline, PipelineConfig, second_opinions
+from stereo_terrain.pipeline.second_opinions import replanned
 from stereo_terrain.stereo.bands import BandFillConfig
 from stereo_terrain.synthetic import default_scene_spec, random_scene_spec, render_scene
 from stereo_terrain.terrain import TerrainConfig
@@ -131,14 +132,14 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
     steps = list(staircase.steps)
     steps[0] = dataclasses.replace(steps[0], rise_inferred=first_inferred)
     staircase = dataclasses.replace(staircase, steps=tuple(steps))
-    real_build = second_opinions.build_terrain
+    real_build = replanned.build_terrain
 
     def build(planes, config, **kwargs):
         if planes.parameters.get("doctored"):
             return staircase
         return real_build(planes, config, **kwargs)
 
-    real_extract = second_opinions.extract_planes_orientation
+    real_extract = replanned.extract_planes_orientation
 
     def extract(samples, config, **kwargs):
         planes = real_extract(samples, config, **kwargs)
@@ -146,8 +147,8 @@ def test_what_the_far_planes_keep(monkeypatch, first_inferred):
             planes = dataclasses.replace(planes, parameters={**planes.parameters, "doctored": True})
         return planes
 
-    monkeypatch.setattr(second_opinions, "build_terrain", build)
-    monkeypatch.setattr(second_opinions, "extract_planes_orientation", extract)
+    monkeypatch.setattr(replanned, "build_terrain", build)
+    monkeypatch.setattr(replanned, "extract_planes_orientation", extract)
     scene = render_scene(dataclasses.replace(default_scene_spec(), obstacle=None))
     result = Pipeline(scene.calibration, scene.rig, warm_up=False).run(scene.left, scene.right)
     assert "far_planes" in result.timing_ms
@@ -165,14 +166,14 @@ def test_the_wider_level_runs_only_where_the_first_keeps_nothing(monkeypatch):
     having kept nothing, at 1.6 sigmas capped at 40 deg; ``far_planes_wider_sigmas: 0``
     leaves the first level alone."""
     calls = []
-    real_extract = second_opinions.extract_planes_orientation
+    real_extract = replanned.extract_planes_orientation
 
     def extract(samples, config, **kwargs):
         if config.normal_noise_sigmas > 0:
             calls.append((config.normal_noise_sigmas, config.max_noise_tolerance_deg))
         return real_extract(samples, config, **kwargs)
 
-    monkeypatch.setattr(second_opinions, "extract_planes_orientation", extract)
+    monkeypatch.setattr(replanned, "extract_planes_orientation", extract)
     empty = render_scene(random_scene_spec(np.random.default_rng(5), profile="realistic", kind="none"))
     # (the denoised opinions off: their passes' far planes run after all of these, in the
     # same order, tests/test_denoise.py)

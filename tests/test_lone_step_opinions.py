@@ -1,5 +1,5 @@
 """Where no pass of a frame finds an obstacle, the lone step (a box) that two second
-opinions find alike, or a box that one of them sees whole (pipeline/second_opinions.py
+opinions find alike, or a box that one of them sees whole (pipeline/second_opinions/lone_steps.py
 ``agreed_lone_step`` and ``whole_box``, issue 11): the band fill that finds a box's front
 runs in the second opinions only, and one of them alone is not trusted with a lone step
 that is not a box."""
