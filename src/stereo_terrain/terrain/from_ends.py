@@ -42,7 +42,7 @@ import numpy as np
 
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .assemble import _Chain, _finish, horizontal_info
+from .chain import Chain, finish_chain, horizontal_info
 from .model import NONE, STAIRS, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import ImageLines
 from .nosings.view import VerticalEdges
@@ -103,7 +103,7 @@ _RISE_OFF_M = 0.02
 #: ``TerrainConfig.common_rise_tolerance_m``.
 _MENDED_TOP_M = 0.025
 
-#: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
+#: How the note says where the steps come from (``finish_chain``'s "from N riser plane(s)").
 ORIGIN = "from the risers' ends both images place (the staircase's side, step by step from the floor)"
 
 
@@ -304,7 +304,7 @@ def staircase_from_ends(
             foot = top - profile.rise_m
             ordered.append(face_riser(P, s_all, v_all, plane, a, foot, top, lateral, config.merge_distance_m))
     below = profile.seen[0] - 1
-    chain = _Chain(
+    chain = Chain(
         planes,
         P,
         tuple(steps),
@@ -320,7 +320,7 @@ def staircase_from_ends(
     # Not the photometric risers (a painted riser's two images have nothing to agree on),
     # nor the ends again.
     finishing = dataclasses.replace(config, photometric_risers=False, riser_end_steps=False)
-    model = _finish(chain, finishing, lines, origin=ORIGIN)
+    model = finish_chain(chain, finishing, lines, origin=ORIGIN)
     if model.obstacle != STAIRS or len(model.steps) < len(kept.steps):
         return None
     if len(model.steps) == len(kept.steps) and not as_many:

@@ -1,6 +1,6 @@
 """A staircase none of whose risers formed a plane, from the first riser the image's lines
 show (issue 11; :mod:`.nosings.first_riser`), finished as a chain of one riser plane is
-(:func:`~.assemble._finish`: the nosings' pitch, the nosings beyond, their rise).
+(:func:`~.chain.finish_chain`: the nosings' pitch, the nosings beyond, their rise).
 
 The pipeline asks for it last, where every pass and second opinion found nothing and the
 floor is known (``TerrainConfig.lines_first_riser``): it adds staircases to frames that had
@@ -17,7 +17,7 @@ import numpy as np
 
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .assemble import _Chain, _finish, _samples_at, horizontal_info, samples_along
+from .chain import Chain, finish_chain, horizontal_info, samples_along, samples_at
 from .model import STAIRS, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import FirstRiser, ImageLines, first_risers, line_axes, nosings_over
 from .nosings.view import Segments, parallel_segments
@@ -48,7 +48,7 @@ RISING_SHARE = 0.25
 #: it, and the ground's height.
 Ground = tuple[list[float], list[np.ndarray], list[np.ndarray], float]
 
-#: How the note says where the steps come from (``_finish``'s "from N riser plane(s)").
+#: How the note says where the steps come from (``finish_chain``'s "from N riser plane(s)").
 ORIGIN = "from the image's lines (no riser formed a plane: the first riser's foot and nosing are lines)"
 ORIGIN_AT_FLOOR_EDGE = (
     "from the floor's edge and the image's lines (no riser formed a plane: the first riser's foot "
@@ -110,8 +110,8 @@ def staircase_from_lines(
                 )
                 width = lateral[1] - lateral[0]
                 step = Step(top - ground_z, None, riser_distance(plane, a0, u), width, top, a0, plane)
-                chain = _Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
-                models.append(_finish(chain, finishing, lines, origin=origin))
+                chain = Chain(planes, P, (step,), (riser,), yaw, ground_z, h_info, lateral, False, 0, 0)
+                models.append(finish_chain(chain, finishing, lines, origin=origin))
             beyond = [_ground_holds(ground, (s_lo, _far_end(a0, m, config)), lateral, config) for m in models]
             if all(beyond):
                 continue  # a line on the floor, or a box's front: the floor goes on beyond it
@@ -260,5 +260,5 @@ def _ground_holds(
     and the wall behind, fit a pitch of three steps; so does a line on the floor in front
     of the real first riser, or a plank floor's joints)."""
     h_z, s_h, v_h, ground_z = ground
-    count = _samples_at(h_z, s_h, v_h, ground_z, config.tread_height_tolerance_m, along, lateral)
+    count = samples_at(h_z, s_h, v_h, ground_z, config.tread_height_tolerance_m, along, lateral)
     return count >= config.min_tread_points

@@ -21,7 +21,7 @@ The chain gains a step for each end beyond its last, a run of the profile's apar
 median rise (inferred), and not where a wall stands across the stairs or the samples see
 the last tread go on (as :func:`~.steps.nosing_steps` asks). The profile's rise, which
 both images measure at the ends, is the staircase's where no nosings fit one
-(:func:`~stereo_terrain.terrain.assemble._finish`).
+(:func:`~stereo_terrain.terrain.chain.finish_chain`).
 
 A wall's corner or a door's frame is taller than a rise and is no riser's end; pieces of
 balusters as tall as a rise, stacked a run apart, would be taken for a profile.
