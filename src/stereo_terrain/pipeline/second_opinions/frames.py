@@ -37,6 +37,15 @@ def _ups_agree(a: tuple[np.ndarray, float] | None, b: tuple[np.ndarray, float] |
     return angle_deg(a[0], b[0]) <= _AGREE_SIGMAS * math.hypot(a[1], b[1])
 
 
+def _ups_and_support(tried: Passes) -> tuple[list[tuple[np.ndarray, float] | None], list[int]]:
+    """Each pass's up from the scene (:func:`scene_up`; rectified camera, with its sigma)
+    and how many other passes corroborate it (:func:`_ups_agree`)."""
+    ups = [scene_up(r) for _, r in tried]
+    n = len(ups)
+    support = [sum(_ups_agree(ups[i], ups[j]) for j in range(n) if j != i) for i in range(n)]
+    return ups, support
+
+
 def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
     """Where every pass of a frame without a rig found nothing and the first's result is
     kept: the result of the pass (of those that found nothing) whose up from the scene the
@@ -51,11 +60,8 @@ def corroborated_up(tried: Passes, kept: TerrainResult) -> TerrainResult:
     2.7 deg in two of 120 views, none worse; "Thirty-seventh session")."""
     if len(tried) < 2 or kept.gravity_source == "rig":
         return kept
-    # Each pass's up (rectified camera) and its sigma, where the scene fixed it.
-    ups = [scene_up(r) for _, r in tried]
-    n = len(tried)
-    support = [sum(_ups_agree(ups[i], ups[j]) for j in range(n) if j != i) for i in range(n)]
-    nothing = [i for i in range(n) if tried[i][1].terrain.obstacle == NONE]
+    _, support = _ups_and_support(tried)
+    nothing = [i for i in range(len(tried)) if tried[i][1].terrain.obstacle == NONE]
     best = max(nothing, key=lambda i: (support[i], -i))
     if support[best] <= support[0]:  # the first pass (found nothing, kept) as sure: kept
         return kept
@@ -93,9 +99,8 @@ def corroborated_frame(tried: Passes, kept: TerrainResult, config: PipelineConfi
     own = scene_up(kept)
     if own is None:
         return kept
-    ups = [scene_up(r) for _, r in tried]
+    ups, support = _ups_and_support(tried)
     n = len(tried)
-    support = [sum(_ups_agree(ups[i], ups[j]) for j in range(n) if j != i) for i in range(n)]
     # kept's own pass (the first whose up is kept's) does not corroborate kept
     same = [i for i, u in enumerate(ups) if u is not None and angle_deg(u[0], own[0]) < 1e-6]
     own_support = sum(_ups_agree(own, ups[j]) for j in range(n) if j not in same[:1])
