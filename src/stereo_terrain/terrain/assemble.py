@@ -14,7 +14,7 @@ from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, VERTICAL, PlaneSet
 from .below import Link as _Link
 from .below import steps_below
-from .chain import Chain, finish_chain, samples_at, tread_between
+from .chain import Chain, finish_chain, samples_along, tread_between
 from .continuation import continue_steps
 from .model import NONE, Polytope, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import ImageLines, axis_from_nosings
@@ -470,5 +470,7 @@ def _ground_before(s_h, v_h, h_z, ground_z: float, r: _Riser, config: TerrainCon
     beside, not a tread on top of it (issue 11)."""
     tol = config.tread_height_tolerance_m / 2
     lateral = (r.v_lo, r.v_hi)
-    count = samples_at(h_z, s_h, v_h, ground_z, tol, (-np.inf, r.s - config.merge_distance_m), lateral)
+    count = len(
+        samples_along(h_z, s_h, v_h, ground_z, tol, (-np.inf, r.s - config.merge_distance_m), lateral)
+    )
     return count >= config.min_tread_points

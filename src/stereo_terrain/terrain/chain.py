@@ -203,21 +203,6 @@ def _faces_lateral(chain: Chain, steps: list[Step], v: np.ndarray) -> list[tuple
     return out
 
 
-def samples_at(
-    h_z: list[float],
-    s_h: list[np.ndarray],
-    v_h: list[np.ndarray],
-    z: float,
-    tol: float,
-    along: tuple[float, float],
-    lateral: tuple[float, float],
-) -> int:
-    """How many inliers the horizontal planes within ``tol`` of height ``z`` hold strictly
-    between ``along`` (metres along the stair axis) and ``lateral`` (along the lateral
-    direction); ``h_z``, ``s_h``, ``v_h``: each plane's height and its inliers' positions."""
-    return len(samples_along(h_z, s_h, v_h, z, tol, along, lateral))
-
-
 def samples_along(
     h_z: list[float],
     s_h: list[np.ndarray],
@@ -227,7 +212,11 @@ def samples_along(
     along: tuple[float, float],
     lateral: tuple[float, float],
 ) -> np.ndarray:
-    """The positions along the stair axis of the inliers :func:`samples_at` counts."""
+    """The positions along the stair axis of the inliers of the horizontal planes within
+    ``tol`` of height ``z`` that lie strictly between ``along`` (metres along the stair
+    axis) and ``lateral`` (along the lateral direction); ``h_z``, ``s_h``, ``v_h``: each
+    plane's height and its inliers' positions (their count: how much of a surface is seen
+    there)."""
     parts = [
         sh[(sh > along[0]) & (sh < along[1]) & (vh > lateral[0]) & (vh < lateral[1])]
         for hz, sh, vh in zip(h_z, s_h, v_h, strict=True)

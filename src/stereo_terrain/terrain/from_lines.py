@@ -17,7 +17,7 @@ import numpy as np
 
 from ..msac import Plane
 from ..planes.orientation import PlaneSet
-from .chain import Chain, finish_chain, horizontal_info, samples_along, samples_at
+from .chain import Chain, finish_chain, horizontal_info, samples_along
 from .model import STAIRS, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import FirstRiser, ImageLines, first_risers, line_axes, nosings_over
 from .nosings.view import Segments, parallel_segments
@@ -260,5 +260,5 @@ def _ground_holds(
     and the wall behind, fit a pitch of three steps; so does a line on the floor in front
     of the real first riser, or a plank floor's joints)."""
     h_z, s_h, v_h, ground_z = ground
-    count = samples_at(h_z, s_h, v_h, ground_z, config.tread_height_tolerance_m, along, lateral)
+    count = len(samples_along(h_z, s_h, v_h, ground_z, config.tread_height_tolerance_m, along, lateral))
     return count >= config.min_tread_points
