@@ -1,5 +1,9 @@
+import dataclasses
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from stereo_terrain.cloud import (
     CloudConfig,
@@ -121,3 +125,69 @@ def test_compiled_grid_sample_equals_numpy_bit_for_bit(doffs):
     assert np.array_equal(s.grid_index, idx)
     assert np.array_equal(s.points, points) and np.array_equal(s.normals, normals)
     assert np.array_equal(s.sigma_m, sigma)
+
+
+def _wall_disparity(top_curve, bottom_curve, right_drop):
+    """A fronto-parallel wall 2 m ahead filling the view, its disparity NaN where a
+    ``keep`` rectification has no source pixel: above ``top_curve`` and below
+    ``bottom_curve`` (rows per column) in the left image, ``right_drop`` rows more at the
+    top in the right one."""
+    from stereo_terrain.rectify import compute_rectification
+    from stereo_terrain.stereo import DisparityMap
+
+    from .analytic import B_M, F_PX, rectified_calibration
+
+    w, h = rectified_calibration().image_size
+    rows = np.arange(h)[:, None]
+    valid_left = (rows >= top_curve[None, :]) & (rows <= bottom_curve[None, :])
+    valid_right = (rows >= top_curve[None, :] + right_drop) & (rows <= bottom_curve[None, :])
+    rect = dataclasses.replace(
+        compute_rectification(rectified_calibration()), valid_left=valid_left, valid_right=valid_right
+    )
+    disp = np.full((h, w), F_PX * B_M / 2.0, np.float32)
+    disp[~(valid_left & valid_right)] = np.nan
+    return DisparityMap(disp, 64, rect)
+
+
+@settings(max_examples=25)
+@given(
+    top=st.integers(0, 60),
+    bow=st.integers(0, 30),
+    bottom=st.integers(0, 60),
+    right_drop=st.integers(0, 15),
+)
+def test_the_views_top_and_bottom_are_where_both_images_have_a_source(top, bow, bottom, right_drop):
+    """With a rectification that keeps the raw view (its top and bottom edges bowed: the
+    middle of the width lower at the top, higher at the bottom), the samples' rows counted
+    from the view's edges in each column start where they start in an image without
+    sourceless rows: one grid row below the top (give or take one, where the top's row
+    changes across a box's width), and the lowest within a grid step of the bottom."""
+    from stereo_terrain.rectify import compute_rectification
+
+    from .analytic import rectified_calibration
+
+    T = Transform(np.eye(4), "yaw", "camera_rect")
+    w, h = rectified_calibration().image_size
+    x = np.linspace(-1.0, 1.0, w)
+    top_curve = np.round(top + bow * (1 - x**2)).astype(int)
+    bottom_curve = np.round(h - 1 - bottom - bow * (1 - x**2)).astype(int)
+    s = sample_disparity(_wall_disparity(top_curve, bottom_curve, right_drop), T, CloudConfig(max_depth_m=10))
+    cols = s.grid_index % s.grid_shape[1]
+    assert s.source_rows is not None
+    assert np.array_equal(s.source_rows[0], (top_curve + right_drop)[s.stride_px // 2 :: s.stride_px])
+    assert np.array_equal(s.source_rows[1], bottom_curve[s.stride_px // 2 :: s.stride_px])
+    below_top, above_bottom = s.grid_rows_below_top(), s.rows_above_bottom()
+    plain = sample_disparity(
+        dataclasses.replace(
+            _wall_disparity(np.zeros(w, int), np.full(w, h - 1), 0),
+            rectification=compute_rectification(rectified_calibration()),
+        ),
+        T,
+        CloudConfig(max_depth_m=10),
+    )
+    assert plain.source_rows is None
+    assert plain.grid_rows_below_top().min() == 1
+    inner = [c for c in np.unique(cols) if 2 <= c < s.grid_shape[1] - 2]  # off the side borders
+    for c in inner:
+        assert below_top[cols == c].min() in (0, 1, 2)
+        assert above_bottom[cols == c].min() - above_bottom.min() <= s.stride_px

@@ -186,3 +186,23 @@ def test_valid_interior_keeps_off_the_border_and_the_valid_regions_outline():
         assert np.array_equal(valid, before)
         cols = np.nonzero(inside)[1]
         assert (cols.min(), cols.max()) == (6, 26)
+
+
+def test_keep_takes_no_wall_cut_by_the_views_top_edge_for_a_step():
+    """An empty room of the default profile (seed 11, its 32nd draw) whose back wall's
+    foot, 4.3 m ahead, only ``keep``'s larger image shows, cut by the top edge of the raw
+    view: the wall's plane stops at the rows where both images' source pixels start, not at
+    the image's row 0. Taken for a riser whose top was seen, it was a 12.5 cm step."""
+    from stereo_terrain.pipeline import Pipeline, PipelineConfig
+    from stereo_terrain.synthetic import random_scene_spec, render_scene
+
+    rng = np.random.default_rng(11)
+    for _ in range(31):
+        random_scene_spec(rng, profile="default")
+    spec = random_scene_spec(rng, profile="default")
+    assert spec.obstacle is None and spec.back_wall_m is not None
+    scene = render_scene(spec)
+    pipeline = Pipeline(scene.calibration, scene.rig, PipelineConfig(rectify_fov="keep"))
+    res = pipeline.run(scene.left, scene.right)
+    assert res.planes.samples.source_rows is not None
+    assert res.terrain.obstacle == "none", res.terrain.note

@@ -156,6 +156,13 @@ class GridSample:
     normal_sigma_rad : (N,) float32 or None
         Expected error of each normal from the disparity's noise (radians), where the
         sample was taken from a disparity map (:func:`sample_disparity`); None otherwise.
+    source_rows : (2, gw) int32 or None
+        Per grid column, the first and last pixel rows of the image that have a source
+        pixel in the raw left image (``Rectification.valid_left``): a rectification that
+        keeps the raw view (``fov="keep"``) has rows outside it at the top and bottom,
+        more at the middle of the width than at the corners. None: every row has one.
+        The image's own top and bottom edges are these rows
+        (:meth:`grid_rows_below_top`, :meth:`rows_above_bottom`).
     """
 
     points: np.ndarray = field(repr=False)
@@ -170,9 +177,30 @@ class GridSample:
     confidence: np.ndarray | None = field(default=None, repr=False)
     camera_position: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
     normal_sigma_rad: np.ndarray | None = field(default=None, repr=False)
+    source_rows: np.ndarray | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return len(self.points)
+
+    def grid_rows_below_top(self) -> np.ndarray:
+        """(N,) int: each sample's grid row, less the grid rows above it whose centres
+        have no source pixel in its column (the view's top edge is row 0 of the grid in
+        every column)."""
+        grid_row = self.grid_index // self.grid_shape[1]
+        if self.source_rows is None:
+            return grid_row
+        r0 = self.stride_px // 2
+        lost = np.maximum(-(-(self.source_rows[0] - r0) // self.stride_px), 0)
+        return grid_row - lost[self.grid_index % self.grid_shape[1]]
+
+    def rows_above_bottom(self) -> np.ndarray:
+        """(N,) int: each sample's pixel rows above the view's bottom edge in its column,
+        the last row with a source pixel there (None ``source_rows``: the lowest sample's
+        row in every column)."""
+        if self.source_rows is None:
+            return np.asarray(self.rows).max(initial=0) - np.asarray(self.rows)
+        bottom = self.source_rows[1]
+        return bottom[self.grid_index % self.grid_shape[1]] - np.asarray(self.rows)
 
 
 def grid_stride(shape: tuple[int, int], target_points: int) -> int:
@@ -356,6 +384,7 @@ def sample_disparity(
         float(rect.focal_px),
     )
     rr, cc, idx = rr[cells], cc[cells], cells
+    source_rows = _source_rows(rect.valid_left, rect.valid_right, stride)
     sigma = (pts[:, 2] ** 2) * (disparity_sigma_px / fb)
     # A normal is the cross product of two tangents 2k px long, Z 2k / f metres, each the
     # difference of two box means whose depths err by Z^2 sigma_box / (f B): it tilts by
@@ -376,7 +405,33 @@ def sample_disparity(
         confidence=conf,
         camera_position=T.translation.copy(),
         normal_sigma_rad=tilt.astype(np.float32),
+        source_rows=source_rows,
     )
+
+
+def _source_rows(
+    valid_left: np.ndarray | None, valid_right: np.ndarray | None, stride: int
+) -> np.ndarray | None:
+    """(2, gw) int32: the first and last rows with a source pixel in both rectified images
+    in each grid column (``GridSample.source_rows``; a column without one gets rows ``h``
+    and ``-1``); None where every pixel has one. Both images: a pixel is matched only
+    where the right image has one on its row too, and the right camera's outline is
+    another curve (on a rendered default scene its top row was 10 px below the left's at
+    the middle of the width). The same column of each: a disparity moves a pixel along
+    its row, and the outlines' rows change slowly across the width."""
+    if valid_left is None:
+        if valid_right is None:
+            return None
+        both = valid_right
+    else:
+        both = valid_left if valid_right is None else valid_left & valid_right
+    h = both.shape[0]
+    cols = both[:, stride // 2 :: stride]
+    first = np.argmax(cols, axis=0)
+    last = h - 1 - np.argmax(cols[::-1], axis=0)
+    none = ~cols.any(axis=0)
+    first[none], last[none] = h, -1
+    return np.stack([first, last]).astype(np.int32)
 
 
 def transform_sample(sample: GridSample, T: Transform) -> GridSample:

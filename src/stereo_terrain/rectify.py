@@ -20,7 +20,10 @@ What the rectified view keeps (``fov``, :data:`RECTIFY_FOVS`):
   pixels on the renderer's scenes (default / realistic profile), about that much more
   time for matching and remapping. :attr:`Rectification.image_size` is the rectified size,
   :attr:`Rectification.raw_size` the raw one; :func:`rectify` checks the raw images
-  against the latter.
+  against the latter. The view's top and bottom edges are then rows in which both
+  images' source pixels start and end, bowed across the width, not the image's first
+  and last rows: the terrain stage takes them from ``GridSample.source_rows`` (a wall
+  cut by that top edge is not a riser whose top was seen).
   Not the default yet: on 30 rendered default scenes it keeps 96% of the raw bottom tenth
   (``valid`` 79%; the rest is the :data:`SOURCE_MARGIN_PX` margin at the raw border) with
   lower rise errors (p90 0.5 cm vs 0.7 cm) but one staircase fewer with the right step

@@ -169,17 +169,17 @@ def floor_to_view_bottom(planes: PlaneSet, config: TerrainConfig) -> bool:
     two to forty grid rows above the bottom, where a real floor with the matcher's strays
     under it ran to the bottom)."""
     samples = planes.samples
-    rows = np.asarray(samples.rows)
-    if not len(rows):
+    if not len(samples):
         return False
+    above_bottom = samples.rows_above_bottom()  # from the view's bottom edge in each column
     P = samples.points
-    floor_rows = [
-        rows[seg.indices]
+    floor_above = [
+        above_bottom[seg.indices]
         for seg in planes.segments
         if seg.kind == HORIZONTAL
         and len(seg.indices)
         and abs(float(median(P[seg.indices, 2]))) <= config.tread_height_tolerance_m
     ]
-    if not floor_rows:
+    if not floor_above:
         return False
-    return int(max(r.max() for r in floor_rows)) >= int(rows.max()) - samples.stride_px
+    return int(min(a.min() for a in floor_above)) <= int(above_bottom.min()) + samples.stride_px

@@ -167,6 +167,8 @@ _LOW_INLIER_PCT = 5.0
 #: A plane with this share (``_LOW_INLIER_PCT``) of its inliers in the grid's rows 0 to
 #: this goes on above the image: its top edge is not seen (issue 11). Row 0's boxes reach
 #: past the image and never hold samples, so these are the first two rows with samples.
+#: Rows count from the view's top edge in each column (``GridSample.grid_rows_below_top``:
+#: under ``rectify_fov="keep"`` the rows above the raw view have no source pixels).
 _TOP_CUT_ROWS = 2
 
 
@@ -339,9 +341,10 @@ def _riser_candidates(
     must stand on it, :func:`_riser_beside_wall`), else None."""
     # Candidate risers: short vertical planes facing the camera.
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
-    row_hi = samples.rows.max()
     border = 2 * samples.stride_px
-    grid_row = samples.grid_index // samples.grid_shape[1]
+    grid_row = samples.grid_rows_below_top()  # from the view's top edge in each column
+    above_bottom = samples.rows_above_bottom()  # pixel rows above its bottom edge
+    lowest = above_bottom.min() if len(above_bottom) else 0
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
     planar = np.zeros(len(P), dtype=bool)  # the samples on a vertical plane (face_sight)
     for seg in verticals:
@@ -411,7 +414,7 @@ def _riser_candidates(
             continue
         cols = samples.cols[idx]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
-        foot_hidden = bool(samples.rows[idx].max() >= row_hi - border)
+        foot_hidden = bool(above_bottom[idx].min() <= lowest + border)
         cands.append(
             _Riser(
                 seg.plane,
