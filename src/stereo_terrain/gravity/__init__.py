@@ -42,7 +42,7 @@ Files, each a part of the stage:
   a frame (:func:`levelling`, :func:`yaw_frame_from_up`);
 - ``from_normals.py``: stage 1, :func:`estimate_up`, and :func:`floor_up`;
 - ``from_planes.py``: stage 2, :func:`refine_up_from_planes`;
-- ``from_lines.py``: up from the vertical lines (:func:`up_from_vertical_lines`), the
+- ``from_lines/``: up from the vertical lines (:func:`up_from_vertical_lines`), the
   scene's lines and horizontal direction (:func:`scene_lines`,
   :func:`horizontal_direction`), the two estimates combined (:func:`combine_with_lines`);
 - ``line_frame.py``: up from the Manhattan frame of all the lines;
