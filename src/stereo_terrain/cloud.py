@@ -157,12 +157,14 @@ class GridSample:
         Expected error of each normal from the disparity's noise (radians), where the
         sample was taken from a disparity map (:func:`sample_disparity`); None otherwise.
     source_rows : (2, gw) int32 or None
-        Per grid column, the first and last pixel rows of the image that have a source
-        pixel in the raw left image (``Rectification.valid_left``): a rectification that
-        keeps the raw view (``fov="keep"``) has rows outside it at the top and bottom,
-        more at the middle of the width than at the corners. None: every row has one.
-        The image's own top and bottom edges are these rows
-        (:meth:`grid_rows_below_top`, :meth:`rows_above_bottom`).
+        Per grid column, the first and last pixel rows that have a source pixel in both
+        raw images (``Rectification.valid_left`` and ``valid_right``): a rectification
+        that keeps the raw view (``fov="keep"``) has rows outside it at the top and
+        bottom, more at the middle of the width than at the corners. None: every row has
+        one. The view's top and bottom edges are these rows (:meth:`grid_rows_below_top`,
+        :meth:`rows_above_bottom`). Its sides are not kept: a right pixel's column is the
+        left one's less its disparity, so where the view's side cuts a face depends on the
+        face's depth (the terrain stage takes the samples' outermost columns).
     """
 
     points: np.ndarray = field(repr=False)
