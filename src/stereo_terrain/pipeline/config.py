@@ -257,7 +257,7 @@ class PipelineConfig:
     swing: SwingConfig = field(default_factory=SwingConfig)
     drift: DriftConfig = field(default_factory=DriftConfig)
     gravity: GravityConfig = field(default_factory=GravityConfig)
-    # Stage 1 options (rectify.py, stereo/vertical.py): issue 11.
+    # Stage 1 options (rectify/, stereo/vertical.py): issue 11.
     rectify_fov: str = "valid"
     vertical: VerticalAlignConfig = field(default_factory=VerticalAlignConfig)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)  # issue 14
