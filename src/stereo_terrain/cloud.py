@@ -196,13 +196,15 @@ class GridSample:
         return grid_row - lost[self.grid_index % self.grid_shape[1]]
 
     def rows_above_bottom(self) -> np.ndarray:
-        """(N,) int: each sample's pixel rows above the view's bottom edge in its column,
-        the last row with a source pixel there (None ``source_rows``: the lowest sample's
-        row in every column)."""
+        """(N,) int: each sample's pixel rows above the view's bottom edge in its column
+        (the last row with a source pixel there; None ``source_rows``: the same row in
+        every column), less the fewest any sample has: 0 for the samples that reach as low
+        in the view as any does."""
+        rows = np.asarray(self.rows)
         if self.source_rows is None:
-            return np.asarray(self.rows).max(initial=0) - np.asarray(self.rows)
-        bottom = self.source_rows[1]
-        return bottom[self.grid_index % self.grid_shape[1]] - np.asarray(self.rows)
+            return rows.max(initial=0) - rows
+        above = self.source_rows[1][self.grid_index % self.grid_shape[1]] - rows
+        return above - above.min() if len(above) else above
 
 
 def grid_stride(shape: tuple[int, int], target_points: int) -> int:
@@ -421,14 +423,11 @@ def _source_rows(
     another curve (on a rendered default scene its top row was 10 px below the left's at
     the middle of the width). The same column of each: a disparity moves a pixel along
     its row, and the outlines' rows change slowly across the width."""
-    if valid_left is None:
-        if valid_right is None:
-            return None
-        both = valid_right
-    else:
-        both = valid_left if valid_right is None else valid_left & valid_right
-    h = both.shape[0]
-    cols = both[:, stride // 2 :: stride]
+    masks = [m[:, stride // 2 :: stride] for m in (valid_left, valid_right) if m is not None]
+    if not masks:
+        return None
+    cols = np.logical_and.reduce(masks)  # the grid's columns of both, not the whole images
+    h = cols.shape[0]
     first = np.argmax(cols, axis=0)
     last = h - 1 - np.argmax(cols[::-1], axis=0)
     none = ~cols.any(axis=0)

@@ -171,7 +171,7 @@ def floor_to_view_bottom(planes: PlaneSet, config: TerrainConfig) -> bool:
     samples = planes.samples
     if not len(samples):
         return False
-    above_bottom = samples.rows_above_bottom()  # from the view's bottom edge in each column
+    above_bottom = samples.rows_above_bottom()  # 0: as low in the view as any sample reaches
     P = samples.points
     floor_above = [
         above_bottom[seg.indices]
@@ -182,4 +182,4 @@ def floor_to_view_bottom(planes: PlaneSet, config: TerrainConfig) -> bool:
     ]
     if not floor_above:
         return False
-    return int(min(a.min() for a in floor_above)) <= int(above_bottom.min()) + samples.stride_px
+    return int(min(a.min() for a in floor_above)) <= samples.stride_px

@@ -343,8 +343,7 @@ def _riser_candidates(
     col_lo, col_hi = samples.cols.min(), samples.cols.max()
     border = 2 * samples.stride_px
     grid_row = samples.grid_rows_below_top()  # from the view's top edge in each column
-    above_bottom = samples.rows_above_bottom()  # pixel rows above its bottom edge
-    lowest = above_bottom.min() if len(above_bottom) else 0
+    above_bottom = samples.rows_above_bottom()  # 0: as low in the view as any sample reaches
     cos_face = math.cos(math.radians(config.max_facing_angle_deg))
     planar = np.zeros(len(P), dtype=bool)  # the samples on a vertical plane (face_sight)
     for seg in verticals:
@@ -414,7 +413,7 @@ def _riser_candidates(
             continue
         cols = samples.cols[idx]
         touches = bool(cols.min() <= col_lo + border or cols.max() >= col_hi - border)
-        foot_hidden = bool(above_bottom[idx].min() <= lowest + border)
+        foot_hidden = bool(above_bottom[idx].min() <= border)
         cands.append(
             _Riser(
                 seg.plane,
