@@ -176,7 +176,7 @@ def test_realistic_profile_is_deterministic_and_mixes_kinds() -> None:
 
 def test_some_realistic_stairs_fill_the_view() -> None:
     """With no floor in front: the first riser's foot is below the image."""
-    from stereo_terrain.synthetic.random_scenes import _below_view, _stairs_points
+    from stereo_terrain.synthetic.random_scenes.realistic_profile import _below_view, _stairs_points
 
     rng = np.random.default_rng(2)
     specs = [random_scene_spec(rng, image_size=TINY, profile="realistic", kind="stairs") for _ in range(40)]

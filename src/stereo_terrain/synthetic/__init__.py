@@ -40,7 +40,8 @@ Package layout (data flows one way, each module imports only those before it):
 ``spec`` (specs and their checks) -> ``camera`` (lens model, projection, rig) ->
 ``geometry`` (boxes, ray casting) -> ``appearance`` (textures, shading) -> ``sensor``
 (optics, noise, 8-bit) -> ``render`` (:func:`render_scene`) -> ``random_scenes``
-(:func:`random_scene_spec`) -> ``writing`` (:func:`write_scene`, :func:`render_scenes`).
+(:func:`random_scene_spec`; a package: ``draws`` -> ``default_profile``,
+``realistic_profile``) -> ``writing`` (:func:`write_scene`, :func:`render_scenes`).
 
 Examples
 --------
