@@ -22,21 +22,23 @@ from .test_far_planes import _lab_stairs
 @pytest.fixture(scope="module")
 def lab_scene():
     """Wooden lab-like stairs whose cameras focus apart: only the focus rematch finds them
-    (seed 27 of the lab draws, searched for with the default far planes)."""
-    return _lab_stairs(27)
+    (seed 99 of the lab draws, searched for with the settings below; seed 27, the first
+    such scene, became a two-step staircase of the redrawn planes without the focus
+    rematch when a continued riser had to stand within its spacing, fifty-first session)."""
+    return _lab_stairs(99)
 
 
 #: The focus rematch's own tests run with the band fill off: with it the rematch finds
 #: these stairs (tests/test_bands.py tests the band fill); with the denoised opinions
 #: off, which run after it and find them too (tests/test_denoise.py); and with the
-#: staircase of the lines off, the last opinion, which makes one there of four steps of
-#: 14.4 cm for three of 20 (tests/test_terrain_first_riser.py tests it).
+#: staircase of the lines off, the last opinion, which finds them too
+#: (tests/test_terrain_first_riser.py tests it). (Each measured on seed 99.)
 NO_BANDS = PipelineConfig(
     bands=BandFillConfig(enabled=False), rematch_denoised=0.0, terrain=TerrainConfig(lines_first_riser=False)
 )
 
-#: The focus rematch's rises on that scene are 23.6 cm for 20 (measured): a find, not a
-#: precise one.
+#: The focus rematch's rises on that scene are 20.8 cm for 20 (measured; 23.6 on seed 27):
+#: a find, not a precise one.
 RISE_TOL_M = 0.04
 
 

@@ -13,11 +13,13 @@ from stereo_terrain.errors import ConfigError
 from stereo_terrain.msac import Plane
 from stereo_terrain.planes.orientation import HORIZONTAL, VERTICAL, PlaneSegment, PlaneSet
 from stereo_terrain.terrain import STAIRS, TerrainConfig, build_terrain, estimate_step_sigmas
+from stereo_terrain.terrain.continuation import riser_band
 
 from .test_terrain import _stairs
 from .test_terrain_clutter import _add_samples
 
 OFF = TerrainConfig(continue_steps=False)
+CONFIG = TerrainConfig()
 
 
 def _last_riser_unplaned(full: PlaneSet, n_steps: int, rise: float, run: float, yaw: float, distance: float):
@@ -274,3 +276,72 @@ def test_the_foot_of_a_wall_where_the_next_riser_would_stand_is_not_a_step():
     walled = dataclasses.replace(planes, samples=samples, segments=(*planes.segments, segment))
     assert len(build_terrain(planes).steps) == 4
     assert len(build_terrain(walled).steps) == 3
+
+
+def _face_samples(s_face: float, spread: float, rise: float, seed: int = 0):
+    """A riser's face across the axis (the x axis) around ``s_face``, each sample moved by up
+    to ``spread`` along it, laid out as one connected patch of the sample grid (lateral
+    positions the columns, heights the rows); every sample free, with a 5 cm inlier
+    threshold (that of far samples)."""
+    rng = np.random.default_rng(seed)
+    lat = np.arange(-0.5, 0.5, 0.02)
+    z = np.arange(0.01, rise - 0.01, 0.01)
+    gw, gh = len(lat), len(z)
+    vv, zz = np.meshgrid(lat, z, indexing="xy")  # (gh, gw)
+    n = gh * gw
+    pts = np.stack([s_face + rng.uniform(-spread, spread, n), vv.ravel(), zz.ravel()], axis=1)
+    rows, cols = np.divmod(np.arange(n, dtype=np.int32), gw)
+    samples = GridSample(
+        points=pts.astype(np.float32),
+        normals=np.tile(np.float32([-1.0, 0.0, 0.0]), (n, 1)),
+        sigma_m=np.full(n, 0.005, np.float32),
+        rows=(5 * rows).astype(np.int32),
+        cols=(5 * cols).astype(np.int32),
+        grid_index=np.arange(n, dtype=np.int32),
+        grid_shape=(gh, gw),
+        stride_px=5,
+        frame="yaw",
+    )
+    P = pts.astype(np.float64)
+    return samples, P[:, 0], P[:, 1], P[:, 2], np.ones(n, dtype=bool), np.full(n, 0.05)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    offset=st.floats(-0.08, 0.08),
+    spread=st.floats(0.0, 0.04),
+    width=st.floats(0.05, 0.2),
+    seed=st.integers(0, 1000),
+)
+def test_a_riser_band_stands_within_the_span_it_was_sought_in(offset, spread, width, seed):
+    """Whatever the face's place and spread about the span's near end, the band found is
+    at a position within the span (the steps' spacing), or none."""
+    rise, lo = 0.17, 2.0
+    samples, s_all, v_all, z_all, free, thr = _face_samples(lo + offset, spread, rise, seed)
+    found = riser_band(
+        free, s_all, v_all, z_all, thr, samples, (lo, lo + width), (0.0, rise), rise, (-0.5, 0.5), CONFIG
+    )
+    if found is not None:
+        assert lo <= found[1] <= lo + width
+        assert len(found[0]) >= CONFIG.min_riser_points
+
+
+def test_the_last_risers_leftovers_short_of_the_span_are_no_next_riser():
+    """Realistic render: the last riser's own samples that its plane left out, 1-3 cm
+    short of where the steps' spacing puts the next riser. Seeded at their far edge,
+    within the span, the patch's median stood short of it and was taken for the next
+    riser (landings 5 scenes 7 and 17 with a rig: a step too many)."""
+    rise, lo, hi = 0.17, 2.0, 2.15
+    short = _face_samples(lo - 0.02, 0.035, rise)
+    samples, s_all, v_all, z_all, free, thr = short
+    assert np.any((s_all >= lo) & (s_all <= hi)) and np.median(s_all) < lo
+    assert (
+        riser_band(free, s_all, v_all, z_all, thr, samples, (lo, hi), (0.0, rise), rise, (-0.5, 0.5), CONFIG)
+        is None
+    )
+    # The same face within the span is a riser, at its place.
+    samples, s_all, v_all, z_all, free, thr = _face_samples(lo + 0.05, 0.035, rise)
+    found = riser_band(
+        free, s_all, v_all, z_all, thr, samples, (lo, hi), (0.0, rise), rise, (-0.5, 0.5), CONFIG
+    )
+    assert found is not None and found[1] == pytest.approx(lo + 0.05, abs=0.01)

@@ -157,8 +157,15 @@ def riser_band(
     """A riser from the samples' positions: of the ``free`` samples within ``lateral`` (10
     cm beside it too), between ``heights`` (``edge_margin_m`` beyond each) and about the
     positions ``span`` along the stair axis, the patch at one position (:func:`_riser_patch`)
-    at least half of ``rise`` tall and ``min_riser_width_m`` wide: ``(patch, its median
-    position, its lateral extent v_lo, v_hi)``; None where there is none."""
+    at least half of ``rise`` tall and ``min_riser_width_m`` wide, its median position
+    within ``span``: ``(patch, that position, its lateral extent v_lo, v_hi)``; None where
+    there is none.
+
+    The patch is seeded at a position within ``span`` but holds the samples within their
+    inlier threshold of it (up to ``INLIERS.max_threshold_m``), so its median can lie
+    outside: on the realistic renders, the last riser's own samples that its plane left
+    out, 1-3 cm short of the span, were taken for the next riser (a step too many beyond
+    a short landing, or three risers where two stand)."""
     lo, hi = span
     band = (
         free
@@ -176,7 +183,10 @@ def riser_band(
     v_lo, v_hi = percentile(v_all[patch], [5.0, 95.0])
     if z_hi - z_lo < 0.5 * rise or v_hi - v_lo < config.min_riser_width_m:
         return None
-    return patch, float(median(s_all[patch])), float(v_lo), float(v_hi)
+    at = float(median(s_all[patch]))
+    if not lo <= at <= hi:
+        return None
+    return patch, at, float(v_lo), float(v_hi)
 
 
 def _a_riser_there(
