@@ -164,7 +164,7 @@ def riser_band(
     The patch is seeded at a position within ``span`` but holds the samples within their
     inlier threshold of it (up to ``INLIERS.max_threshold_m``), so its median can lie
     outside: on the realistic renders, the last riser's own samples that its plane left
-    out, 1-3 cm short of the span, were taken for the next riser (a step too many beyond
+    out, up to 3 cm short of the span, were taken for the next riser (a step too many beyond
     a short landing, or three risers where two stand)."""
     lo, hi = span
     band = (
