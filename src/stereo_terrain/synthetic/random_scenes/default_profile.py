@@ -16,11 +16,19 @@ from ..spec import (
     SceneSpec,
     StairSpec,
     SurfaceSpec,
-    _check_distortion_invertible,
     _obstacle_centre_b,
     _obstacle_far_end,
 )
-from .draws import _KINDS, _paint, _random_box, _random_stairs, _split_overrides
+from .draws import (
+    _KINDS,
+    _invertible_camera,
+    _paint,
+    _placement_error,
+    _random_box,
+    _random_stairs,
+    _right_rotvec,
+    _split_overrides,
+)
 
 #: The face groups of version 1, painted by the default profile (it draws one contrast
 #: per group: keeping their number keeps its scenes).
@@ -42,7 +50,8 @@ def _random_camera(
     rng: np.random.Generator, size: tuple[int, int], like: CameraIntrinsics | None = None
 ) -> CameraIntrinsics:
     w, h = size
-    for _ in range(100):
+
+    def draw() -> CameraIntrinsics:
         if like is None:
             fx = rng.uniform(0.8, 0.9) * w
             fy = fx * (1.0 + rng.uniform(-0.002, 0.002))
@@ -58,13 +67,9 @@ def _random_camera(
             k1 = float(np.clip(like.distortion[0] + rng.uniform(-0.04, 0.04), -0.25, 0.05))
             k2 = float(np.clip(like.distortion[1] + rng.uniform(-0.01, 0.01), -0.02, 0.06))
         p1, p2 = rng.uniform(-5e-4, 5e-4, 2)
-        cam = CameraIntrinsics(fx, fy, cx, cy, (k1, k2, float(p1), float(p2), 0.0))
-        try:
-            _check_distortion_invertible(cam, size, "camera")
-        except InputError:
-            continue
-        return cam
-    raise InputError("could not draw an invertible lens distortion")  # pragma: no cover
+        return CameraIntrinsics(fx, fy, cx, cy, (k1, k2, float(p1), float(p2), 0.0))
+
+    return _invertible_camera(draw, size, tries=100)
 
 
 def _in_view(spec: SceneSpec, margin: float = 0.04) -> bool:
@@ -122,9 +127,7 @@ def _random_default_spec(
 
     left = _random_camera(rng, size)
     right = _random_camera(rng, size, like=left)
-    axis = rng.normal(size=3)
-    axis /= np.linalg.norm(axis)
-    rotvec = tuple(float(v) for v in axis * math.radians(rng.uniform(0.3, 2.0)))
+    rotvec = _right_rotvec(rng)
     appearance: dict[str, Any] = {
         "seed": int(rng.integers(0, 2**31 - 1)),
         "left_camera": left,
@@ -191,9 +194,6 @@ def _random_default_spec(
             spec = candidate
             break
     if spec is None:
-        raise InputError(
-            "could not place the obstacle in view of the left camera with these overrides "
-            f"({sorted(overrides)}); relax them"
-        )
+        raise _placement_error(overrides)
     weak_groups = ("riser", "side") + (("tread",) if weak_tread else ()) if weak else ()
     return _paint(spec, weak_groups, weak_levels, floor_levels, sc_over, _DEFAULT_GROUPS)

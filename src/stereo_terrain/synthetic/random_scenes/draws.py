@@ -1,10 +1,12 @@
-"""What both profiles draw alike: a staircase, a box, the overrides, and the texture
-contrast of every surface (the paint)."""
+"""What both profiles draw alike: a staircase, a box, the overrides, a camera whose lens
+distortion inverts, the right camera's rotation, and the texture contrast of every
+surface (the paint)."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -13,12 +15,45 @@ from ...errors import InputError
 from ..spec import (
     _GROUPS,
     BoxSpec,
+    CameraIntrinsics,
     SceneSpec,
     StairSpec,
     SurfaceSpec,
+    _check_distortion_invertible,
 )
 
 _KINDS = ("stairs", "box", "none")
+
+
+def _invertible_camera(
+    draw: Callable[[], CameraIntrinsics], size: tuple[int, int], tries: int
+) -> CameraIntrinsics:
+    """The first camera of up to ``tries`` that ``draw`` gives (each profile draws its own
+    lens) whose distortion inverts over an image of ``size``."""
+    for _ in range(tries):
+        cam = draw()
+        try:
+            _check_distortion_invertible(cam, size, "camera")
+        except InputError:
+            continue
+        return cam
+    raise InputError("could not draw an invertible lens distortion")  # pragma: no cover
+
+
+def _right_rotvec(rng: np.random.Generator) -> tuple[float, ...]:
+    """The right camera's rotation against the left one (rotation vector, radians): 0.3-2
+    deg about a random axis."""
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    return tuple(float(v) for v in axis * math.radians(rng.uniform(0.3, 2.0)))
+
+
+def _placement_error(overrides: dict) -> InputError:
+    """The error of a profile that could not put the obstacle in view."""
+    return InputError(
+        "could not place the obstacle in view of the left camera with these overrides "
+        f"({sorted(overrides)}); relax them"
+    )
 
 
 def _random_stairs(

@@ -20,11 +20,19 @@ from ..spec import (
     SceneSpec,
     StairSpec,
     SurfaceSpec,
-    _check_distortion_invertible,
     _obstacle_centre_b,
     _obstacle_far_end,
 )
-from .draws import _KINDS, _paint, _random_box, _random_stairs, _split_overrides
+from .draws import (
+    _KINDS,
+    _invertible_camera,
+    _paint,
+    _placement_error,
+    _random_box,
+    _random_stairs,
+    _right_rotvec,
+    _split_overrides,
+)
 
 #: Materials of a realistic staircase: (tread, riser) kinds, and their probabilities.
 _REALISTIC_MATERIALS = {
@@ -59,7 +67,8 @@ def _random_webcam(
 ) -> CameraIntrinsics:
     """A cheap webcam: wide angle, non-square pixels, strong barrel distortion."""
     w, h = size
-    for _ in range(200):
+
+    def draw() -> CameraIntrinsics:
         if like is None:
             fx = rng.uniform(0.7, 0.9) * w
             fy = fx * rng.uniform(0.92, 1.0)
@@ -75,13 +84,9 @@ def _random_webcam(
             k1 = float(np.clip(like.distortion[0] + rng.uniform(-0.03, 0.03), -0.45, -0.1))
             k2 = float(np.clip(like.distortion[1] + rng.uniform(-0.03, 0.03), 0.0, 0.45))
         p1, p2 = rng.uniform(-1e-3, 1e-3, 2)
-        cam = CameraIntrinsics(fx, fy, cx, cy, (float(k1), float(k2), float(p1), float(p2), 0.0))
-        try:
-            _check_distortion_invertible(cam, size, "camera")
-        except InputError:
-            continue
-        return cam
-    raise InputError("could not draw an invertible lens distortion")  # pragma: no cover
+        return CameraIntrinsics(fx, fy, cx, cy, (float(k1), float(k2), float(p1), float(p2), 0.0))
+
+    return _invertible_camera(draw, size, tries=200)
 
 
 def _visible(spec: SceneSpec, pts: np.ndarray, margin: float = 0.04) -> bool:
@@ -214,9 +219,7 @@ def _random_realistic_spec(
 
     left = _random_webcam(rng, size)
     right = _random_webcam(rng, size, like=left)
-    axis = rng.normal(size=3)
-    axis /= np.linalg.norm(axis)
-    rotvec = tuple(float(v) for v in axis * math.radians(rng.uniform(0.3, 2.0)))
+    rotvec = _right_rotvec(rng)
     q = int(rng.integers(60, 86))
     q_right = int(np.clip(q + rng.integers(-5, 6), 60, 85))
     surfaces = _realistic_surfaces(rng, material)
@@ -299,10 +302,7 @@ def _random_realistic_spec(
             spec = candidate
             break
     if spec is None:
-        raise InputError(
-            "could not place the obstacle in view of the left camera with these overrides "
-            f"({sorted(overrides)}); relax them"
-        )
+        raise _placement_error(overrides)
     weak_groups = ("wall", "side", "rail") + (("riser",) if weak else ())
     if material == "painted":
         weak_groups += ("tread",)
