@@ -198,7 +198,7 @@ def test_disparity_and_eval_commands(shared_data, tmp_path, capsys):
 def test_tiny_images_match_the_two_phase_split(height):
     """The two sweeps split the rows in halves; with one or two rows a half is empty."""
     from stereo_terrain.stereo.sgm import census_cost, p2_table, select_disparity_rows
-    from stereo_terrain.stereo.sgm_cuda import DIRECTIONS  # the 8 directions
+    from stereo_terrain.stereo.sgm.cuda import DIRECTIONS  # the 8 directions
 
     rng = np.random.default_rng(9)
     left = rng.integers(0, 255, (height, 40)).astype(np.uint8)
@@ -276,13 +276,13 @@ def test_sweep_threads_keep_to_their_own_cpus():
     """Each of the two sweep threads keeps to its own half of the CPUs (where there are two)."""
     import os
 
-    from stereo_terrain.stereo.sgm import _sweep_pool, cpu_halves
+    from stereo_terrain.stereo.sgm import cpu_halves, sweep_pool
 
     halves = cpu_halves()
     if not halves:
         pytest.skip("fewer than two CPUs, or no CPU affinity on this system")
     assert not (halves[0] & halves[1]) and halves[0] | halves[1] == os.sched_getaffinity(0)
-    pool = _sweep_pool()
+    pool = sweep_pool()
     import threading
 
     barrier = threading.Barrier(2)  # both threads busy at once: one job each

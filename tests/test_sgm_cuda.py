@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from stereo_terrain.errors import ConfigError
 from stereo_terrain.stereo.sgm import SGM, SGMConfig
-from stereo_terrain.stereo.sgm_cuda import DIRECTIONS, cuda_available, disparity_cuda, line_starts
+from stereo_terrain.stereo.sgm.cuda import DIRECTIONS, cuda_available, disparity_cuda, line_starts
 
 from .test_stereo import _shifted_pair
 
@@ -24,7 +24,7 @@ _SIMULATED = textwrap.dedent(
     """
     import numpy as np
     from stereo_terrain.stereo.sgm import SGM, census5x5, p2_table
-    from stereo_terrain.stereo.sgm_cuda import disparity_cuda
+    from stereo_terrain.stereo.sgm.cuda import disparity_cuda
 
     rng = np.random.default_rng(3)
     left = rng.integers(0, 255, (4, 14)).astype(np.uint8)

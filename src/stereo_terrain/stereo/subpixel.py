@@ -1,4 +1,4 @@
-"""Sub-pixel refinement shared by the CPU (:mod:`.sgm`) and CUDA (:mod:`.sgm_cuda`) SGM
+"""Sub-pixel refinement shared by the CPU (:mod:`.sgm`) and CUDA (:mod:`.sgm.cuda`) SGM
 selections; in its own module so that neither imports the other."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The SGM engine's CUDA path (Numba-CUDA): the same algorithm as :mod:`.sgm`, on a GPU.
+"""The SGM engine's CUDA path (Numba-CUDA): the same algorithm as the CPU engine of
+:mod:`stereo_terrain.stereo.sgm`, on a GPU.
 
 Used by :class:`stereo_terrain.stereo.sgm.SGM` when its config says ``device="cuda"`` (or
 ``"auto"`` and a CUDA device is present). It gives the same disparities and confidences
@@ -34,8 +35,8 @@ import math
 import numpy as np
 from numba import cuda, int16, int32
 
-from ..errors import ConfigError
-from .subpixel import parabola_peak
+from ...errors import ConfigError
+from ..subpixel import parabola_peak
 
 MAX_DISPARITIES = 256
 _SHARED = MAX_DISPARITIES  # shared-memory row of one aggregation block
