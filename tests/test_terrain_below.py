@@ -17,11 +17,13 @@ from stereo_terrain.terrain import (
     TerrainConfig,
     build_terrain,
     floor_to_view_bottom,
+    nosing_under_floor,
     samples_below_floor,
 )
 
 from .test_line_frame import _realistic
-from .test_terrain import _stairs
+from .test_terrain import CAM, _stairs
+from .test_terrain_nosings import _lines, _segment
 
 
 def _without(planes: PlaneSet, *, floor=True, risers=(), treads=()) -> PlaneSet:
@@ -225,3 +227,66 @@ def test_a_floor_runs_to_the_view_bottom_a_first_tread_ends_above_its_riser(n, r
     assert not floor_to_view_bottom(_on_first_tread(full, rise), config)
     no_floor = _without(full)  # no floor plane at all: nothing runs to the bottom
     assert not floor_to_view_bottom(no_floor, config)
+
+
+def _nosings_and_feet(
+    n: int, rise: float, run: float, distance: float, yaw: float, floor_z: float, first=True
+):
+    """The image's segments of every nosing and riser foot of the staircase of ``_stairs``,
+    in a frame whose floor is ``floor_z`` above the true one (the cameras that much lower);
+    without the first riser's nosing unless ``first``."""
+    height = float(CAM[2]) - floor_z
+    blank = _lines(np.empty((0, 4)), height)
+    segs = []
+    for i in range(n):
+        s_i = distance * np.cos(yaw) + i * run
+        if first or i > 0:
+            segs.append(_segment(blank, s_i, (i + 1) * rise - floor_z, yaw))
+        segs.append(_segment(blank, s_i, i * rise - floor_z, yaw))
+    return _lines(np.array(segs), height)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    n=st.integers(3, 5),
+    rise=st.floats(0.12, 0.21),
+    run=st.floats(0.24, 0.36),
+    yaw_deg=st.floats(-40.0, 40.0),
+    distance=st.floats(1.3, 1.8),  # the first nosing well inside the view's bottom
+)
+def test_a_first_tread_taken_for_the_floor_has_its_nosing_on_it(n, rise, run, yaw_deg, distance):
+    """``nosing_under_floor``: on a first tread taken for the floor, the image's segments
+    show its nosing a run in front of the chain; on the true floor they show the first
+    riser's foot at the chain, and no nosing a run in front."""
+    config = TerrainConfig()
+    yaw = np.radians(yaw_deg)
+    full = _stairs(n_steps=n, rise=rise, run=run, yaw=yaw, distance=distance)
+    model = build_terrain(full, config, floor_known=True)
+    assert len(model.steps) == n
+    assert not nosing_under_floor(model, _nosings_and_feet(n, rise, run, distance, yaw, 0.0), config)
+    late = build_terrain(_on_first_tread(full, rise), config, floor_known=True)
+    assert late.obstacle == STAIRS and len(late.steps) == n - 1
+    assert nosing_under_floor(late, _nosings_and_feet(n, rise, run, distance, yaw, rise), config)
+    # the first nosing not in the image: nothing shows that the floor is a tread
+    bare = _nosings_and_feet(n, rise, run, distance, yaw, rise, first=False)
+    assert not nosing_under_floor(late, bare, config)
+
+
+def test_without_a_rig_the_first_treads_nosing_puts_the_floor_a_rise_lower():
+    """Realistic render 2 of seed 57 without a rig (five painted steps of 21.3 cm, the
+    first riser 0.91 m ahead of a camera 0.43 m up): no floor in view, the first tread
+    taken for it, and the first riser's strip under its nosing holds no samples. The
+    nosing itself, a dark strip across the staircase a run in front of the chain, puts
+    the floor a rise lower (``PipelineConfig.floor_below_nosing``): five steps, the first
+    where the truth has it."""
+    scene = _realistic(2, seed=57)
+    truth = scene.truth["steps"]
+    assert len(truth) == 5
+    config = PipelineConfig()
+    result = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
+    assert "floor_below_nosing" in result.terrain.note
+    assert len(result.terrain.steps) == 5
+    assert result.terrain.steps[0].distance_m == pytest.approx(truth[0]["distance"], abs=0.08)
+    off = dataclasses.replace(config, floor_below_nosing=False)
+    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
+    assert len(before.terrain.steps) == 4

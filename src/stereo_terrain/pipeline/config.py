@@ -227,6 +227,15 @@ class PipelineConfig:
         that frame and its note says so (:func:`~.second_opinions.floor_a_step_below`;
         ``timing_ms["floor_below"]``). Default true (issue 11: a level camera that sees
         no floor before the stairs; docs/benchmarks.md, "Forty-fourth session").
+    floor_below_nosing : bool
+        ``floor_a_step_below`` also where its first riser shows no samples under the
+        floor but the image's segments show that riser's nosing: on the floor's height,
+        a run in front of the chain, across the staircase
+        (:func:`~stereo_terrain.terrain.nosing_under_floor`); the step then placed below
+        must stand there too (its run within ``terrain.continue_run_tolerance`` of the
+        chain's median run). Default true (issue 11:
+        the first riser's strip under its nosing, painted, held no disparity;
+        docs/benchmarks.md, "Fifty-second session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -276,6 +285,7 @@ class PipelineConfig:
     whole_box: bool = True  # issue 11
     corroborated_frame: bool = True  # issue 11
     floor_a_step_below: bool = True  # issue 11
+    floor_below_nosing: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

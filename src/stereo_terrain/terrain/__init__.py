@@ -28,7 +28,7 @@ the staircase its risers' ends show, where the chain counts fewer steps);
 
 from __future__ import annotations
 
-from .below import floor_to_view_bottom, samples_below_floor
+from .below import floor_to_view_bottom, nosing_under_floor, samples_below_floor
 from .build import build_terrain
 from .from_ends import staircase_from_ends
 from .from_lines import staircase_from_lines
@@ -51,6 +51,7 @@ __all__ = [
     "build_terrain",
     "estimate_step_sigmas",
     "floor_to_view_bottom",
+    "nosing_under_floor",
     "samples_below_floor",
     "staircase_from_ends",
     "staircase_from_lines",

@@ -38,6 +38,7 @@ from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, PlaneSet
 from .continuation import free_samples, riser_band
 from .model import StairModel, TerrainConfig, stair_axes
+from .nosings import ImageLines, nosing_under_first
 from .risers import _Riser, _tread_front
 
 #: A link of the chain of steps: (riser candidate or None, top height, riser plane, tread
@@ -158,6 +159,18 @@ def samples_below_floor(planes: PlaneSet, model: StairModel, config: TerrainConf
     under &= (w >= across.min()) & (w <= across.max())
     count = int(np.count_nonzero(under))
     return count, float(median(along[under])) if count else float("nan")
+
+
+def nosing_under_floor(model: StairModel, lines: ImageLines, config: TerrainConfig) -> bool:
+    """Whether the image's segments show a nosing on the floor's height a run in front of
+    ``model``'s first riser, across its extent (its polytope's):
+    :func:`~.nosings.nosing_under_first`. A floor has no nosing on it; a first tread
+    taken for it has its own, a run in front of the chain."""
+    if not model.steps or not model.polytope.vertices.size:
+        return False
+    u, v = stair_axes(model.yaw_rad)
+    across = model.polytope.vertices @ v
+    return nosing_under_first(model.steps, u, v, (float(across.min()), float(across.max())), lines, config)
 
 
 def floor_to_view_bottom(planes: PlaneSet, config: TerrainConfig) -> bool:

@@ -15,7 +15,13 @@ from ...frames import Transform
 from ...gravity import angle_deg
 from ...planes.orientation import OrientationConfig, extract_planes_orientation, transform_planes
 from ...swing import plan_swing
-from ...terrain import ImageLines, build_terrain, floor_to_view_bottom, samples_below_floor
+from ...terrain import (
+    ImageLines,
+    build_terrain,
+    floor_to_view_bottom,
+    nosing_under_floor,
+    samples_below_floor,
+)
 from ...terrain.model import NONE, STAIRS
 from ..config import PipelineConfig
 from ..gravity_steps import origin_on_floor
@@ -203,7 +209,14 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     tc = config.terrain
     under, position = samples_below_floor(kept.planes, terrain, tc)
     ahead_of_chain = terrain.steps[0].axis_position_m - position >= tc.min_run_m
-    if under >= tc.min_riser_points and ahead_of_chain and not floor_to_view_bottom(kept.planes, tc):
+    riser_shows = under >= tc.min_riser_points and ahead_of_chain
+    nosing_shows = (
+        not riser_shows
+        and config.floor_below_nosing
+        and kept.image_lines is not None
+        and nosing_under_floor(terrain, kept.image_lines, tc)
+    )
+    if (riser_shows or nosing_shows) and not floor_to_view_bottom(kept.planes, tc):
         rise = terrain.steps[0].rise_m
         shift = Transform.from_rt(np.eye(3), [0.0, 0.0, rise], "yaw", "yaw")
         planes = transform_planes(kept.planes, shift)
@@ -211,14 +224,21 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
         lines = _lines_in_frame(kept.image_lines, T)
         lowered = build_terrain(planes, config.terrain, floor_known=True, lines=lines)
         more = lowered.obstacle == STAIRS and len(lowered.steps) > len(terrain.steps)
-        if more and (
-            tc.merge_distance_m
-            <= terrain.steps[0].axis_position_m - lowered.steps[0].axis_position_m
-            <= tc.continue_max_run_m
-        ):
+        first_run = terrain.steps[0].axis_position_m - lowered.steps[0].axis_position_m if more else 0.0
+        if nosing_shows:
+            # The nosing stands a run in front of the chain: so must the step placed below.
+            runs = [s.run_m for s in terrain.steps if s.run_m is not None]
+            run = float(np.median(runs)) if runs else math.nan
+            more = more and abs(first_run - run) <= tc.continue_run_tolerance * run
+        if more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m:
+            shown = (
+                f"{under} samples of the first riser under it"
+                if riser_shows
+                else "the image's segments show its nosing a run in front of the chain (floor_below_nosing)"
+            )
             why = (
                 f"the floor put {100.0 * rise:.1f} cm lower (the first rise): the lowest horizontal "
-                f"plane is the first tread, {under} samples of the first riser under it (floor_a_step_below)"
+                f"plane is the first tread, {shown} (floor_a_step_below)"
             )
             lowered = dataclasses.replace(lowered, note=f"{lowered.note}; {why}")
             lowered = with_step_sigmas(lowered, planes, kept, config)

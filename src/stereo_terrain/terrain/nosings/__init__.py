@@ -92,7 +92,7 @@ and nosing as lines).
 from .axis import axis_from_nosings
 from .first_riser import FirstRiser, first_risers, line_axes, nosings_over
 from .riser_ends import end_steps
-from .steps import nosing_heights, nosing_steps, pitched_steps
+from .steps import nosing_heights, nosing_steps, nosing_under_first, pitched_steps
 from .view import ImageLines
 
 __all__ = [
@@ -104,6 +104,7 @@ __all__ = [
     "line_axes",
     "nosing_heights",
     "nosing_steps",
+    "nosing_under_first",
     "nosings_over",
     "pitched_steps",
 ]

@@ -267,6 +267,50 @@ def nosing_heights(
     return [_nosing_top(view, s.axis_position_m, s.top_z_m, rise) for s in steps]
 
 
+def nosing_under_first(
+    steps: list[Step] | tuple[Step, ...],
+    u: np.ndarray,
+    v: np.ndarray,
+    lateral: tuple[float, float],
+    lines: ImageLines,
+    config: TerrainConfig,
+) -> bool:
+    """Whether the image's segments show the nosing of a step below the first of
+    ``steps``: a run in front of its riser (within ``nosing_run_tolerance``), on the
+    floor's height (0 in the terrain frame), across ``nosing_min_cover`` of the
+    staircase's width, its foot in view where it must be (:func:`next_nosing` from two
+    steps before the first, on the staircase's median measured rise and run), and the
+    line met with the floor within that tolerance of its place too. Without a
+    rig the floor is the lowest large horizontal plane; where the cameras see no floor
+    before the stairs, that is the first tread, and its nosing lies there (the frame's
+    floor is a step too high). Needs a measured rise and a run."""
+    rises = [s.rise_m for s in steps if not s.rise_inferred]
+    runs = [s.run_m for s in steps if s.run_m is not None]
+    if not steps or not rises or not runs:
+        return False
+    segs = parallel_segments(lines, v)
+    if segs is None:
+        return False
+    view = StairView(lines, segs, u, v, inner_lateral(lateral))
+    rise, run = float(np.median(rises)), float(np.median(runs))
+    a = steps[0].axis_position_m - 2.0 * run
+    lam = next_nosing(view, a, -rise, rise, run, config)
+    if lam is None:
+        return False
+    # Where the line lies on the floor itself: the pitch line's intersection is what
+    # keeps a nosing's place well posed, but a low camera close to the stairs sees the
+    # first riser's own foot on a true floor (a run further) meet the pitch line within
+    # the tolerance too. The height is known here: the floor's.
+    c = lines.centre
+    mid = 0.5 * (view.lat[0] + view.lat[1])
+    on_pitch = (a + lam * run) * u + mid * v + np.array([0.0, 0.0, (lam - 1.0) * rise])
+    if not c[2] > on_pitch[2]:
+        return False
+    on_floor = c + (c[2] / (c[2] - on_pitch[2])) * (on_pitch - c)
+    expected = steps[0].axis_position_m - run
+    return abs(float(on_floor @ u) - expected) <= config.nosing_run_tolerance * run
+
+
 def no_riser_at(
     planes: PlaneSet,
     P: np.ndarray,
