@@ -148,15 +148,14 @@ def samples_below_floor(planes: PlaneSet, model: StairModel, config: TerrainConf
     if not model.steps or not model.polytope.vertices.size:
         return 0, float("nan")
     P = planes.samples.points.astype(np.float64)
-    u, v = stair_axes(model.yaw_rad)
-    across = model.polytope.vertices @ v
+    u, v, (v_lo, v_hi) = _axes_and_extent(model)
     first = model.steps[0]
     along = P @ u
     ahead = first.axis_position_m - along
     w, z = P @ v, P[:, 2]
     under = (z < -config.edge_margin_m) & (z > -first.rise_m - config.edge_margin_m)
     under &= (ahead > config.merge_distance_m) & (ahead < config.continue_max_run_m)
-    under &= (w >= across.min()) & (w <= across.max())
+    under &= (w >= v_lo) & (w <= v_hi)
     count = int(np.count_nonzero(under))
     return count, float(median(along[under])) if count else float("nan")
 
@@ -168,9 +167,16 @@ def nosing_under_floor(model: StairModel, lines: ImageLines, config: TerrainConf
     taken for it has its own, a run in front of the chain."""
     if not model.steps or not model.polytope.vertices.size:
         return False
+    u, v, lateral = _axes_and_extent(model)
+    return nosing_under_first(model.steps, u, v, lateral, lines, config)
+
+
+def _axes_and_extent(model: StairModel) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
+    """``model``'s stair axis ``u``, lateral direction ``v`` and lateral extent along
+    ``v`` (its polytope's, which must have vertices)."""
     u, v = stair_axes(model.yaw_rad)
     across = model.polytope.vertices @ v
-    return nosing_under_first(model.steps, u, v, (float(across.min()), float(across.max())), lines, config)
+    return u, v, (float(across.min()), float(across.max()))
 
 
 def floor_to_view_bottom(planes: PlaneSet, config: TerrainConfig) -> bool:

@@ -227,8 +227,8 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
         first_run = terrain.steps[0].axis_position_m - lowered.steps[0].axis_position_m if more else 0.0
         if nosing_shows:
             # The nosing stands a run in front of the chain: so must the step placed below.
-            runs = [s.run_m for s in terrain.steps if s.run_m is not None]
-            run = float(np.median(runs)) if runs else math.nan
+            # (The nosing needs a measured run, so there is one.)
+            run = float(np.median([s.run_m for s in terrain.steps if s.run_m is not None]))
             more = more and abs(first_run - run) <= tc.continue_run_tolerance * run
         if more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m:
             shown = (
