@@ -10,7 +10,7 @@ from .census import census_cost_row
 from .noalias import njit_no_overlap
 from .select import select_row
 
-_BIG = 16000  # "no value" in the int16 path buffers; + P2 (<= 255) still fits in int16
+NO_VALUE = 16000  # "no value" in the int16 path buffers; + P2 (<= 255) still fits in int16
 _ROW_GROUP = 4  # rows whose paths along the row advance together
 _PAD = 2  # padding columns of the row buffers: row paths step at most 2 columns
 
@@ -46,7 +46,7 @@ def _path_update(cost, cy, y, x, prev, pk, px, out, ok, ox, total, keep, pm, jum
     ``out`` and ``total`` must be four separate arrays: every caller passes its own
     buffers. LLVM inlines it into its callers all the same.
     """
-    m = np.int16(_BIG)
+    m = np.int16(NO_VALUE)
     for d in range(cost.shape[2]):
         a = np.int16(min(prev[pk, px, d], prev[pk, px, d + 2]) + p1)
         v = min(a, min(prev[pk, px, d + 1], jump))
@@ -122,9 +122,9 @@ def _three_paths_row(
         jc = _jump(lut, pc, grey, _grey_clamped(img, yq, xc))
         xa, xb, xc = xa + _PAD, xb + _PAD, xc + _PAD
         xo = x + _PAD
-        ma = np.int16(_BIG)
-        mb = np.int16(_BIG)
-        mc = np.int16(_BIG)
+        ma = np.int16(NO_VALUE)
+        mb = np.int16(NO_VALUE)
+        mc = np.int16(NO_VALUE)
         for d in range(cost.shape[2]):
             c = np.int16(cost[cy, x, d])
             # _path_update's recurrence, written out for each path: with it in an inlined
@@ -169,7 +169,7 @@ def sweep_state(width: int, n_disp: int, paths: int) -> tuple[np.ndarray, ...]:
     nk = len(ROW_PATHS[paths])
     rows = []
     for _ in range(3):
-        buf = np.full((nk, width + 2 * _PAD, n_disp + 2), _BIG, dtype=np.int16)
+        buf = np.full((nk, width + 2 * _PAD, n_disp + 2), NO_VALUE, dtype=np.int16)
         buf[:, :, 1 : n_disp + 1] = 0
         rows.append(buf)
     mins = [np.zeros((nk, width + 2 * _PAD), dtype=np.int16) for _ in range(3)]
@@ -229,9 +229,9 @@ def aggregate_sweep(
     reversed_right = np.empty_like(census_right[0])
     # The path along the row: the previous pixel's values alternate between two buffers
     # (even and odd steps), so reads and writes never alias.
-    even = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
-    odd = np.full((_ROW_GROUP, 1, n + 2), _BIG, dtype=np.int16)
-    start = np.full((1, 1, n + 2), _BIG, dtype=np.int16)
+    even = np.full((_ROW_GROUP, 1, n + 2), NO_VALUE, dtype=np.int16)
+    odd = np.full((_ROW_GROUP, 1, n + 2), NO_VALUE, dtype=np.int16)
+    start = np.full((1, 1, n + 2), NO_VALUE, dtype=np.int16)
     start[0, 0, 1 : n + 1] = 0  # with pm = jump = 0 the update gives L = C
     along_min = np.zeros(_ROW_GROUP, dtype=np.int16)
     work = np.empty((4, w), dtype=np.int32)  # the selection's work rows

@@ -8,7 +8,7 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-_MAX_COST = 24  # 5x5 census: 24 comparisons
+MAX_CENSUS_COST = 24  # 5x5 census: 24 comparisons
 
 
 @njit(cache=True, nogil=True)
@@ -103,7 +103,7 @@ def census_cost_row(cl, cr, y, cost, r, reversed_right):  # pragma: no cover - c
         for d in range(top):
             cost[r, x, d] = np.uint8(_hamming(a ^ candidates[d]))  # type: ignore[call-arg]
         for d in range(top, n):
-            cost[r, x, d] = _MAX_COST
+            cost[r, x, d] = MAX_CENSUS_COST
 
 
 @njit(cache=True, nogil=True)

@@ -37,11 +37,11 @@ from numba import cuda, int16, int32
 
 from ...errors import ConfigError
 from ..subpixel import parabola_peak
+from .aggregate import NO_VALUE
+from .census import MAX_CENSUS_COST
 
 MAX_DISPARITIES = 256
 _SHARED = MAX_DISPARITIES  # shared-memory row of one aggregation block
-_BIG = 16000
-_MAX_COST = 24
 
 # The 8 directions (dy, dx); the 4-path set is the first four.
 DIRECTIONS = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))
@@ -66,7 +66,7 @@ def cost_kernel(cl, cr, cost):  # pragma: no cover - runs on the device
         if x - d >= 0:
             cost[y, x, d] = cuda.popc(a ^ cr[y, x - d])
         else:
-            cost[y, x, d] = _MAX_COST
+            cost[y, x, d] = MAX_CENSUS_COST
 
 
 @cuda.jit
@@ -78,14 +78,14 @@ def path_kernel(cost, img, starts_y, starts_x, dy, dx, lut, p1, total):  # pragm
     prev = cuda.shared.array(_SHARED + 2, int32)
     red = cuda.shared.array(_SHARED, int32)
     if t == 0:
-        prev[0] = _BIG
-        prev[n + 1] = _BIG
+        prev[0] = NO_VALUE
+        prev[n + 1] = NO_VALUE
     y = starts_y[line]
     x = starts_x[line]
     pm = 0
     first = True
     while 0 <= y < h and 0 <= x < w:
-        value = _BIG
+        value = NO_VALUE
         if t < n:
             c = int32(cost[y, x, t])
             if first:
