@@ -25,6 +25,7 @@ from .view import (
     covered_share,
     inner_lateral,
     lateral_on_height,
+    on_height,
     on_riser_plane,
     parallel_segments,
     tread_height_px,
@@ -306,7 +307,7 @@ def nosing_under_first(
     on_pitch = (a + lam * run) * u + mid * v + np.array([0.0, 0.0, (lam - 1.0) * rise])
     if not c[2] > on_pitch[2]:
         return False
-    on_floor = c + (c[2] / (c[2] - on_pitch[2])) * (on_pitch - c)
+    on_floor = on_height(lines, (on_pitch - c)[None, :], 0.0)[0]
     expected = steps[0].axis_position_m - run
     return abs(float(on_floor @ u) - expected) <= config.nosing_run_tolerance * run
 
