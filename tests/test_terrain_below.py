@@ -208,6 +208,27 @@ def test_without_a_rig_a_staircase_on_its_first_tread_is_found_again_a_rise_lowe
     assert "floor_below" not in before.timing_ms
 
 
+def test_without_a_floor_plane_a_staircase_on_its_first_tread_is_found_again_a_rise_lower():
+    """Realistic render 32 of seed 41 without a rig (five steps of 16.9 cm, the first riser
+    0.95 m ahead of a level camera 0.4 m up): the view's bottom falls on the first tread, no
+    floor plane is found below the cameras, and the chain counted three steps from that
+    tread. Its first riser's samples under it put it a rise lower too
+    (``PipelineConfig.floor_below_floorless``): five steps, the first where the truth has it."""
+    scene = _realistic(32, seed=41)
+    truth = scene.truth["steps"]
+    assert len(truth) == 5
+    config = PipelineConfig()
+    result = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
+    assert "no floor plane found" in result.terrain.note and result.floor_known
+    assert len(result.terrain.steps) == 5
+    assert result.terrain.steps[0].distance_m == pytest.approx(truth[0]["distance"], abs=0.08)
+    assert [s.rise_m for s in result.terrain.steps] == pytest.approx([truth[0]["rise"]] * 5, abs=0.025)
+    off = dataclasses.replace(config, floor_below_floorless=False)
+    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
+    assert not before.floor_known and len(before.terrain.steps) == 3
+    assert "floor_below" not in before.timing_ms
+
+
 def _rows_by_height(planes: PlaneSet) -> PlaneSet:
     """``planes`` with each sample's image row from its height (a level camera above the
     floor: lower is further down the image, 5 px grid rows)."""

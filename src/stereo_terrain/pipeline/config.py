@@ -236,6 +236,13 @@ class PipelineConfig:
         chain's median run). Default true (issue 11:
         the first riser's strip under its nosing, painted, held no disparity;
         docs/benchmarks.md, "Fifty-second session").
+    floor_below_floorless : bool
+        ``floor_a_step_below`` also in a frame that found no floor plane below the
+        cameras (its origin left at them): the staircase's ground, the lowest horizontal
+        surface below the cameras that its first rise was measured from, is asked the
+        same, by its first riser's samples alone (a close level camera whose view's
+        bottom falls on the first tread). Default true (issue 11; docs/benchmarks.md,
+        "Fifty-fourth session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -286,6 +293,7 @@ class PipelineConfig:
     corroborated_frame: bool = True  # issue 11
     floor_a_step_below: bool = True  # issue 11
     floor_below_nosing: bool = True  # issue 11
+    floor_below_floorless: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

@@ -194,24 +194,39 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     (:mod:`stereo_terrain.terrain.below`). Kept where that finds more steps, the first
     of them in front of ``kept``'s first riser by ``terrain.merge_distance_m`` to
     ``terrain.continue_max_run_m``; the result keeps the lowered frame and its note says
-    so. ``timing_ms["floor_below"]``: the time it took, where it ran."""
+    so. ``timing_ms["floor_below"]``: the time it took, where it ran.
+
+    Where the frame found no floor plane at all (its origin left at the cameras), the
+    terrain measured the first rise from its own ground, the lowest horizontal surface
+    below the cameras; with ``floor_below_floorless`` that surface is asked the same, by
+    the first riser's samples alone, in a frame whose origin is on it (a close level
+    camera whose view's bottom falls on the first tread: realistic 41 scene 32 and 71
+    scene 30; docs/benchmarks.md, "Fifty-fourth session")."""
     terrain = kept.terrain
+    # No floor plane below the cameras (floorless): the frame's origin is at them, and the
+    # staircase's first rise was measured from its ground, the lowest horizontal surface
+    # below them, which is asked the same in a frame whose origin is on it.
+    floorless = not kept.floor_known
+    ground_below = config.floor_below_floorless and terrain.ground_z_m <= -config.terrain.min_rise_m
     if (
         not config.floor_a_step_below
         or kept.gravity_source == "rig"
-        or not kept.floor_known
         or terrain.obstacle != STAIRS
         or terrain.steps[0].rise_inferred
+        or (floorless and not ground_below)
     ):
         return kept
     t0 = time.perf_counter()
     result = kept
     tc = config.terrain
+    if floorless:
+        kept = _origin_on_ground(kept, terrain.ground_z_m)
     under, position = samples_below_floor(kept.planes, terrain, tc)
     ahead_of_chain = terrain.steps[0].axis_position_m - position >= tc.min_run_m
     riser_shows = under >= tc.min_riser_points and ahead_of_chain
     nosing_shows = (
         not riser_shows
+        and not floorless  # (measured with the samples' test alone)
         and config.floor_below_nosing
         and kept.image_lines is not None
         and nosing_under_floor(terrain, kept.image_lines, tc)
@@ -236,9 +251,10 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
                 if riser_shows
                 else "the image's segments show its nosing a run in front of the chain (floor_below_nosing)"
             )
+            lowest = "the lowest horizontal plane" + (" (no floor plane found)" if floorless else "")
             why = (
-                f"the floor put {100.0 * rise:.1f} cm lower (the first rise): the lowest horizontal "
-                f"plane is the first tread, {shown} (floor_a_step_below)"
+                f"the floor put {100.0 * rise:.1f} cm lower (the first rise): {lowest} "
+                f"is the first tread, {shown} (floor_a_step_below)"
             )
             lowered = dataclasses.replace(lowered, note=f"{lowered.note}; {why}")
             lowered = with_step_sigmas(lowered, planes, kept, config)
@@ -248,6 +264,17 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
             )
     result.timing_ms["floor_below"] = (time.perf_counter() - t0) * 1000.0
     return result
+
+
+def _origin_on_ground(kept: TerrainResult, ground_z: float) -> TerrainResult:
+    """``kept`` in the frame whose origin is ``ground_z`` lower (on its terrain's ground),
+    with the floor known there: its planes, transform and lines moved; its terrain (whose
+    heights :func:`floor_a_step_below` does not read) as it was."""
+    shift = Transform.from_rt(np.eye(3), [0.0, 0.0, -ground_z], "yaw", "yaw")
+    T = shift @ kept.T_yaw_camera_rect
+    planes = transform_planes(kept.planes, shift)
+    lines = _lines_in_frame(kept.image_lines, T)
+    return dataclasses.replace(kept, planes=planes, T_yaw_camera_rect=T, image_lines=lines, floor_known=True)
 
 
 def scene_up(result: TerrainResult) -> tuple[np.ndarray, float] | None:
