@@ -240,8 +240,8 @@ class PipelineConfig:
         ``floor_a_step_below`` also in a frame that found no floor plane below the
         cameras (its origin left at them): the staircase's ground, the lowest horizontal
         surface below the cameras that its first rise was measured from, is asked the
-        same, by its first riser's samples alone (a close level camera whose view's
-        bottom falls on the first tread). Default true (issue 11; docs/benchmarks.md,
+        same, in a frame whose origin is on it (a close level camera whose view's bottom
+        falls on the first tread). Default true (issue 11; docs/benchmarks.md,
         "Fifty-fourth session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces

@@ -198,8 +198,8 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
 
     Where the frame found no floor plane at all (its origin left at the cameras), the
     terrain measured the first rise from its own ground, the lowest horizontal surface
-    below the cameras; with ``floor_below_floorless`` that surface is asked the same, by
-    the first riser's samples alone, in a frame whose origin is on it (a close level
+    below the cameras; with ``floor_below_floorless`` that surface is asked the same, in a
+    frame whose origin is on it (a close level
     camera whose view's bottom falls on the first tread: realistic 41 scene 32 and 71
     scene 30; docs/benchmarks.md, "Fifty-fourth session")."""
     terrain = kept.terrain
@@ -226,7 +226,6 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     riser_shows = under >= tc.min_riser_points and ahead_of_chain
     nosing_shows = (
         not riser_shows
-        and not floorless  # (measured with the samples' test alone)
         and config.floor_below_nosing
         and kept.image_lines is not None
         and nosing_under_floor(terrain, kept.image_lines, tc)
