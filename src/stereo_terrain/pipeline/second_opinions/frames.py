@@ -199,13 +199,10 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     Where the frame found no floor plane at all (its origin left at the cameras), the
     terrain measured the first rise from its own ground, the lowest horizontal surface
     below the cameras; with ``floor_below_floorless`` that surface is asked the same, in a
-    frame whose origin is on it (a close level
-    camera whose view's bottom falls on the first tread: realistic 41 scene 32 and 71
-    scene 30; docs/benchmarks.md, "Fifty-fourth session")."""
+    frame whose origin is on it (a close level camera whose view's bottom falls on the
+    first tread: realistic 41 scene 32 and 71 scene 30; docs/benchmarks.md, "Fifty-fourth
+    session")."""
     terrain = kept.terrain
-    # No floor plane below the cameras (floorless): the frame's origin is at them, and the
-    # staircase's first rise was measured from its ground, the lowest horizontal surface
-    # below them, which is asked the same in a frame whose origin is on it.
     floorless = not kept.floor_known
     ground_below = config.floor_below_floorless and terrain.ground_z_m <= -config.terrain.min_rise_m
     if (
@@ -220,7 +217,7 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     result = kept
     tc = config.terrain
     if floorless:
-        kept = _origin_on_ground(kept, terrain.ground_z_m)
+        kept = _origin_lowered(kept, -terrain.ground_z_m)
     under, position = samples_below_floor(kept.planes, terrain, tc)
     ahead_of_chain = terrain.steps[0].axis_position_m - position >= tc.min_run_m
     riser_shows = under >= tc.min_riser_points and ahead_of_chain
@@ -232,11 +229,8 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     )
     if (riser_shows or nosing_shows) and not floor_to_view_bottom(kept.planes, tc):
         rise = terrain.steps[0].rise_m
-        shift = Transform.from_rt(np.eye(3), [0.0, 0.0, rise], "yaw", "yaw")
-        planes = transform_planes(kept.planes, shift)
-        T = shift @ kept.T_yaw_camera_rect
-        lines = _lines_in_frame(kept.image_lines, T)
-        lowered = build_terrain(planes, config.terrain, floor_known=True, lines=lines)
+        moved = _origin_lowered(kept, rise)
+        lowered = build_terrain(moved.planes, config.terrain, floor_known=True, lines=moved.image_lines)
         more = lowered.obstacle == STAIRS and len(lowered.steps) > len(terrain.steps)
         first_run = terrain.steps[0].axis_position_m - lowered.steps[0].axis_position_m if more else 0.0
         if nosing_shows:
@@ -256,20 +250,18 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
                 f"is the first tread, {shown} (floor_a_step_below)"
             )
             lowered = dataclasses.replace(lowered, note=f"{lowered.note}; {why}")
-            lowered = with_step_sigmas(lowered, planes, kept, config)
-            swing = plan_swing(lowered, config.swing)
-            result = dataclasses.replace(
-                kept, terrain=lowered, swing=swing, planes=planes, T_yaw_camera_rect=T, image_lines=lines
-            )
+            lowered = with_step_sigmas(lowered, moved.planes, kept, config)
+            result = dataclasses.replace(moved, terrain=lowered, swing=plan_swing(lowered, config.swing))
     result.timing_ms["floor_below"] = (time.perf_counter() - t0) * 1000.0
     return result
 
 
-def _origin_on_ground(kept: TerrainResult, ground_z: float) -> TerrainResult:
-    """``kept`` in the frame whose origin is ``ground_z`` lower (on its terrain's ground),
-    with the floor known there: its planes, transform and lines moved; its terrain (whose
-    heights :func:`floor_a_step_below` does not read) as it was."""
-    shift = Transform.from_rt(np.eye(3), [0.0, 0.0, -ground_z], "yaw", "yaw")
+def _origin_lowered(kept: TerrainResult, drop: float) -> TerrainResult:
+    """``kept`` in the frame whose origin is ``drop`` metres lower, the floor known there
+    (onto its terrain's ground, or a first rise lower): its planes, transform and lines
+    moved; its terrain as it was (:func:`floor_a_step_below` replaces it or reads no
+    height of it)."""
+    shift = Transform.from_rt(np.eye(3), [0.0, 0.0, drop], "yaw", "yaw")
     T = shift @ kept.T_yaw_camera_rect
     planes = transform_planes(kept.planes, shift)
     lines = _lines_in_frame(kept.image_lines, T)
