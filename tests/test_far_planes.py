@@ -18,6 +18,8 @@ from stereo_terrain.stereo.bands import BandFillConfig
 from stereo_terrain.synthetic import default_scene_spec, random_scene_spec, render_scene
 from stereo_terrain.terrain import TerrainConfig
 
+from .rounding import premise
+
 #: The far planes' own tests run with the band fill off: with it the rematch finds these
 #: lab-like stairs before the far planes run (tests/test_bands.py tests the band fill);
 #: likewise the risers moved to where both images put them (tests/test_photometric.py),
@@ -206,9 +208,13 @@ def test_far_wooden_stairs_found_by_the_wider_level():
     scene = _lab_stairs(43)
     result = Pipeline(scene.calibration, scene.rig, NO_BANDS, warm_up=False).run(scene.left, scene.right)
     assert result.terrain.obstacle == "stairs"
-    assert "widened further" in result.terrain.note and "far_planes_wider_sigmas" in result.terrain.note
-    assert result.plane_choice == "orientation, normal tests widened further (far_planes_wider_sigmas)"
     assert_steps_match_truth(result.terrain.steps, scene.truth["steps"])
+    premise(
+        "widened further" in result.terrain.note,
+        "every opinion before the wider far planes misses the stairs",
+    )
+    assert "far_planes_wider_sigmas" in result.terrain.note
+    assert result.plane_choice == "orientation, normal tests widened further (far_planes_wider_sigmas)"
     # (the redrawn planes after them off too: other draws find these stairs as well; and
     # the full-size image's lines, which find them 11 cm farther: vanishing.finer_scale)
     half = NO_BANDS.vanishing.horizontal_scale

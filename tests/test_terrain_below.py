@@ -21,6 +21,7 @@ from stereo_terrain.terrain import (
     samples_below_floor,
 )
 
+from .rounding import premise
 from .test_line_frame import _realistic
 from .test_terrain import CAM, _stairs
 from .test_terrain_nosings import _lines, _segment
@@ -218,15 +219,18 @@ def test_without_a_floor_plane_a_staircase_on_its_first_tread_is_found_again_a_r
     truth = scene.truth["steps"]
     assert len(truth) == 5
     config = PipelineConfig()
+    off = dataclasses.replace(config, floor_below_floorless=False)
+    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
+    premise(
+        not before.floor_known and len(before.terrain.steps) == 3,
+        "no floor plane is found, and the chain counts three steps from the first tread",
+    )
+    assert "floor_below" not in before.timing_ms
     result = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
     assert "no floor plane found" in result.terrain.note and result.floor_known
     assert len(result.terrain.steps) == 5
     assert result.terrain.steps[0].distance_m == pytest.approx(truth[0]["distance"], abs=0.08)
     assert [s.rise_m for s in result.terrain.steps] == pytest.approx([truth[0]["rise"]] * 5, abs=0.025)
-    off = dataclasses.replace(config, floor_below_floorless=False)
-    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
-    assert not before.floor_known and len(before.terrain.steps) == 3
-    assert "floor_below" not in before.timing_ms
 
 
 def _rows_by_height(planes: PlaneSet) -> PlaneSet:

@@ -14,6 +14,7 @@ from stereo_terrain.pipeline import Pipeline, PipelineConfig
 from stereo_terrain.pipeline.second_opinions import staircase_of_finer_lines
 from stereo_terrain.synthetic import oakd_overrides, random_scene_spec, render_scene
 
+from .rounding import premise
 from .test_vanishing import _bar_image, _rectification
 
 UP = np.array([0.0, -1.0, 0.0])  # a level camera's up, rectified camera frame
@@ -72,7 +73,7 @@ def test_a_staircase_three_metres_ahead_is_found_in_the_full_size_lines():
     score = score_result(found.to_json_dict(), scene.truth)
     assert score.count_right, found.terrain.note
     assert max(score.rise_errors_m) <= RISE_TOL_M
-    assert "finer_scale" in found.terrain.note
+    premise("finer_scale" in found.terrain.note, "every opinion before the full-size lines misses the stairs")
     assert "finer_lines" in found.timing_ms
 
     off = dataclasses.replace(config.vanishing, finer_scale=config.vanishing.horizontal_scale)
