@@ -15,8 +15,12 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/stereo-terrain demo --out demo_out
 
+# The suite on the machine's cores (at most four workers), a test file to a worker: its
+# module fixtures (rendered scenes, pipeline runs) computed once.
+PYTEST := $(PY) -m pytest -q -n auto --maxprocesses 4 --dist loadfile
+
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PYTEST)
 
 # The suite on another CPU's rounding: NumPy, OpenBLAS, OpenCV and Numba held to their
 # baseline kernels (no AVX, AVX2, FMA or AVX-512). A single-scene test passes, or skips
@@ -26,7 +30,7 @@ OTHER_CPU := NPY_DISABLE_CPU_FEATURES="X86_V3 X86_V4 AVX512_ICL AVX512_SPR" \
 	NUMBA_CPU_NAME=generic NUMBA_CACHE_DIR=$(CURDIR)/$(VENV)/numba-other-cpu
 
 test-other-cpu: $(STAMP)
-	$(OTHER_CPU) $(PY) -m pytest -q -p no:cacheprovider $(PYTEST_ARGS)
+	$(OTHER_CPU) $(PYTEST) -p no:cacheprovider $(PYTEST_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
