@@ -20,6 +20,7 @@ from stereo_terrain.terrain import (
     nosing_under_floor,
     samples_below_floor,
 )
+from stereo_terrain.terrain.below import step_in_front
 
 from .rounding import premise
 from .test_line_frame import _realistic
@@ -215,22 +216,108 @@ def test_without_a_floor_plane_a_staircase_on_its_first_tread_is_found_again_a_r
     floor plane is found below the cameras, and the chain counted three steps from that
     tread. Its first riser's samples under it put it a rise lower too
     (``PipelineConfig.floor_below_floorless``): five steps, the first where the truth has it."""
-    scene = _realistic(32, seed=41)
+    scene, before, result = _off_and_on(32, 41, "floor_below_floorless")
     truth = scene.truth["steps"]
     assert len(truth) == 5
-    config = PipelineConfig()
-    off = dataclasses.replace(config, floor_below_floorless=False)
-    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
     premise(
         not before.floor_known and len(before.terrain.steps) == 3,
         "no floor plane is found, and the chain counts three steps from the first tread",
     )
     assert "floor_below" not in before.timing_ms
-    result = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
     assert "no floor plane found" in result.terrain.note and result.floor_known
     assert len(result.terrain.steps) == 5
     assert result.terrain.steps[0].distance_m == pytest.approx(truth[0]["distance"], abs=0.08)
     assert [s.rise_m for s in result.terrain.steps] == pytest.approx([truth[0]["rise"]] * 5, abs=0.025)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    lift=st.floats(0.10, 0.6),
+    rise=st.floats(0.10, 0.22),
+    ahead=st.floats(0.15, 0.45),
+    yaw=st.floats(-0.8, 0.8),
+)
+def test_a_step_in_front_raises_the_chain_and_puts_its_riser_there(lift, rise, ahead, yaw):
+    """The chain as it was, every height ``lift`` higher (its tread planes through their
+    points moved up, its polytope's vertices), risers where they were; in front, one step
+    of ``rise`` whose top is the old ground, its riser at the position given and its
+    polytope's riser and tread quads first."""
+    c, s_ = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+    planes = transform_planes(
+        _stairs(n_steps=3, rise=0.17, run=0.29, distance=1.3),
+        Transform.from_rt(R, [0.0, 0.0, 0.0], "yaw", "yaw"),
+    )
+    model = build_terrain(planes, floor_known=True)
+    assert model.obstacle == STAIRS and len(model.steps) == 3
+    first = model.steps[0]
+    position = first.axis_position_m - ahead
+    out = step_in_front(model, lift, rise, position)
+    assert len(out.steps) == 4 and out.obstacle == STAIRS
+    front = out.steps[0]
+    assert front.rise_inferred and front.rise_m == rise
+    assert front.top_z_m == pytest.approx(model.ground_z_m + lift)
+    assert out.ground_z_m == pytest.approx(front.top_z_m - rise)
+    assert front.axis_position_m == position and front.run_m == pytest.approx(ahead)
+    u = np.array([np.cos(model.yaw_rad), np.sin(model.yaw_rad), 0.0])
+    assert front.riser.signed_distance((position * u)[None, :])[0] == pytest.approx(0.0, abs=1e-9)
+    for old, new in zip(model.steps, out.steps[1:], strict=True):
+        assert new.top_z_m == pytest.approx(old.top_z_m + lift)
+        assert new.axis_position_m == old.axis_position_m and new.riser is old.riser
+        if old.tread is not None:
+            on_old = np.array([0.0, 0.0, -old.tread.offset / old.tread.normal[2]])
+            assert new.tread.signed_distance((on_old + [0.0, 0.0, lift])[None, :])[0] == pytest.approx(
+                0.0, abs=1e-9
+            )
+    V = out.polytope.vertices
+    assert len(out.polytope.faces) == len(model.polytope.faces) + 2
+    np.testing.assert_allclose(V[: len(model.polytope.vertices)], model.polytope.vertices + [0.0, 0.0, lift])
+    riser_quad, tread_quad = (V[list(f)] for f in out.polytope.faces[:2])
+    assert riser_quad @ u == pytest.approx([position] * 4)
+    assert sorted(riser_quad[:, 2]) == pytest.approx([out.ground_z_m] * 2 + [front.top_z_m] * 2)
+    assert tread_quad[:, 2] == pytest.approx([front.top_z_m] * 4)
+
+
+def test_without_a_floor_plane_the_chain_is_kept_where_built_again_it_adds_no_step():
+    """Realistic render 12 of seed 1313 without a rig (five plank steps of 14.2 cm, the
+    first riser 0.87 m ahead of a level camera 0.37 m up): no floor plane is found, the
+    staircase's ground is its first tread, and its first riser's samples show under it a
+    run in front of the chain; the terrain built again a rise lower adds no step. The
+    chain kept, raised a rise, with the first riser where those samples stand
+    (``PipelineConfig.floor_below_keep_chain``): five steps, the first where the truth
+    has it."""
+    scene, before, result = _off_and_on(12, 1313, "floor_below_keep_chain")
+    truth = scene.truth["steps"]
+    assert len(truth) == 5
+    premise(
+        not before.floor_known and len(before.terrain.steps) == 4,
+        "no floor plane is found, and the chain counts four steps from the first tread",
+    )
+    assert "floor_below_keep_chain" in result.terrain.note and result.floor_known
+    steps = result.terrain.steps
+    assert len(steps) == 5 and steps[0].rise_inferred
+    assert [s.distance_m for s in steps] == pytest.approx([t["distance"] for t in truth], abs=0.08)
+    assert [s.rise_m for s in steps] == pytest.approx([truth[0]["rise"]] * 5, abs=0.015)
+    # the chain as it was, its heights from the ground a rise lower
+    assert [s.axis_position_m for s in steps[1:]] == [s.axis_position_m for s in before.terrain.steps]
+    ground = before.terrain.ground_z_m
+    assert [s.top_z_m for s in steps[1:]] == pytest.approx(
+        [s.top_z_m - ground + steps[0].rise_m for s in before.terrain.steps], abs=1e-6
+    )
+    # under a floor plane it is not asked (realistic 41 scene 26: the frame's floor the
+    # first tread, its first riser's samples a run in front: made right; realistic 23
+    # scene 57 and lab-like 77 scene 9, 78 scene 4: strays under the floor, made wrong)
+
+
+def _off_and_on(index: int, seed: int, option: str):
+    """Realistic render ``index`` of ``seed`` without a rig: the scene, and the pipeline's
+    results with the ``PipelineConfig`` flag ``option`` off and with the defaults."""
+    scene = _realistic(index, seed=seed)
+    config = PipelineConfig()
+    off = dataclasses.replace(config, **{option: False})
+    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
+    after = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
+    return scene, before, after
 
 
 def _rows_by_height(planes: PlaneSet) -> PlaneSet:

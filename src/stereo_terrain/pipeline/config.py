@@ -243,6 +243,16 @@ class PipelineConfig:
         same, in a frame whose origin is on it (a close level camera whose view's bottom
         falls on the first tread). Default true (issue 11; docs/benchmarks.md,
         "Fifty-fourth session").
+    floor_below_keep_chain : bool
+        In a frame that found no floor plane (``floor_below_floorless``), where
+        ``floor_a_step_below``'s terrain built again in the lowered frame has no more
+        steps in front (the planes chained at other heights drop or misplace a riser),
+        but the first riser's samples under the staircase's ground stand a run (the
+        chain's median, within ``terrain.continue_run_tolerance``) in front of the chain:
+        the chain as it was, raised a rise, with its first riser there
+        (:func:`~stereo_terrain.terrain.below.step_in_front`). Not under a floor plane,
+        where such samples were as often the matcher's strays. Default true (issue 11;
+        docs/benchmarks.md, "Fifty-fifth session").
     bands : BandFillConfig
         The band fill (``bands.enabled``, :mod:`stereo_terrain.stereo.bands`): the faces
         between parallel horizontal lines of the rectified left image (a riser between
@@ -294,6 +304,7 @@ class PipelineConfig:
     floor_a_step_below: bool = True  # issue 11
     floor_below_nosing: bool = True  # issue 11
     floor_below_floorless: bool = True  # issue 11
+    floor_below_keep_chain: bool = True  # issue 11
     bands: BandFillConfig = field(default_factory=BandFillConfig)  # issue 11
 
     def __post_init__(self) -> None:

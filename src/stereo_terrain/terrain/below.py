@@ -31,15 +31,17 @@ then puts the floor a rise lower and builds the terrain again).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .._numeric import median
 from ..msac import Plane
 from ..planes.orientation import HORIZONTAL, PlaneSet
 from .continuation import free_samples, riser_band
-from .model import StairModel, TerrainConfig, stair_axes
+from .model import Polytope, StairModel, Step, TerrainConfig, stair_axes
 from .nosings import ImageLines, nosing_under_first
-from .risers import _Riser, _tread_front
+from .risers import _Riser, _tread_front, riser_distance
 
 #: A link of the chain of steps: (riser candidate or None, top height, riser plane, tread
 #: plane or None, position along the stair axis); as in :mod:`.assemble`.
@@ -169,6 +171,53 @@ def nosing_under_floor(model: StairModel, lines: ImageLines, config: TerrainConf
         return False
     u, v, lateral = _axes_and_extent(model)
     return nosing_under_first(model.steps, u, v, lateral, lines, config)
+
+
+def step_in_front(model: StairModel, lift: float, rise: float, position: float) -> StairModel:
+    """``model`` in the frame whose origin is ``lift`` lower, with one more step in front:
+    its riser at ``position`` along the stair axis, ``rise`` tall (inferred), its top the
+    old ground, its tread from there to ``model``'s first riser. Every other height, tread
+    plane and polytope vertex is ``lift`` higher; risers (vertical) stay where they were.
+
+    For a staircase whose "floor" was its first tread, where the first riser's samples
+    show under it a run in front of the chain (:func:`samples_below_floor`): the chain as
+    it was, not built again in the lowered frame (which chains the planes at other
+    heights)."""
+    top = model.ground_z_m + lift
+    up = np.array([0.0, 0.0, lift])
+    u, v = stair_axes(model.yaw_rad)
+    first = model.steps[0]
+    steps = [
+        dataclasses.replace(
+            s, top_z_m=s.top_z_m + lift, tread=None if s.tread is None else _raised(s.tread, up)
+        )
+        for s in model.steps
+    ]
+    riser = Plane(-u, position)
+    run = first.axis_position_m - position
+    distance = riser_distance(riser, position, u)
+    front = Step(rise, run, distance, None, top, position, riser, rise_inferred=True)
+    vertices = model.polytope.vertices + up if model.polytope.vertices.size else np.empty((0, 3))
+    across = vertices @ v if len(vertices) else np.array([-0.5, 0.5])
+    lo, hi = float(across.min()), float(across.max())
+    foot, head = np.array([0.0, 0.0, top - rise]), np.array([0.0, 0.0, top])
+    corners = [
+        position * u + lo * v + foot,
+        position * u + hi * v + foot,
+        position * u + hi * v + head,
+        position * u + lo * v + head,
+        first.axis_position_m * u + hi * v + head,
+        first.axis_position_m * u + lo * v + head,
+    ]
+    k = len(vertices)
+    faces = ((k, k + 1, k + 2, k + 3), (k + 3, k + 2, k + 4, k + 5), *model.polytope.faces)
+    polytope = Polytope(np.vstack([vertices, np.array(corners)]), faces)
+    return dataclasses.replace(model, steps=(front, *steps), ground_z_m=top - rise, polytope=polytope)
+
+
+def _raised(plane: Plane, up: np.ndarray) -> Plane:
+    """``plane`` moved by ``up`` (its points ``x + up``)."""
+    return Plane(plane.normal, plane.offset - float(plane.normal @ up))
 
 
 def _axes_and_extent(model: StairModel) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:

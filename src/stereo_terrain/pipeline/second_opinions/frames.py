@@ -22,6 +22,7 @@ from ...terrain import (
     nosing_under_floor,
     samples_below_floor,
 )
+from ...terrain.below import step_in_front
 from ...terrain.model import NONE, STAIRS
 from ..config import PipelineConfig
 from ..gravity_steps import origin_on_floor
@@ -238,12 +239,32 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
             # (The nosing needs a measured run, so there is one.)
             run = float(np.median([s.run_m for s in terrain.steps if s.run_m is not None]))
             more = more and abs(first_run - run) <= tc.continue_run_tolerance * run
+        kept_chain = False
+        if (
+            not (more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m)
+            and riser_shows
+            and floorless
+        ):
+            # Built again in the lowered frame, the planes chain at other heights and can drop
+            # or misplace a riser: without a floor plane, the chain as it was, raised a rise,
+            # its first riser where its samples show it, where they stand a run (the
+            # chain's) in front of it (PipelineConfig.floor_below_keep_chain). (Under a floor
+            # plane such samples were as often strays: 5 counts made right, 3 wrong.)
+            runs = [s.run_m for s in terrain.steps if s.run_m is not None]
+            ahead = terrain.steps[0].axis_position_m - position
+            run = float(np.median(runs)) if runs else math.nan
+            if config.floor_below_keep_chain and abs(ahead - run) <= tc.continue_run_tolerance * run:
+                lift = rise - (terrain.ground_z_m if floorless else 0.0)  # the origin's whole drop
+                lowered = step_in_front(terrain, lift, rise, position)
+                more, first_run, kept_chain = True, ahead, True
         if more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m:
             shown = (
                 f"{under} samples of the first riser under it"
                 if riser_shows
                 else "the image's segments show its nosing a run in front of the chain (floor_below_nosing)"
             )
+            if kept_chain:
+                shown += ", the chain kept, its first riser where they stand (floor_below_keep_chain)"
             lowest = "the lowest horizontal plane" + (" (no floor plane found)" if floorless else "")
             why = (
                 f"the floor put {100.0 * rise:.1f} cm lower (the first rise): {lowest} "
