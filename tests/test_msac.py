@@ -102,6 +102,10 @@ def test_plane_fit_invariant_to_order_and_rigid_motion(seed, r, p, y, t):
     fit_moved = Plane.estimate(moved)
     assert _angle_deg(fit_moved.normal, R @ fit.normal) < EXACT_DEG
     assert np.allclose(fit_moved.residuals(moved), fit.residuals(pts), atol=1e-7)
+    # the plane moved as its points were: the same signed distances
+    assert np.allclose(
+        fit.moved(R, np.asarray(t)).signed_distance(moved), fit.signed_distance(pts), atol=1e-9
+    )
 
 
 def test_required_trials_edge_cases():

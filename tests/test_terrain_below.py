@@ -194,18 +194,14 @@ def test_without_a_rig_a_staircase_on_its_first_tread_is_found_again_a_rise_lowe
     five steps from the second riser. The first riser's samples under that "floor" put
     it a rise lower (``PipelineConfig.floor_a_step_below``): six steps, the first where
     the truth has it."""
-    scene = _realistic(54, seed=41)
+    scene, before, result = _off_and_on(54, 41, "floor_a_step_below")
     truth = scene.truth["steps"]
     assert len(truth) == 6
-    config = PipelineConfig()
-    result = Pipeline(scene.calibration, None, config, warm_up=False).run(scene.left, scene.right)
     assert result.gravity_source == "scene"
     assert "floor_a_step_below" in result.terrain.note and "floor_below" in result.timing_ms
     assert len(result.terrain.steps) == 6
     assert result.terrain.steps[0].distance_m == pytest.approx(truth[0]["distance"], abs=0.08)
     assert [s.rise_m for s in result.terrain.steps] == pytest.approx([truth[0]["rise"]] * 6, abs=0.015)
-    off = dataclasses.replace(config, floor_a_step_below=False)
-    before = Pipeline(scene.calibration, None, off, warm_up=False).run(scene.left, scene.right)
     assert len(before.terrain.steps) == 5
     assert "floor_below" not in before.timing_ms
 

@@ -83,6 +83,11 @@ class Plane:
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
         return np.asarray(points) @ self.normal + self.offset
 
+    def moved(self, rotation: np.ndarray, translation: np.ndarray) -> Plane:
+        """The plane through the points ``rotation @ x + translation`` of this one."""
+        n = rotation @ self.normal
+        return Plane(n, self.offset - float(n @ translation))
+
     def oriented_toward(self, point: np.ndarray) -> Plane:
         """The same plane with its normal pointing to the side of ``point``."""
         if self.signed_distance(np.asarray(point, dtype=np.float64)) < 0:

@@ -221,12 +221,7 @@ def transform_planes(planes: PlaneSet, T: Transform, *, up: np.ndarray | None = 
     if T.from_frame != planes.frame:
         raise FrameError(f"cannot apply {T.name} to planes in frame '{planes.frame}'")
     R, t = T.rotation, T.translation
-    segments = tuple(
-        dataclasses.replace(
-            s, plane=Plane(R @ s.plane.normal, s.plane.offset - float((R @ s.plane.normal) @ t))
-        )
-        for s in planes.segments
-    )
+    segments = tuple(dataclasses.replace(s, plane=s.plane.moved(R, t)) for s in planes.segments)
     return dataclasses.replace(
         planes,
         segments=segments,

@@ -189,7 +189,7 @@ def step_in_front(model: StairModel, lift: float, rise: float, position: float) 
     first = model.steps[0]
     steps = [
         dataclasses.replace(
-            s, top_z_m=s.top_z_m + lift, tread=None if s.tread is None else _raised(s.tread, up)
+            s, top_z_m=s.top_z_m + lift, tread=None if s.tread is None else s.tread.moved(np.eye(3), up)
         )
         for s in model.steps
     ]
@@ -213,11 +213,6 @@ def step_in_front(model: StairModel, lift: float, rise: float, position: float) 
     faces = ((k, k + 1, k + 2, k + 3), (k + 3, k + 2, k + 4, k + 5), *model.polytope.faces)
     polytope = Polytope(np.vstack([vertices, np.array(corners)]), faces)
     return dataclasses.replace(model, steps=(front, *steps), ground_z_m=top - rise, polytope=polytope)
-
-
-def _raised(plane: Plane, up: np.ndarray) -> Plane:
-    """``plane`` moved by ``up`` (its points ``x + up``)."""
-    return Plane(plane.normal, plane.offset - float(plane.normal @ up))
 
 
 def _axes_and_extent(model: StairModel) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:

@@ -220,8 +220,10 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
     if floorless:
         kept = _origin_lowered(kept, -terrain.ground_z_m)
     under, position = samples_below_floor(kept.planes, terrain, tc)
-    ahead_of_chain = terrain.steps[0].axis_position_m - position >= tc.min_run_m
-    riser_shows = under >= tc.min_riser_points and ahead_of_chain
+    ahead = terrain.steps[0].axis_position_m - position  # NaN where no sample is under it
+    riser_shows = under >= tc.min_riser_points and ahead >= tc.min_run_m
+    runs = [s.run_m for s in terrain.steps if s.run_m is not None]
+    run = float(np.median(runs)) if runs else math.nan
     nosing_shows = (
         not riser_shows
         and config.floor_below_nosing
@@ -237,26 +239,23 @@ def floor_a_step_below(kept: TerrainResult, config: PipelineConfig) -> TerrainRe
         if nosing_shows:
             # The nosing stands a run in front of the chain: so must the step placed below.
             # (The nosing needs a measured run, so there is one.)
-            run = float(np.median([s.run_m for s in terrain.steps if s.run_m is not None]))
             more = more and abs(first_run - run) <= tc.continue_run_tolerance * run
-        kept_chain = False
-        if (
-            not (more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m)
-            and riser_shows
+        kept_chain = (
+            config.floor_below_keep_chain
             and floorless
-        ):
+            and riser_shows
+            and not (more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m)
+            and abs(ahead - run) <= tc.continue_run_tolerance * run
+        )
+        if kept_chain:
             # Built again in the lowered frame, the planes chain at other heights and can drop
             # or misplace a riser: without a floor plane, the chain as it was, raised a rise,
             # its first riser where its samples show it, where they stand a run (the
             # chain's) in front of it (PipelineConfig.floor_below_keep_chain). (Under a floor
-            # plane such samples were as often strays: 5 counts made right, 3 wrong.)
-            runs = [s.run_m for s in terrain.steps if s.run_m is not None]
-            ahead = terrain.steps[0].axis_position_m - position
-            run = float(np.median(runs)) if runs else math.nan
-            if config.floor_below_keep_chain and abs(ahead - run) <= tc.continue_run_tolerance * run:
-                lift = rise - (terrain.ground_z_m if floorless else 0.0)  # the origin's whole drop
-                lowered = step_in_front(terrain, lift, rise, position)
-                more, first_run, kept_chain = True, ahead, True
+            # plane such samples were as often strays: 5 counts made right, 3 wrong.) The
+            # origin dropped onto the ground, then a rise.
+            lowered = step_in_front(terrain, rise - terrain.ground_z_m, rise, position)
+            more, first_run = True, ahead
         if more and tc.merge_distance_m <= first_run <= tc.continue_max_run_m:
             shown = (
                 f"{under} samples of the first riser under it"
